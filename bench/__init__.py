@@ -1,0 +1,1 @@
+"""Benchmarks: one script per figure; each updates its section of BENCHMARKS.md."""

@@ -1,0 +1,65 @@
+"""The ``objectplaces`` command line.
+
+Subcommands are plugins: each package that offers one declares an entry point in the
+``objectplaces.commands`` group (see ``pyproject.toml``). That keeps the import arrows
+pointing one way: the middleware never imports the AGV application or the dashboard,
+yet ``objectplaces sim`` and ``objectplaces demo`` are found when those are installed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Callable, Sequence
+from importlib.metadata import entry_points
+
+__all__ = ["COMMAND_GROUP", "build_parser", "main"]
+
+COMMAND_GROUP = "objectplaces.commands"
+
+Register = Callable[["argparse._SubParsersAction[argparse.ArgumentParser]"], None]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Build the top-level parser with every installed subcommand registered.
+
+    Returns:
+        The parser; each subcommand sets ``func(args) -> int`` as its default.
+    """
+    parser = argparse.ArgumentParser(
+        prog="objectplaces",
+        description=(
+            "ObjectPlaces: roles and interaction sessions among mobile nodes, "
+            "and a simulated AGV fleet that uses them."
+        ),
+    )
+    subcommands = parser.add_subparsers(title="commands", metavar="COMMAND")
+    for entry in sorted(entry_points(group=COMMAND_GROUP), key=lambda e: e.name):
+        register: Register = entry.load()
+        register(subcommands)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line.
+
+    Args:
+        argv: arguments without the program name; ``sys.argv[1:]`` when None.
+
+    Returns:
+        The process exit status.
+    """
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    func: Callable[[argparse.Namespace], int] | None = getattr(args, "func", None)
+    if func is None:
+        parser.print_help()
+        return 2
+    try:
+        return func(args)
+    except KeyboardInterrupt:
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())
