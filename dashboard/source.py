@@ -1,0 +1,311 @@
+"""What the dashboard needs from a running fleet: the ``FleetSource`` protocol.
+
+The fleet implements these members directly (structural typing: it never imports the
+dashboard, the import arrows point the other way). Every record below is a read-only
+``Protocol``, so a frozen dataclass with the same field names satisfies it.
+
+Threading: the dashboard drives the fleet from one asyncio task (``advance``) and calls
+everything else from request handlers on the same event loop, so nothing here is called
+concurrently and an implementation needs no locks. No member may block.
+
+Geometry travels as plain numbers: a point is ``(x, y)`` in metres, world y pointing up;
+a polygon is a sequence of ``(x, y)`` vertices, not closed (first vertex not repeated).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any, Protocol, runtime_checkable
+
+__all__ = [
+    "XY",
+    "FleetSource",
+    "InitiatorFactory",
+    "LayoutView",
+    "PointView",
+    "Polygon",
+    "SegmentView",
+    "StationView",
+    "UnknownStationError",
+    "VehicleView",
+]
+
+XY = Sequence[float]
+"""A point ``(x, y)`` in metres."""
+
+Polygon = Sequence[XY]
+"""A simple polygon as its vertices ``[(x, y), ...]``, not closed."""
+
+InitiatorFactory = Callable[[Mapping[str, Any]], Any]
+"""Builds a fresh initiator role (an ``objectplaces.Initiator``) from request parameters.
+
+The mapping is the ``params`` object of ``POST /api/sessions`` (empty when absent). A
+factory raises ``ValueError`` with a clear message when a parameter is missing or bad;
+the dashboard answers 422 with that message.
+"""
+
+
+class UnknownStationError(LookupError):
+    """Raised by ``FleetSource.create_task`` for a station id the layout does not have.
+
+    The fleet may raise any ``LookupError`` (``KeyError`` included); the dashboard
+    answers 404 for all of them.
+    """
+
+
+class PointView(Protocol):
+    """A path node of the layout."""
+
+    @property
+    def id(self) -> str:
+        """The point's id, unique in the layout."""
+        ...
+
+    @property
+    def x(self) -> float:
+        """X coordinate in metres."""
+        ...
+
+    @property
+    def y(self) -> float:
+        """Y coordinate in metres (pointing up)."""
+        ...
+
+
+class SegmentView(Protocol):
+    """A path an AGV can drive along, from ``start`` to ``end``."""
+
+    @property
+    def id(self) -> str:
+        """The segment's id, unique in the layout."""
+        ...
+
+    @property
+    def start(self) -> str:
+        """Id of the point the segment leaves."""
+        ...
+
+    @property
+    def end(self) -> str:
+        """Id of the point the segment reaches."""
+        ...
+
+    @property
+    def bidirectional(self) -> bool:
+        """True when AGVs may drive it both ways; one-way paths get arrows."""
+        ...
+
+    @property
+    def polyline(self) -> Sequence[XY]:
+        """The drawn shape from start to end: two points for a straight segment, more
+        for an arc."""
+        ...
+
+
+class StationView(Protocol):
+    """A place where tasks appear (pick/drop), or where AGVs park or charge."""
+
+    @property
+    def id(self) -> str:
+        """The station's id; ``create_task`` takes it. Also its middleware node id
+        when the station is a node."""
+        ...
+
+    @property
+    def kind(self) -> str:
+        """What the station is for: ``"pick"``, ``"drop"``, ``"parking"``,
+        ``"charging"`` (free text; the page colours the known ones)."""
+        ...
+
+    @property
+    def x(self) -> float:
+        """X coordinate in metres."""
+        ...
+
+    @property
+    def y(self) -> float:
+        """Y coordinate in metres."""
+        ...
+
+
+class LayoutView(Protocol):
+    """The fixed floor plan; read once per client, it never changes during a run."""
+
+    @property
+    def points(self) -> Sequence[PointView]:
+        """Every path node."""
+        ...
+
+    @property
+    def segments(self) -> Sequence[SegmentView]:
+        """Every path (a bidirectional path appears once)."""
+        ...
+
+    @property
+    def stations(self) -> Sequence[StationView]:
+        """Every station."""
+        ...
+
+
+class VehicleView(Protocol):
+    """One AGV as it stands now."""
+
+    @property
+    def id(self) -> str:
+        """The AGV's id, equal to its middleware node id."""
+        ...
+
+    @property
+    def x(self) -> float:
+        """Position x in metres (the point the hull length is measured from)."""
+        ...
+
+    @property
+    def y(self) -> float:
+        """Position y in metres."""
+        ...
+
+    @property
+    def heading_rad(self) -> float:
+        """Heading, counter-clockwise from +x."""
+        ...
+
+    @property
+    def length_m(self) -> float:
+        """Hull length along the heading."""
+        ...
+
+    @property
+    def width_m(self) -> float:
+        """Hull width across the heading."""
+        ...
+
+    @property
+    def status(self) -> str:
+        """A short state such as ``"idle"``, ``"driving"``, ``"waiting"``,
+        ``"failed"`` (free text; the page colours the known ones)."""
+        ...
+
+    @property
+    def task_id(self) -> str | None:
+        """The task it is carrying out, or None."""
+        ...
+
+    @property
+    def hull(self) -> Polygon:
+        """The hull rectangle on the floor at the current pose."""
+        ...
+
+    @property
+    def hull_length(self) -> float:
+        """Distance from the position to the furthest point of locked and requested
+        projections: the radius of the collision-avoidance circle."""
+        ...
+
+    @property
+    def locked(self) -> Sequence[Polygon]:
+        """Hull projections this AGV holds a lock on."""
+        ...
+
+    @property
+    def requested(self) -> Sequence[Polygon]:
+        """Hull projections this AGV has asked for and not yet locked."""
+        ...
+
+
+@runtime_checkable
+class FleetSource(Protocol):
+    """A running fleet as the dashboard sees it.
+
+    Sessions, memberships and per-node message counters are read from the nodes
+    themselves (``nodes()``), so the fleet does not report them separately; locks are
+    read from ``vehicles()``.
+    """
+
+    def layout_view(self) -> LayoutView:
+        """The floor plan (constant for the whole run)."""
+        ...
+
+    def vehicles(self) -> Sequence[VehicleView]:
+        """Every AGV, in a stable order (by id is best)."""
+        ...
+
+    def nodes(self) -> Mapping[str, Any]:
+        """The middleware node handles (``objectplaces.RoleActivator``) the dashboard
+        may inspect and start sessions on, by node id: every AGV, every station, and
+        the dashboard's own observer node (see ``observer_id``)."""
+        ...
+
+    @property
+    def observer_id(self) -> str:
+        """Id of the observer node in ``nodes()`` that belongs to the dashboard: a node
+        with no position of its own, used for ``view_group`` when the caller names none."""
+        ...
+
+    def initiator_roles(self) -> Mapping[str, InitiatorFactory]:
+        """Initiator roles the fleet lets a user start over HTTP, by name (e.g. the
+        AGV roles). The dashboard adds its own ``poll`` role to these."""
+        ...
+
+    def metrics(self) -> Mapping[str, float]:
+        """Fleet figures so far. The page charts ``tasks_per_hour`` and the rate of
+        ``messages``; it lists every key. Expected keys (others are welcome):
+        ``tasks_created``, ``tasks_completed``, ``tasks_per_hour``, ``messages``,
+        ``bytes``, ``collisions``, ``lock_overlaps``, ``deadlocks``."""
+        ...
+
+    def create_task(self, station_id: str) -> str:
+        """Create a transport task at a station; its task-assignment session starts.
+
+        Args:
+            station_id: a station id from ``layout_view()``.
+
+        Returns:
+            The new task's id.
+
+        Raises:
+            LookupError: no station has that id (``UnknownStationError`` or ``KeyError``).
+            ValueError: the station cannot take a task (e.g. a charging station).
+        """
+        ...
+
+    def pause(self) -> None:
+        """Stop simulated time: ``advance`` is not called while paused."""
+        ...
+
+    def resume(self) -> None:
+        """Let simulated time run again."""
+        ...
+
+    def set_speed(self, factor: float) -> None:
+        """Set how many simulated seconds pass per wall-clock second.
+
+        Raises:
+            ValueError: ``factor`` is not positive (the dashboard checks its own range
+                first, so this is a last line of defence).
+        """
+        ...
+
+    @property
+    def paused(self) -> bool:
+        """True between ``pause()`` and ``resume()``."""
+        ...
+
+    @property
+    def speed(self) -> float:
+        """The factor last given to ``set_speed`` (1.0 to start with)."""
+        ...
+
+    @property
+    def now(self) -> float:
+        """Simulated time in seconds since the fleet started."""
+        ...
+
+    def advance(self, seconds: float) -> None:
+        """Advance the simulation by ``seconds`` of simulated time.
+
+        The dashboard calls it about 50 times a wall-clock second with
+        ``wall_elapsed * speed`` (capped, so a stalled loop does not cause a jump),
+        and never while paused. The fleet steps its own fixed increments inside.
+        """
+        ...

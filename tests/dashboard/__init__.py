@@ -1,0 +1,1 @@
+"""Tests of the dashboard: feed logic, REST API, and the page in chromium."""
