@@ -19,7 +19,8 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from dashboard.source import FleetSource, LayoutView, VehicleView
+from agv_app.layout import Layout
+from dashboard.source import FleetSource, VehicleView
 
 __all__ = [
     "ClientFeed",
@@ -121,44 +122,44 @@ def vehicle_json(vehicle: VehicleView) -> JSON:
     }
 
 
-def layout_json(layout: LayoutView) -> JSON:
+def layout_json(layout: Layout) -> JSON:
     """The floor plan as JSON, with its bounding box for fitting it to the screen.
 
     Args:
         layout: the fleet's layout.
 
     Returns:
-        ``{"points": [...], "segments": [...], "stations": [...], "bounds": [x0, y0, x1,
-        y1]}``.
+        ``{"name", "points", "segments", "stations", "bounds": [x0, y0, x1, y1]}``; a
+        segment carries its drawn ``polyline``, a station the coordinates of its point.
     """
-    points: list[JSON] = [{"id": p.id, "x": float(p.x), "y": float(p.y)} for p in layout.points]
+    points: list[JSON] = [
+        {"id": p.id, "x": float(p.x), "y": float(p.y)}
+        for p in sorted(layout.points.values(), key=lambda p: p.id)
+    ]
     segments: list[JSON] = [
         {
             "id": s.id,
             "start": s.start,
             "end": s.end,
             "bidirectional": bool(s.bidirectional),
-            "polyline": _polygon(s.polyline),
+            "polyline": _polygon(layout.segment_coords(s.id)),
         }
-        for s in layout.segments
+        for s in sorted(layout.segments.values(), key=lambda s: s.id)
     ]
-    stations: list[JSON] = [
-        {"id": s.id, "kind": s.kind, "x": float(s.x), "y": float(s.y)} for s in layout.stations
-    ]
-    xy: list[list[float]] = [[p["x"], p["y"]] for p in points]
-    xy += [[s["x"], s["y"]] for s in stations]
-    for seg in segments:
-        xy.extend(seg["polyline"])
-    if xy:
-        bounds = [
-            min(q[0] for q in xy),
-            min(q[1] for q in xy),
-            max(q[0] for q in xy),
-            max(q[1] for q in xy),
-        ]
-    else:
-        bounds = [0.0, 0.0, 1.0, 1.0]
-    return {"points": points, "segments": segments, "stations": stations, "bounds": bounds}
+    stations: list[JSON] = []
+    for st in sorted(layout.stations.values(), key=lambda s: s.id):
+        at = layout.point(st.point)
+        stations.append(
+            {"id": st.id, "kind": st.kind, "point": st.point, "x": float(at.x), "y": float(at.y)}
+        )
+    x0, y0, x1, y1 = layout.bounds()
+    return {
+        "name": layout.name,
+        "points": points,
+        "segments": segments,
+        "stations": stations,
+        "bounds": [float(x0), float(y0), float(x1), float(y1)],
+    }
 
 
 def capture(

@@ -17,15 +17,13 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any, Protocol, runtime_checkable
 
+from agv_app.layout import Layout
+
 __all__ = [
     "XY",
     "FleetSource",
     "InitiatorFactory",
-    "LayoutView",
-    "PointView",
     "Polygon",
-    "SegmentView",
-    "StationView",
     "UnknownStationError",
     "VehicleView",
 ]
@@ -51,100 +49,6 @@ class UnknownStationError(LookupError):
     The fleet may raise any ``LookupError`` (``KeyError`` included); the dashboard
     answers 404 for all of them.
     """
-
-
-class PointView(Protocol):
-    """A path node of the layout."""
-
-    @property
-    def id(self) -> str:
-        """The point's id, unique in the layout."""
-        ...
-
-    @property
-    def x(self) -> float:
-        """X coordinate in metres."""
-        ...
-
-    @property
-    def y(self) -> float:
-        """Y coordinate in metres (pointing up)."""
-        ...
-
-
-class SegmentView(Protocol):
-    """A path an AGV can drive along, from ``start`` to ``end``."""
-
-    @property
-    def id(self) -> str:
-        """The segment's id, unique in the layout."""
-        ...
-
-    @property
-    def start(self) -> str:
-        """Id of the point the segment leaves."""
-        ...
-
-    @property
-    def end(self) -> str:
-        """Id of the point the segment reaches."""
-        ...
-
-    @property
-    def bidirectional(self) -> bool:
-        """True when AGVs may drive it both ways; one-way paths get arrows."""
-        ...
-
-    @property
-    def polyline(self) -> Sequence[XY]:
-        """The drawn shape from start to end: two points for a straight segment, more
-        for an arc."""
-        ...
-
-
-class StationView(Protocol):
-    """A place where tasks appear (pick/drop), or where AGVs park or charge."""
-
-    @property
-    def id(self) -> str:
-        """The station's id; ``create_task`` takes it. Also its middleware node id
-        when the station is a node."""
-        ...
-
-    @property
-    def kind(self) -> str:
-        """What the station is for: ``"pick"``, ``"drop"``, ``"parking"``,
-        ``"charging"`` (free text; the page colours the known ones)."""
-        ...
-
-    @property
-    def x(self) -> float:
-        """X coordinate in metres."""
-        ...
-
-    @property
-    def y(self) -> float:
-        """Y coordinate in metres."""
-        ...
-
-
-class LayoutView(Protocol):
-    """The fixed floor plan; read once per client, it never changes during a run."""
-
-    @property
-    def points(self) -> Sequence[PointView]:
-        """Every path node."""
-        ...
-
-    @property
-    def segments(self) -> Sequence[SegmentView]:
-        """Every path (a bidirectional path appears once)."""
-        ...
-
-    @property
-    def stations(self) -> Sequence[StationView]:
-        """Every station."""
-        ...
 
 
 class VehicleView(Protocol):
@@ -222,8 +126,8 @@ class FleetSource(Protocol):
     read from ``vehicles()``.
     """
 
-    def layout_view(self) -> LayoutView:
-        """The floor plan (constant for the whole run)."""
+    def layout_view(self) -> Layout:
+        """The floor plan the fleet drives on (constant for the whole run)."""
         ...
 
     def vehicles(self) -> Sequence[VehicleView]:

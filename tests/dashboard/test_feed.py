@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 import pytest
 
+from agv_app.layout import Layout, Point, Segment, Station
 from dashboard.feed import (
     ClientFeed,
     FeedHub,
@@ -262,37 +263,6 @@ class _Vehicle:
     requested: list[list[tuple[float, float]]]
 
 
-@dataclass(frozen=True)
-class _Point:
-    id: str
-    x: float
-    y: float
-
-
-@dataclass(frozen=True)
-class _Segment:
-    id: str
-    start: str
-    end: str
-    bidirectional: bool
-    polyline: list[tuple[float, float]]
-
-
-@dataclass(frozen=True)
-class _Station:
-    id: str
-    kind: str
-    x: float
-    y: float
-
-
-@dataclass(frozen=True)
-class _Layout:
-    points: list[_Point]
-    segments: list[_Segment]
-    stations: list[_Station]
-
-
 def test_vehicle_record_is_rounded_plain_json() -> None:
     v = _Vehicle(
         "agv-1", 1.23456, 2.0, math.pi, 1.0, 0.5, "driving", "t1",
@@ -307,13 +277,23 @@ def test_vehicle_record_is_rounded_plain_json() -> None:
     json.dumps(record, allow_nan=False)
 
 
-def test_layout_bounds_cover_points_paths_and_stations() -> None:
-    layout = _Layout(
-        points=[_Point("a", 0.0, 0.0), _Point("b", 10.0, 0.0)],
-        segments=[_Segment("ab", "a", "b", False, [(0.0, 0.0), (5.0, -2.0), (10.0, 0.0)])],
-        stations=[_Station("s1", "pick", 4.0, 3.0)],
+def test_layout_json_draws_paths_and_places_stations_on_their_points() -> None:
+    layout = Layout(
+        points=[Point("a", 0.0, 0.0), Point("b", 10.0, 0.0), Point("c", 10.0, 4.0)],
+        segments=[
+            Segment("ab", "a", "b", via=((5.0, -2.0),)),
+            Segment("bc", "b", "c", bidirectional=True),
+            Segment("ca", "c", "a"),
+        ],
+        stations=[Station("s1", "c", "pick"), Station("s2", "a", "parking")],
+        name="tiny",
     )
     out = layout_json(layout)
-    assert out["bounds"] == [0.0, -2.0, 10.0, 3.0]
-    assert out["segments"][0]["bidirectional"] is False
-    assert out["stations"] == [{"id": "s1", "kind": "pick", "x": 4.0, "y": 3.0}]
+    assert out["name"] == "tiny"
+    assert out["bounds"] == [0.0, -2.0, 10.0, 4.0]
+    ab = next(s for s in out["segments"] if s["id"] == "ab")
+    assert ab["polyline"] == [[0.0, 0.0], [5.0, -2.0], [10.0, 0.0]]
+    assert ab["bidirectional"] is False
+    assert [s["bidirectional"] for s in out["segments"]] == [False, True, False]
+    assert out["stations"][0] == {"id": "s1", "kind": "pick", "point": "c", "x": 10.0, "y": 4.0}
+    json.dumps(out, allow_nan=False)

@@ -1,0 +1,914 @@
+// The dashboard page: draws the floor plan and the fleet from the /ws/events feed
+// (format: docs/dashboard.md) and drives the REST API for the controls.
+//
+// Speed matters at 200 AGVs: the static layout is drawn once to an offscreen canvas,
+// the fleet is drawn every animation frame with one path per colour, and the side
+// panels are rebuilt a few times a second by patching rows in place.
+
+const PANEL_INTERVAL_MS = 250;
+const CHART_INTERVAL_MS = 1000;
+const CHART_SAMPLES = 120;
+const MAX_SESSION_ROWS = 150;
+const LABEL_LIMIT = 80;
+const STATION_HIT_PX = 12;
+
+const COLORS = {
+  path: "#3b4a5a",
+  pathBidirectional: "#58708a",
+  arrow: "#7f95ab",
+  point: "#4a5b6c",
+  station: { pick: "#ff8a3d", drop: "#ffb86b", parking: "#8c9eff", charging: "#b388ff", other: "#ff8a3d" },
+  status: {
+    idle: "#7f8c99", driving: "#4aa3ff", moving: "#4aa3ff", waiting: "#ff9f43",
+    blocked: "#ff9f43", loading: "#00d2d3", unloading: "#00d2d3", charging: "#b388ff",
+    failed: "#ff5e57", crashed: "#ff5e57", other: "#48dbfb",
+  },
+  lockedFill: "rgba(46, 204, 113, 0.22)",
+  lockedStroke: "rgba(46, 204, 113, 0.85)",
+  requestedFill: "rgba(241, 196, 15, 0.14)",
+  requestedStroke: "rgba(241, 196, 15, 0.9)",
+  circle: "rgba(95, 211, 230, 0.7)",
+  circleHover: "rgba(95, 211, 230, 1)",
+  session: "rgba(224, 86, 253, 0.75)",
+  sessionApi: "rgba(255, 120, 255, 1)",
+  hullStroke: "rgba(8, 12, 16, 0.9)",
+  label: "#e8eef4",
+};
+
+// ---- state fed by the event stream -------------------------------------------------
+
+const state = {
+  layout: null,
+  stationsById: new Map(),
+  vehicles: new Map(), // id -> record (+ interpolation fields)
+  sessions: new Map(), // id -> record
+  nodes: new Map(), // id -> {messages, bytes, ...}
+  metrics: {},
+  sim: { paused: false, speed: 1 },
+  now: 0,
+  messages: 0,
+  lastDeltaAt: 0,
+  frameInterval: 50,
+  panelsDirty: true,
+  lastTask: null,
+};
+
+const token = new URLSearchParams(location.search).get("token");
+
+// ---- view transform ----------------------------------------------------------------
+
+const canvas = document.getElementById("floor");
+const ctx = canvas.getContext("2d");
+const layer = document.createElement("canvas");
+const layerCtx = layer.getContext("2d");
+const view = { scale: 1, ox: 0, oy: 0, dpr: 1, width: 0, height: 0, fitted: false, layerDirty: true };
+
+function toScreen(x, y) {
+  return [view.ox + x * view.scale, view.oy - y * view.scale];
+}
+
+function toWorld(sx, sy) {
+  return [(sx - view.ox) / view.scale, (view.oy - sy) / view.scale];
+}
+
+function fitView() {
+  if (!state.layout) return;
+  const [x0, y0, x1, y1] = state.layout.bounds;
+  const margin = 30;
+  const w = Math.max(x1 - x0, 1);
+  const h = Math.max(y1 - y0, 1);
+  view.scale = Math.max(0.01, Math.min((view.width - 2 * margin) / w, (view.height - 2 * margin) / h));
+  view.ox = (view.width - w * view.scale) / 2 - x0 * view.scale;
+  view.oy = (view.height + h * view.scale) / 2 + y0 * view.scale;
+  view.fitted = true;
+  view.layerDirty = true;
+}
+
+function resize() {
+  const rect = canvas.getBoundingClientRect();
+  view.dpr = window.devicePixelRatio || 1;
+  view.width = Math.max(1, rect.width);
+  view.height = Math.max(1, rect.height);
+  for (const c of [canvas, layer]) {
+    c.width = Math.round(view.width * view.dpr);
+    c.height = Math.round(view.height * view.dpr);
+  }
+  fitView();
+  view.layerDirty = true;
+}
+
+function worldTransform(c) {
+  const k = view.scale * view.dpr;
+  c.setTransform(k, 0, 0, -k, view.ox * view.dpr, view.oy * view.dpr);
+}
+
+// ---- the static layer ----------------------------------------------------------------
+
+function polylinePath(c, pts) {
+  c.moveTo(pts[0][0], pts[0][1]);
+  for (let i = 1; i < pts.length; i++) c.lineTo(pts[i][0], pts[i][1]);
+}
+
+function drawLayer() {
+  const c = layerCtx;
+  c.setTransform(1, 0, 0, 1, 0, 0);
+  c.clearRect(0, 0, layer.width, layer.height);
+  if (!state.layout) return;
+  const px = 1 / view.scale; // one screen pixel in metres
+  worldTransform(c);
+  c.lineCap = "round";
+  c.lineJoin = "round";
+  for (const bidirectional of [false, true]) {
+    c.beginPath();
+    for (const s of state.layout.segments) {
+      if (s.bidirectional === bidirectional && s.polyline.length > 1) polylinePath(c, s.polyline);
+    }
+    c.strokeStyle = bidirectional ? COLORS.pathBidirectional : COLORS.path;
+    c.lineWidth = (bidirectional ? 4 : 2.5) * px;
+    c.stroke();
+  }
+  // One-way arrows at each one-way path's midpoint, pointing to its end.
+  c.beginPath();
+  const size = 6 * px;
+  for (const s of state.layout.segments) {
+    if (s.bidirectional || s.polyline.length < 2) continue;
+    const mid = midpointWithDirection(s.polyline);
+    if (!mid) continue;
+    const [mx, my, dx, dy] = mid;
+    c.moveTo(mx + dx * size, my + dy * size);
+    c.lineTo(mx - dx * size - dy * size * 0.7, my - dy * size + dx * size * 0.7);
+    c.lineTo(mx - dx * size + dy * size * 0.7, my - dy * size - dx * size * 0.7);
+    c.closePath();
+  }
+  c.fillStyle = COLORS.arrow;
+  c.fill();
+  c.beginPath();
+  for (const p of state.layout.points) {
+    c.moveTo(p.x + 2 * px, p.y);
+    c.arc(p.x, p.y, 2 * px, 0, Math.PI * 2);
+  }
+  c.fillStyle = COLORS.point;
+  c.fill();
+  const half = 6 * px;
+  for (const st of state.layout.stations) {
+    c.fillStyle = COLORS.station[st.kind] || COLORS.station.other;
+    c.fillRect(st.x - half, st.y - half, 2 * half, 2 * half);
+  }
+  // Labels in screen space, so the text is not mirrored by the y-up transform.
+  c.setTransform(view.dpr, 0, 0, view.dpr, 0, 0);
+  c.font = "11px system-ui, sans-serif";
+  c.fillStyle = "#c9d3dd";
+  c.textBaseline = "middle";
+  for (const st of state.layout.stations) {
+    const [sx, sy] = toScreen(st.x, st.y);
+    c.fillText(st.id, sx + 9, sy - 9);
+  }
+  view.layerDirty = false;
+}
+
+function midpointWithDirection(pts) {
+  let total = 0;
+  for (let i = 1; i < pts.length; i++) total += Math.hypot(pts[i][0] - pts[i - 1][0], pts[i][1] - pts[i - 1][1]);
+  if (total <= 0) return null;
+  let walked = 0;
+  for (let i = 1; i < pts.length; i++) {
+    const [ax, ay] = pts[i - 1];
+    const [bx, by] = pts[i];
+    const len = Math.hypot(bx - ax, by - ay);
+    if (walked + len >= total / 2 && len > 0) {
+      const t = (total / 2 - walked) / len;
+      return [ax + (bx - ax) * t, ay + (by - ay) * t, (bx - ax) / len, (by - ay) / len];
+    }
+    walked += len;
+  }
+  return null;
+}
+
+// ---- the fleet, every frame --------------------------------------------------------------
+
+const ui = {
+  showCircles: false,
+  showSessions: true,
+  showLabels: false,
+  hoverVehicle: null,
+  hoverStation: null,
+};
+
+function interpolation(nowMs) {
+  return Math.min(1, (nowMs - state.lastDeltaAt) / state.frameInterval);
+}
+
+// Where a vehicle is drawn this frame: it glides from where it was drawn when the last
+// update arrived to where that update put it, so 20 updates a second look smooth.
+function drawnOffset(v, t) {
+  return [(v.fromX - v.x) * (1 - t), (v.fromY - v.y) * (1 - t)];
+}
+
+function polygonsPath(c, polygons) {
+  for (const poly of polygons) {
+    if (poly.length < 3) continue;
+    polylinePath(c, poly);
+    c.closePath();
+  }
+}
+
+function nodePosition(id, t) {
+  const v = state.vehicles.get(id);
+  if (v) {
+    const [dx, dy] = drawnOffset(v, t);
+    return [v.x + dx, v.y + dy];
+  }
+  const st = state.stationsById.get(id);
+  return st ? [st.x, st.y] : null;
+}
+
+function drawFrame(nowMs) {
+  if (view.layerDirty) drawLayer();
+  ctx.setTransform(1, 0, 0, 1, 0, 0);
+  ctx.clearRect(0, 0, canvas.width, canvas.height);
+  ctx.drawImage(layer, 0, 0);
+  if (!state.layout) return;
+  const px = 1 / view.scale;
+  const t = interpolation(nowMs);
+  worldTransform(ctx);
+  ctx.lineJoin = "round";
+
+  // Projections: one path per kind, so 200 AGVs cost two fills and two strokes.
+  ctx.beginPath();
+  for (const v of state.vehicles.values()) polygonsPath(ctx, v.locked);
+  ctx.fillStyle = COLORS.lockedFill;
+  ctx.fill("nonzero");
+  ctx.strokeStyle = COLORS.lockedStroke;
+  ctx.lineWidth = px;
+  ctx.stroke();
+
+  ctx.beginPath();
+  for (const v of state.vehicles.values()) polygonsPath(ctx, v.requested);
+  ctx.fillStyle = COLORS.requestedFill;
+  ctx.fill("nonzero");
+  ctx.setLineDash([4 * px, 3 * px]);
+  ctx.strokeStyle = COLORS.requestedStroke;
+  ctx.stroke();
+
+  // Hull-projection circles: all of them on the toggle, the hovered one always.
+  ctx.beginPath();
+  for (const v of state.vehicles.values()) {
+    if (!ui.showCircles && v.id !== ui.hoverVehicle) continue;
+    const [dx, dy] = drawnOffset(v, t);
+    const r = Math.max(v.hull_length, 0.01);
+    ctx.moveTo(v.x + dx + r, v.y + dy);
+    ctx.arc(v.x + dx, v.y + dy, r, 0, Math.PI * 2);
+  }
+  ctx.strokeStyle = ui.showCircles ? COLORS.circle : COLORS.circleHover;
+  ctx.lineWidth = 1.2 * px;
+  ctx.stroke();
+  ctx.setLineDash([]);
+
+  if (ui.showSessions) drawSessionLines(px, t);
+
+  // Hulls grouped by status colour.
+  const groups = new Map();
+  for (const v of state.vehicles.values()) {
+    const color = COLORS.status[v.status] || COLORS.status.other;
+    let list = groups.get(color);
+    if (!list) groups.set(color, (list = []));
+    list.push(v);
+  }
+  ctx.lineWidth = px;
+  ctx.strokeStyle = COLORS.hullStroke;
+  for (const [color, list] of groups) {
+    ctx.beginPath();
+    for (const v of list) {
+      const [dx, dy] = drawnOffset(v, t);
+      const hull = v.hull;
+      if (hull.length < 3) continue;
+      ctx.moveTo(hull[0][0] + dx, hull[0][1] + dy);
+      for (let i = 1; i < hull.length; i++) ctx.lineTo(hull[i][0] + dx, hull[i][1] + dy);
+      ctx.closePath();
+    }
+    ctx.fillStyle = color;
+    ctx.fill();
+    ctx.stroke();
+  }
+  // Heading ticks: centre to front.
+  ctx.beginPath();
+  for (const v of state.vehicles.values()) {
+    const [dx, dy] = drawnOffset(v, t);
+    const reach = v.length * 0.45;
+    ctx.moveTo(v.x + dx, v.y + dy);
+    ctx.lineTo(v.x + dx + Math.cos(v.heading) * reach, v.y + dy + Math.sin(v.heading) * reach);
+  }
+  ctx.strokeStyle = "rgba(255, 255, 255, 0.8)";
+  ctx.lineWidth = 1.5 * px;
+  ctx.stroke();
+
+  if (ui.showLabels || ui.hoverVehicle) drawLabels(t);
+  if (ui.hoverStation) {
+    const st = state.stationsById.get(ui.hoverStation);
+    if (st) {
+      ctx.beginPath();
+      ctx.arc(st.x, st.y, 11 * px, 0, Math.PI * 2);
+      ctx.strokeStyle = "#ffffff";
+      ctx.lineWidth = 2 * px;
+      ctx.stroke();
+    }
+  }
+}
+
+function drawSessionLines(px, t) {
+  for (const apiOnly of [false, true]) {
+    ctx.beginPath();
+    for (const s of state.sessions.values()) {
+      if (Boolean(s.via_api) !== apiOnly || s.members.length === 0) continue;
+      const from = nodePosition(s.node, t);
+      if (!from) continue;
+      for (const m of s.members) {
+        const to = nodePosition(m, t);
+        if (!to) continue;
+        ctx.moveTo(from[0], from[1]);
+        ctx.lineTo(to[0], to[1]);
+      }
+    }
+    ctx.strokeStyle = apiOnly ? COLORS.sessionApi : COLORS.session;
+    ctx.lineWidth = (apiOnly ? 2 : 1.2) * px;
+    ctx.stroke();
+  }
+}
+
+function drawLabels(t) {
+  ctx.setTransform(view.dpr, 0, 0, view.dpr, 0, 0);
+  ctx.font = "11px system-ui, sans-serif";
+  ctx.fillStyle = COLORS.label;
+  ctx.textBaseline = "bottom";
+  let drawn = 0;
+  for (const v of state.vehicles.values()) {
+    if (!ui.showLabels && v.id !== ui.hoverVehicle) continue;
+    if (drawn++ >= LABEL_LIMIT && v.id !== ui.hoverVehicle) continue;
+    const [dx, dy] = drawnOffset(v, t);
+    const [sx, sy] = toScreen(v.x + dx, v.y + dy);
+    ctx.fillText(v.id, sx + 6, sy - 6);
+  }
+}
+
+// ---- the feed ------------------------------------------------------------------------------
+
+function applyVehicle(id, fields, nowMs) {
+  let v = state.vehicles.get(id);
+  const t = interpolation(nowMs);
+  if (!v) {
+    v = { id, locked: [], requested: [], hull: [], fromX: 0, fromY: 0 };
+    state.vehicles.set(id, v);
+    Object.assign(v, fields);
+    v.fromX = v.x;
+    v.fromY = v.y;
+    return;
+  }
+  if ("x" in fields || "y" in fields) {
+    const [dx, dy] = drawnOffset(v, t);
+    v.fromX = v.x + dx;
+    v.fromY = v.y + dy;
+  }
+  Object.assign(v, fields);
+}
+
+function applySnapshot(msg, nowMs) {
+  state.layout = msg.layout;
+  state.stationsById = new Map(msg.layout.stations.map((s) => [s.id, s]));
+  state.vehicles = new Map();
+  for (const [id, rec] of Object.entries(msg.vehicles)) applyVehicle(id, rec, nowMs);
+  state.sessions = new Map(msg.sessions.map((s) => [s.id, s]));
+  state.nodes = new Map(Object.entries(msg.nodes));
+  state.metrics = { ...msg.metrics };
+  state.sim = msg.sim;
+  state.now = msg.now;
+  view.fitted = false;
+  fitView();
+  resetCharts();
+}
+
+function applyDelta(msg, nowMs) {
+  state.now = msg.now;
+  if (msg.sim) state.sim = msg.sim;
+  if (msg.vehicles) for (const [id, f] of Object.entries(msg.vehicles)) applyVehicle(id, f, nowMs);
+  if (msg.locks) {
+    for (const [id, f] of Object.entries(msg.locks)) {
+      const v = state.vehicles.get(id);
+      if (v) Object.assign(v, f);
+    }
+  }
+  if (msg.vehicles_removed) for (const id of msg.vehicles_removed) state.vehicles.delete(id);
+  if (msg.sessions_started) for (const s of msg.sessions_started) state.sessions.set(s.id, s);
+  if (msg.sessions_stopped) for (const id of msg.sessions_stopped) state.sessions.delete(id);
+  if (msg.members) {
+    for (const [id, members] of Object.entries(msg.members)) {
+      const s = state.sessions.get(id);
+      if (s) s.members = members;
+    }
+  }
+  if (msg.metrics) Object.assign(state.metrics, msg.metrics);
+  if (msg.nodes) for (const [id, n] of Object.entries(msg.nodes)) state.nodes.set(id, n);
+  if (msg.nodes_removed) for (const id of msg.nodes_removed) state.nodes.delete(id);
+}
+
+const connStatus = document.getElementById("conn-status");
+let socket = null;
+let retryMs = 500;
+
+function connect() {
+  const scheme = location.protocol === "https:" ? "wss" : "ws";
+  socket = new WebSocket(`${scheme}://${location.host}/ws/events`);
+  socket.addEventListener("open", () => {
+    retryMs = 500;
+    connStatus.textContent = "live";
+    connStatus.className = "conn up";
+  });
+  socket.addEventListener("message", (event) => {
+    const nowMs = performance.now();
+    let msg;
+    try {
+      msg = JSON.parse(event.data);
+    } catch {
+      return;
+    }
+    state.messages++;
+    if (msg.type === "snapshot") {
+      applySnapshot(msg, nowMs);
+    } else if (msg.type === "delta" && state.layout) {
+      // Interpolate over the gap the feed actually has, within reason.
+      const gap = nowMs - state.lastDeltaAt;
+      state.frameInterval = Math.max(30, Math.min(200, gap));
+      applyDelta(msg, nowMs);
+    }
+    state.lastDeltaAt = nowMs;
+    state.panelsDirty = true;
+  });
+  socket.addEventListener("close", () => {
+    connStatus.textContent = "reconnecting";
+    connStatus.className = "conn down";
+    setTimeout(connect, retryMs);
+    retryMs = Math.min(retryMs * 2, 5000);
+  });
+  // An error is always followed by "close", which reconnects.
+  socket.addEventListener("error", () => {});
+}
+
+// ---- REST -----------------------------------------------------------------------------------
+
+const controlStatus = document.getElementById("control-status");
+
+function say(text, isError = false) {
+  controlStatus.textContent = text;
+  controlStatus.className = isError ? "status error" : "status";
+}
+
+async function post(path, body) {
+  const headers = { "Content-Type": "application/json" };
+  if (token) headers.Authorization = `Bearer ${token}`;
+  let response;
+  try {
+    response = await fetch(path, { method: "POST", headers, body: JSON.stringify(body ?? {}) });
+  } catch (err) {
+    say(`request failed: ${err.message}`, true);
+    return null;
+  }
+  let data = null;
+  try {
+    data = await response.json();
+  } catch {
+    data = null;
+  }
+  if (!response.ok) {
+    say(`${path}: ${data && data.detail ? JSON.stringify(data.detail) : response.status}`, true);
+    return null;
+  }
+  return data;
+}
+
+async function addTask(stationId) {
+  const data = await post("/api/tasks", { station: stationId });
+  if (data) {
+    state.lastTask = { id: data.task_id, station: stationId };
+    say(`task ${data.task_id} created at ${stationId}`);
+  }
+}
+
+// ---- pointer ------------------------------------------------------------------------------
+
+const tooltip = document.getElementById("tooltip");
+const drag = { active: false, moved: false, x: 0, y: 0 };
+
+function stationAt(sx, sy) {
+  if (!state.layout) return null;
+  let best = null;
+  let bestD = STATION_HIT_PX;
+  for (const st of state.layout.stations) {
+    const [x, y] = toScreen(st.x, st.y);
+    const d = Math.hypot(x - sx, y - sy);
+    if (d <= bestD) {
+      best = st.id;
+      bestD = d;
+    }
+  }
+  return best;
+}
+
+function vehicleAt(sx, sy) {
+  const [wx, wy] = toWorld(sx, sy);
+  let best = null;
+  let bestD = Infinity;
+  for (const v of state.vehicles.values()) {
+    const d = Math.hypot(v.x - wx, v.y - wy);
+    const reach = Math.max(v.length, v.width) * 0.6 + 6 / view.scale;
+    if (d <= reach && d < bestD) {
+      best = v;
+      bestD = d;
+    }
+  }
+  return best;
+}
+
+function localPoint(event) {
+  const rect = canvas.getBoundingClientRect();
+  return [event.clientX - rect.left, event.clientY - rect.top];
+}
+
+canvas.addEventListener("mousemove", (event) => {
+  const [sx, sy] = localPoint(event);
+  if (drag.active) {
+    const dx = sx - drag.x;
+    const dy = sy - drag.y;
+    if (Math.abs(dx) + Math.abs(dy) > 2) drag.moved = true;
+    view.ox += dx;
+    view.oy += dy;
+    drag.x = sx;
+    drag.y = sy;
+    view.layerDirty = true;
+    return;
+  }
+  ui.hoverStation = stationAt(sx, sy);
+  const v = ui.hoverStation ? null : vehicleAt(sx, sy);
+  ui.hoverVehicle = v ? v.id : null;
+  canvas.classList.toggle("over-station", Boolean(ui.hoverStation));
+  if (v) {
+    tooltip.hidden = false;
+    tooltip.textContent =
+      `${v.id}  ${v.status}\ntask ${v.task ?? "–"}\nhull length ${v.hull_length.toFixed(2)} m\n` +
+      `locked ${v.locked.length}  requested ${v.requested.length}`;
+  } else if (ui.hoverStation) {
+    const st = state.stationsById.get(ui.hoverStation);
+    tooltip.hidden = false;
+    tooltip.textContent = `${st.id} (${st.kind})\nclick to add a task`;
+  } else {
+    tooltip.hidden = true;
+  }
+  tooltip.style.left = `${sx + 14}px`;
+  tooltip.style.top = `${sy + 14}px`;
+});
+
+canvas.addEventListener("mouseleave", () => {
+  ui.hoverStation = null;
+  ui.hoverVehicle = null;
+  tooltip.hidden = true;
+  drag.active = false;
+  canvas.classList.remove("dragging");
+});
+
+canvas.addEventListener("mousedown", (event) => {
+  const [sx, sy] = localPoint(event);
+  drag.active = true;
+  drag.moved = false;
+  drag.x = sx;
+  drag.y = sy;
+  canvas.classList.add("dragging");
+});
+
+canvas.addEventListener("mouseup", (event) => {
+  const wasDrag = drag.moved;
+  drag.active = false;
+  canvas.classList.remove("dragging");
+  if (wasDrag) return;
+  const [sx, sy] = localPoint(event);
+  const st = stationAt(sx, sy);
+  if (st) addTask(st);
+});
+
+canvas.addEventListener("dblclick", () => {
+  fitView();
+});
+
+canvas.addEventListener(
+  "wheel",
+  (event) => {
+    event.preventDefault();
+    const [sx, sy] = localPoint(event);
+    const [wx, wy] = toWorld(sx, sy);
+    const factor = Math.exp(-event.deltaY * 0.0015);
+    view.scale = Math.min(1000, Math.max(0.05, view.scale * factor));
+    view.ox = sx - wx * view.scale;
+    view.oy = sy + wy * view.scale;
+    view.layerDirty = true;
+  },
+  { passive: false },
+);
+
+// ---- controls ---------------------------------------------------------------------------
+
+document.getElementById("btn-pause").addEventListener("click", () => post("/api/sim/pause"));
+document.getElementById("btn-resume").addEventListener("click", () => post("/api/sim/resume"));
+const speedSelect = document.getElementById("speed");
+speedSelect.addEventListener("change", () => post("/api/sim/speed", { factor: Number(speedSelect.value) }));
+document.getElementById("toggle-circles").addEventListener("change", (e) => (ui.showCircles = e.target.checked));
+document.getElementById("toggle-sessions").addEventListener("change", (e) => (ui.showSessions = e.target.checked));
+document.getElementById("toggle-labels").addEventListener("change", (e) => (ui.showLabels = e.target.checked));
+
+// ---- panels: patched in place a few times a second --------------------------------------
+
+function setText(el, text) {
+  if (el.textContent !== text) el.textContent = text;
+}
+
+// Make tbody show `items` in order, reusing the row of each key and touching only
+// cells whose text changed.
+function syncRows(tbody, items, keyAttr, cellsOf, decorate) {
+  const existing = new Map();
+  for (const row of tbody.children) existing.set(row.getAttribute(keyAttr), row);
+  let ref = tbody.firstElementChild;
+  const keep = new Set();
+  for (const item of items) {
+    const key = item.key;
+    keep.add(key);
+    let row = existing.get(key);
+    const cells = cellsOf(item);
+    if (!row) {
+      row = document.createElement("tr");
+      row.setAttribute(keyAttr, key);
+      for (const c of cells) {
+        const td = document.createElement("td");
+        if (c.cls) td.className = c.cls;
+        row.append(td);
+      }
+    }
+    cells.forEach((c, i) => {
+      const td = row.children[i];
+      setText(td, c.text);
+      if (c.attr) for (const [k, v] of Object.entries(c.attr)) if (td.getAttribute(k) !== v) td.setAttribute(k, v);
+    });
+    if (decorate) decorate(row, item);
+    if (row === ref) {
+      ref = ref.nextElementSibling;
+    } else {
+      tbody.insertBefore(row, ref);
+    }
+  }
+  for (const [key, row] of existing) if (!keep.has(key)) row.remove();
+}
+
+function fmtCount(n) {
+  if (n == null) return "–";
+  if (n >= 1e9) return `${(n / 1e9).toFixed(2)} G`;
+  if (n >= 1e6) return `${(n / 1e6).toFixed(2)} M`;
+  if (n >= 1e4) return `${(n / 1e3).toFixed(1)} k`;
+  return String(Math.round(n));
+}
+
+function fmtTime(s) {
+  const h = Math.floor(s / 3600);
+  const m = Math.floor((s % 3600) / 60);
+  const sec = Math.floor(s % 60);
+  return `${h}:${String(m).padStart(2, "0")}:${String(sec).padStart(2, "0")}`;
+}
+
+const el = {
+  clock: document.getElementById("sim-clock"),
+  vehicleCount: document.getElementById("vehicle-count"),
+  sessionCount: document.getElementById("session-count"),
+  fps: document.getElementById("fps"),
+  sessions: document.getElementById("sessions-body"),
+  sessionsNote: document.getElementById("sessions-note"),
+  locks: document.getElementById("locks-body"),
+  nodes: document.getElementById("nodes-body"),
+  metrics: document.getElementById("metrics-list"),
+  pause: document.getElementById("btn-pause"),
+  resume: document.getElementById("btn-resume"),
+};
+
+const metricRows = new Map();
+
+function updatePanels() {
+  if (!state.panelsDirty) return;
+  state.panelsDirty = false;
+  setText(el.clock, fmtTime(state.now) + (state.sim.paused ? " (paused)" : ""));
+  setText(el.vehicleCount, String(state.vehicles.size));
+  setText(el.sessionCount, String(state.sessions.size));
+  el.pause.classList.toggle("active", state.sim.paused);
+  el.resume.classList.toggle("active", !state.sim.paused);
+  const speed = String(state.sim.speed);
+  if (document.activeElement !== speedSelect && speedSelect.value !== speed) {
+    if (![...speedSelect.options].some((o) => o.value === speed)) {
+      speedSelect.add(new Option(`${speed}×`, speed));
+    }
+    speedSelect.value = speed;
+  }
+
+  // Sessions started over the API first, then the newest.
+  const sessions = [...state.sessions.values()].sort(
+    (a, b) => Number(Boolean(b.via_api)) - Number(Boolean(a.via_api)) || b.started_at - a.started_at || (a.id < b.id ? -1 : 1),
+  );
+  const shown = sessions.slice(0, MAX_SESSION_ROWS);
+  setText(el.sessionsNote, sessions.length > shown.length ? `(${shown.length} of ${sessions.length} shown)` : `(${sessions.length} live)`);
+  syncRows(
+    el.sessions,
+    shown.map((s) => ({ key: s.id, s })),
+    "data-session-id",
+    ({ s }) => [
+      { text: s.id },
+      { text: `${s.role} → ${s.participant_role}` },
+      { text: s.node },
+      { text: `${s.members.length}: ${s.members.join(" ")}`, cls: "members", attr: { "data-members": s.members.join(" ") } },
+      { text: `${Math.max(0, state.now - s.started_at).toFixed(1)} s` },
+    ],
+    (row, { s }) => row.classList.toggle("via-api", Boolean(s.via_api)),
+  );
+
+  const vehicles = [...state.vehicles.values()].sort((a, b) => (a.id < b.id ? -1 : a.id > b.id ? 1 : 0));
+  syncRows(
+    el.locks,
+    vehicles.map((v) => ({ key: v.id, v })),
+    "data-vehicle-id",
+    ({ v }) => [
+      { text: v.id },
+      { text: v.status },
+      { text: String(v.locked.length) },
+      { text: String(v.requested.length) },
+      { text: v.hull_length.toFixed(2) },
+    ],
+  );
+
+  const nodes = [...state.nodes.entries()].sort((a, b) => (a[0] < b[0] ? -1 : a[0] > b[0] ? 1 : 0));
+  syncRows(
+    el.nodes,
+    nodes.map(([id, n]) => ({ key: id, n })),
+    "data-node-id",
+    ({ key, n }) => [{ text: key }, { text: fmtCount(n.messages) }, { text: fmtCount(n.bytes) }],
+  );
+
+  for (const [k, v] of Object.entries(state.metrics).sort()) {
+    let row = metricRows.get(k);
+    if (!row) {
+      const dt = document.createElement("dt");
+      const dd = document.createElement("dd");
+      dt.textContent = k.replaceAll("_", " ");
+      dd.setAttribute("data-metric", k);
+      el.metrics.append(dt, dd);
+      row = dd;
+      metricRows.set(k, dd);
+    }
+    setText(row, v == null ? "–" : Number.isInteger(v) ? fmtCount(v) : v.toFixed(2));
+  }
+}
+
+// ---- charts -------------------------------------------------------------------------------
+
+const charts = {
+  tasks: { canvas: document.getElementById("chart-tasks"), values: [], color: "#2ecc71" },
+  messages: { canvas: document.getElementById("chart-messages"), values: [], color: "#4aa3ff" },
+  lastMessages: null,
+  lastNow: null,
+};
+
+function resetCharts() {
+  charts.tasks.values = [];
+  charts.messages.values = [];
+  charts.lastMessages = null;
+  charts.lastNow = null;
+}
+
+function sampleCharts() {
+  const m = state.metrics;
+  let perHour = m.tasks_per_hour;
+  if (perHour == null && m.tasks_completed != null && state.now > 0) perHour = (m.tasks_completed / state.now) * 3600;
+  if (perHour != null) push(charts.tasks, perHour);
+  if (m.messages != null) {
+    if (charts.lastMessages != null && state.now > charts.lastNow) {
+      push(charts.messages, (m.messages - charts.lastMessages) / (state.now - charts.lastNow));
+    }
+    if (charts.lastNow == null || state.now !== charts.lastNow) {
+      charts.lastMessages = m.messages;
+      charts.lastNow = state.now;
+    }
+  }
+  drawChart(charts.tasks);
+  drawChart(charts.messages);
+}
+
+function push(chart, value) {
+  chart.values.push(value);
+  if (chart.values.length > CHART_SAMPLES) chart.values.shift();
+}
+
+function drawChart(chart) {
+  const c = chart.canvas;
+  const dpr = window.devicePixelRatio || 1;
+  const w = c.clientWidth || c.width;
+  const h = c.clientHeight || c.height;
+  if (c.width !== Math.round(w * dpr)) {
+    c.width = Math.round(w * dpr);
+    c.height = Math.round(h * dpr);
+  }
+  const g = c.getContext("2d");
+  g.setTransform(dpr, 0, 0, dpr, 0, 0);
+  g.clearRect(0, 0, w, h);
+  const values = chart.values;
+  if (values.length === 0) return;
+  const max = Math.max(1e-9, ...values) * 1.15;
+  g.beginPath();
+  values.forEach((v, i) => {
+    const x = (i / (CHART_SAMPLES - 1)) * w;
+    const y = h - 4 - (v / max) * (h - 16);
+    if (i === 0) g.moveTo(x, y);
+    else g.lineTo(x, y);
+  });
+  g.strokeStyle = chart.color;
+  g.lineWidth = 1.5;
+  g.stroke();
+  g.fillStyle = "#d6dde5";
+  g.font = "11px system-ui, sans-serif";
+  g.textBaseline = "top";
+  g.fillText(fmtCount(values[values.length - 1]), 4, 2);
+}
+
+// ---- main loop ------------------------------------------------------------------------------
+
+const fpsMeter = { frames: 0, since: performance.now(), value: 0, total: 0 };
+
+function loop(nowMs) {
+  drawFrame(nowMs);
+  fpsMeter.frames++;
+  fpsMeter.total++;
+  if (nowMs - fpsMeter.since >= 1000) {
+    fpsMeter.value = (fpsMeter.frames * 1000) / (nowMs - fpsMeter.since);
+    fpsMeter.frames = 0;
+    fpsMeter.since = nowMs;
+    setText(el.fps, fpsMeter.value.toFixed(0));
+  }
+  requestAnimationFrame(loop);
+}
+
+// ---- test and debugging hooks (documented in docs/dashboard.md) -----------------------------
+
+window.__dashboard = {
+  /** True once the first snapshot arrived. */
+  get ready() {
+    return state.layout !== null;
+  },
+  /** Frames drawn so far, and the frame rate over the last second. */
+  get frames() {
+    return fpsMeter.total;
+  },
+  get fps() {
+    return fpsMeter.value;
+  },
+  /** Feed messages received so far. */
+  get messages() {
+    return state.messages;
+  },
+  /** Simulated time of the newest message. */
+  get now() {
+    return state.now;
+  },
+  /** The last task created by clicking a station: {id, station} or null. */
+  get lastTask() {
+    return state.lastTask;
+  },
+  stationIds() {
+    return state.layout ? state.layout.stations.map((s) => s.id) : [];
+  },
+  /** Viewport (client) coordinates of a station's centre, for mouse.click; null if unknown. */
+  stationScreenPosition(id) {
+    const st = state.stationsById.get(id);
+    if (!st) return null;
+    const rect = canvas.getBoundingClientRect();
+    const [sx, sy] = toScreen(st.x, st.y);
+    return { x: rect.left + sx, y: rect.top + sy };
+  },
+  /** {id: [x, y, status, task]} of every AGV in world coordinates. */
+  vehicles() {
+    const out = {};
+    for (const v of state.vehicles.values()) out[v.id] = [v.x, v.y, v.status, v.task];
+    return out;
+  },
+  /** {id: members} of every live session. */
+  sessions() {
+    const out = {};
+    for (const s of state.sessions.values()) out[s.id] = [...s.members];
+    return out;
+  },
+  fit: fitView,
+};
+
+new ResizeObserver(() => resize()).observe(canvas);
+resize();
+connect();
+setInterval(updatePanels, PANEL_INTERVAL_MS);
+setInterval(sampleCharts, CHART_INTERVAL_MS);
+requestAnimationFrame(loop);
