@@ -74,12 +74,15 @@ function toWorld(sx, sy) {
 function fitView() {
   if (!state.layout) return;
   const [x0, y0, x1, y1] = state.layout.bounds;
-  const margin = 30;
+  // Room at the top for the legend, and around for station labels.
+  const side = 30;
+  const top = 44;
+  const bottom = 24;
   const w = Math.max(x1 - x0, 1);
   const h = Math.max(y1 - y0, 1);
-  view.scale = Math.max(0.01, Math.min((view.width - 2 * margin) / w, (view.height - 2 * margin) / h));
+  view.scale = Math.max(0.01, Math.min((view.width - 2 * side) / w, (view.height - top - bottom) / h));
   view.ox = (view.width - w * view.scale) / 2 - x0 * view.scale;
-  view.oy = (view.height + h * view.scale) / 2 + y0 * view.scale;
+  view.oy = top + (view.height - top - bottom + h * view.scale) / 2 + y0 * view.scale;
   view.fitted = true;
   view.layerDirty = true;
 }
@@ -671,6 +674,12 @@ function fmtCount(n) {
   return String(Math.round(n));
 }
 
+function fmtMetric(v) {
+  if (v == null) return "–";
+  if (Math.abs(v) >= 1e4 || Number.isInteger(v)) return fmtCount(v);
+  return v.toFixed(2);
+}
+
 function fmtTime(s) {
   const h = Math.floor(s / 3600);
   const m = Math.floor((s % 3600) / 60);
@@ -763,7 +772,7 @@ function updatePanels() {
       row = dd;
       metricRows.set(k, dd);
     }
-    setText(row, v == null ? "–" : Number.isInteger(v) ? fmtCount(v) : v.toFixed(2));
+    setText(row, fmtMetric(v));
   }
 }
 
