@@ -1,0 +1,134 @@
+"""``objectplaces demo``: a fleet in real time with its dashboard.
+
+Registered as a plugin of the ``objectplaces`` command (entry point group
+``objectplaces.commands``, name ``demo``, value ``dashboard.cli:register``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import ipaddress
+import os
+import sys
+import threading
+import webbrowser
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from dashboard.source import FleetSource
+
+__all__ = ["TOKEN_ENV", "build_source", "is_loopback", "register", "run_demo", "serve"]
+
+TOKEN_ENV = "OBJECTPLACES_TOKEN"
+"""Environment variable read when ``--token`` is not given."""
+
+SourceBuilder = Callable[[argparse.Namespace], "FleetSource"]
+
+
+def is_loopback(host: str) -> bool:
+    """True when ``host`` only accepts connections from this machine."""
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """Add the ``demo`` subcommand to the ``objectplaces`` command line."""
+    parser = subcommands.add_parser(
+        "demo",
+        help="run an AGV fleet in real time with its live dashboard",
+        description=(
+            "Run a fleet of AGVs on the demo warehouse in real time, with tasks arriving "
+            "continuously, and serve the dashboard (REST API, live feed, page)."
+        ),
+    )
+    parser.add_argument("--host", default="127.0.0.1", help="address to listen on")
+    parser.add_argument("--port", type=int, default=8000, help="port to listen on")
+    parser.add_argument("--agvs", type=int, default=12, help="number of AGVs")
+    parser.add_argument("--seed", type=int, default=1, help="random seed of the fleet")
+    parser.add_argument(
+        "--processes",
+        type=int,
+        default=0,
+        help="run every AGV as its own process on the WebSocket mesh (this many processes)",
+    )
+    parser.add_argument(
+        "--token",
+        default=os.environ.get(TOKEN_ENV),
+        help=f"token for changes (POST/DELETE); required off loopback (env {TOKEN_ENV})",
+    )
+    parser.add_argument("--open", action="store_true", help="open the dashboard in a browser")
+    parser.set_defaults(func=run_demo)
+
+
+def build_source(args: argparse.Namespace) -> FleetSource:
+    """Build the fleet the demo shows.
+
+    Raises:
+        SystemExit: the fleet simulation is not installed.
+    """
+    try:
+        fleet = importlib.import_module("agv_app.fleet")
+    except ImportError as exc:
+        raise SystemExit(f"objectplaces demo: the AGV fleet is not available ({exc})") from exc
+    make: Callable[..., FleetSource] | None = getattr(fleet, "demo_source", None)
+    if make is None:
+        raise SystemExit("objectplaces demo: agv_app.fleet offers no demo_source()")
+    return make(agvs=args.agvs, seed=args.seed, processes=args.processes)
+
+
+def serve(
+    source: FleetSource,
+    *,
+    host: str,
+    port: int,
+    token: str | None,
+    open_browser: bool = False,
+) -> None:
+    """Serve the dashboard for ``source`` until interrupted.
+
+    Raises:
+        SystemExit: a non-loopback host without a token.
+    """
+    import uvicorn
+
+    from dashboard.app import create_app
+
+    if token is None and not is_loopback(host):
+        raise SystemExit(
+            f"objectplaces demo: listening on {host!r} lets other machines in; "
+            f"give --token (or set {TOKEN_ENV}) so only you can change the fleet"
+        )
+    app = create_app(source, token=token)
+    shown = "127.0.0.1" if host in ("0.0.0.0", "::") else host
+    url = f"http://{shown}:{port}/" + (f"?token={token}" if token else "")
+    print(f"dashboard at {url}", flush=True)
+    if open_browser:
+        threading.Timer(1.0, webbrowser.open, args=(url,)).start()
+    uvicorn.run(app, host=host, port=port, log_level="warning")
+
+
+def run_demo(args: argparse.Namespace, *, builder: SourceBuilder = build_source) -> int:
+    """Run ``objectplaces demo``.
+
+    Returns:
+        The exit status.
+    """
+    if args.agvs < 1:
+        print("objectplaces demo: --agvs must be at least 1", file=sys.stderr)
+        return 2
+    if args.token is None and not is_loopback(args.host):
+        print(
+            f"objectplaces demo: listening on {args.host!r} lets other machines in; "
+            f"give --token (or set {TOKEN_ENV}) so only you can change the fleet",
+            file=sys.stderr,
+        )
+        return 2
+    source = builder(args)
+    serve(source, host=args.host, port=args.port, token=args.token, open_browser=args.open)
+    return 0

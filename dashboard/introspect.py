@@ -1,0 +1,87 @@
+"""Reading a middleware node (``objectplaces.RoleActivator``) into dashboard records.
+
+All knowledge of the node's introspection API lives here, so the rest of the dashboard
+deals in ``SessionRecord`` and plain dicts.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from dashboard.feed import SessionRecord
+
+__all__ = [
+    "counters_of",
+    "participations_of",
+    "properties_of",
+    "sessions_of",
+    "view_of",
+]
+
+
+def sessions_of(node_id: str, node: Any) -> list[SessionRecord]:
+    """The live sessions ``node`` initiated, oldest first.
+
+    Args:
+        node_id: the node's id (the initiator of each record).
+        node: the node handle.
+    """
+    return [
+        SessionRecord(
+            session_id=str(info.session_id),
+            node=node_id,
+            role=str(info.initiator_role),
+            participant_role=str(info.participant_role),
+            members=tuple(sorted(info.members)),
+            started_at=float(info.started_at),
+            definition=info.definition,
+        )
+        for info in node.sessions()
+    ]
+
+
+def participations_of(node: Any) -> list[dict[str, Any]]:
+    """The participant roles active on ``node``: ``{session_id, initiator, role}``."""
+    return [
+        {"session_id": str(p.session_id), "initiator": str(p.initiator), "role": p.participant_role}
+        for p in node.participations()
+    ]
+
+
+def properties_of(node: Any) -> Mapping[str, Any]:
+    """The node's own current properties."""
+    props: Mapping[str, Any] = node.properties
+    return props
+
+
+def view_of(node: Any) -> Mapping[str, Mapping[str, Any]]:
+    """The latest properties ``node`` knows of every other node, by node id."""
+    view: Mapping[str, Mapping[str, Any]] = node.view()
+    return {k: view[k] for k in sorted(view)}
+
+
+def counters_of(node: Any, *, full: bool = False) -> dict[str, Any]:
+    """The node's traffic: ``{"messages": n, "bytes": n}`` sent plus received.
+
+    Args:
+        node: the node handle.
+        full: also include every counter the node keeps (for the node detail).
+    """
+    stats = node.stats()
+    out: dict[str, Any] = {
+        "messages": int(stats.messages_sent + stats.messages_received),
+        "bytes": int(stats.bytes_sent + stats.bytes_received),
+    }
+    if full:
+        out.update(_plain(stats))
+    return out
+
+
+def _plain(stats: Any) -> dict[str, Any]:
+    if isinstance(stats, Mapping):
+        return dict(stats)
+    fields = getattr(stats, "__dataclass_fields__", None)
+    if fields is not None:
+        return {name: getattr(stats, name) for name in fields}
+    return {}

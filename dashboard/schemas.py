@@ -1,0 +1,197 @@
+"""Request and response bodies of the REST API (pydantic v2), and a JSON helper."""
+
+from __future__ import annotations
+
+import base64
+import math
+from collections.abc import Mapping
+from typing import Any
+
+from pydantic import BaseModel, ConfigDict, Field
+
+__all__ = [
+    "ErrorOut",
+    "GroupViewOut",
+    "LockOut",
+    "MetricsOut",
+    "NodeDetailOut",
+    "NodeOut",
+    "ParticipationOut",
+    "SessionDetailOut",
+    "SessionOut",
+    "SimOut",
+    "SpeedIn",
+    "StartSessionIn",
+    "StoppedOut",
+    "TaskIn",
+    "TaskOut",
+    "json_value",
+]
+
+Polygon = list[list[float]]
+
+
+def json_value(value: Any) -> Any:
+    """Turn a property or message value into plain JSON.
+
+    Tuples become lists, bytes become base64 text, non-finite floats become None, and
+    anything else unknown becomes its ``repr`` (a property must never break a response).
+    """
+    if value is None or isinstance(value, bool | int | str):
+        return value
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, bytes | bytearray):
+        return base64.b64encode(bytes(value)).decode("ascii")
+    if isinstance(value, Mapping):
+        return {str(k): json_value(v) for k, v in value.items()}
+    if isinstance(value, list | tuple | frozenset | set):
+        items = sorted(value, key=repr) if isinstance(value, frozenset | set) else value
+        return [json_value(v) for v in items]
+    return repr(value)
+
+
+class _Out(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class _In(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class ErrorOut(_Out):
+    """Every 4xx answer: what was wrong, in words."""
+
+    detail: str = Field(description="what was wrong with the request")
+
+
+class NodeOut(_Out):
+    """One middleware node in the list."""
+
+    id: str
+    properties: dict[str, Any] = Field(description="the node's own current properties")
+    initiated: int = Field(description="live sessions this node initiated")
+    participating: int = Field(description="sessions this node takes part in")
+    messages: int = Field(description="messages sent and received so far")
+    bytes: int = Field(description="bytes sent and received so far")
+
+
+class ParticipationOut(_Out):
+    """A participant role live on a node."""
+
+    session_id: str
+    initiator: str = Field(description="node id of the session's initiator")
+    role: str = Field(description="the participant role's name")
+
+
+class SessionOut(_Out):
+    """One live interaction session."""
+
+    id: str
+    node: str = Field(description="the initiator's node")
+    role: str = Field(description="the initiator role's name")
+    participant_role: str
+    members: list[str] = Field(description="current participants, sorted")
+    started_at: float = Field(description="simulated time the session started")
+    age_s: float = Field(description="seconds since it started")
+    definition: Any = Field(
+        default=None, description="the group definition as JSON, or None when opaque"
+    )
+    via_api: bool = Field(description="started through POST /api/sessions (so DELETE may stop it)")
+
+
+class SessionDetailOut(SessionOut):
+    """A session with what its initiator reports (a poll's answers)."""
+
+    params: dict[str, Any] = Field(default_factory=dict, description="parameters it started with")
+    detail: Any = Field(
+        default=None,
+        description="the initiator's own report, e.g. a poll's {node: answer}; None if it has none",
+    )
+
+
+class NodeDetailOut(NodeOut):
+    """One node in full: its sessions, participations, counters and view of others."""
+
+    sessions: list[SessionOut]
+    participations: list[ParticipationOut]
+    stats: dict[str, Any] = Field(description="all the node's counters")
+    view: dict[str, dict[str, Any]] = Field(
+        description="latest properties this node knows of every other node"
+    )
+
+
+class StartSessionIn(_In):
+    """Start an interaction session on a node."""
+
+    node: str = Field(description="the initiator's node id", examples=["agv-1"])
+    role: str = Field(description="a registered initiator role name", examples=["poll"])
+    definition: dict[str, Any] = Field(
+        description="a declarative group definition",
+        examples=[{"type": "within", "distance": 20.0}],
+    )
+    participant_role: str = Field(min_length=1, examples=["poll-responder"])
+    params: dict[str, Any] = Field(
+        default_factory=dict,
+        description="role parameters; poll takes {'property': name}",
+        examples=[{"property": "status"}],
+    )
+
+
+class StoppedOut(_Out):
+    """The answer to DELETE /api/sessions/{id}."""
+
+    id: str
+    stopped: bool = True
+
+
+class GroupViewOut(_Out):
+    """The nodes that satisfy a definition from a node's point of view, now."""
+
+    node: str
+    definition: dict[str, Any]
+    members: list[str]
+
+
+class LockOut(_Out):
+    """One AGV's locked and requested hull projections."""
+
+    vehicle: str
+    status: str
+    hull_length: float
+    locked: list[Polygon]
+    requested: list[Polygon]
+
+
+class TaskIn(_In):
+    """Create a transport task at a station."""
+
+    station: str = Field(min_length=1, examples=["S1"])
+
+
+class TaskOut(_Out):
+    """The created task."""
+
+    task_id: str
+    station: str
+
+
+class SimOut(_Out):
+    """The simulation's clock state."""
+
+    now: float = Field(description="simulated seconds since start")
+    paused: bool
+    speed: float = Field(description="simulated seconds per wall-clock second")
+
+
+class SpeedIn(_In):
+    """Set the simulation speed."""
+
+    factor: float = Field(gt=0, le=100, description="simulated seconds per wall-clock second")
+
+
+class MetricsOut(_Out):
+    """Fleet figures and the clock."""
+
+    sim: SimOut
+    metrics: dict[str, float | None]

@@ -1,0 +1,64 @@
+"""``objectplaces demo`` argument checks: a token is required off loopback."""
+
+from __future__ import annotations
+
+import argparse
+
+import pytest
+
+from dashboard.cli import is_loopback, register, run_demo
+
+
+def parse(*argv: str) -> argparse.Namespace:
+    parser = argparse.ArgumentParser()
+    register(parser.add_subparsers())
+    return parser.parse_args(["demo", *argv])
+
+
+@pytest.mark.parametrize(
+    ("host", "expected"),
+    [
+        ("127.0.0.1", True),
+        ("127.5.0.1", True),
+        ("::1", True),
+        ("localhost", True),
+        ("0.0.0.0", False),
+        ("192.168.1.4", False),
+        ("example.org", False),
+    ],
+)
+def test_loopback_hosts(host: str, expected: bool) -> None:
+    assert is_loopback(host) is expected
+
+
+def test_defaults_match_the_issue(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delenv("OBJECTPLACES_TOKEN", raising=False)
+    args = parse()
+    assert (args.host, args.port, args.agvs, args.seed, args.open) == (
+        "127.0.0.1",
+        8000,
+        12,
+        1,
+        False,
+    )
+    assert args.token is None
+
+
+def test_non_loopback_without_token_is_refused(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.delenv("OBJECTPLACES_TOKEN", raising=False)
+    built: list[argparse.Namespace] = []
+
+    def builder(args: argparse.Namespace):
+        built.append(args)
+        raise AssertionError("must not build a fleet")
+
+    assert run_demo(parse("--host", "0.0.0.0"), builder=builder) == 2
+    assert "--token" in capsys.readouterr().err
+    assert built == []
+
+
+def test_bad_agv_count_is_refused(capsys: pytest.CaptureFixture[str]) -> None:
+    assert run_demo(parse("--agvs", "0")) == 2
+    assert "--agvs" in capsys.readouterr().err
