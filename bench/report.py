@@ -58,8 +58,9 @@ def publish(name: str, title: str, body: str, command: str) -> None:
     )
     print(section)
     text = BENCHMARKS_PATH.read_text() if BENCHMARKS_PATH.exists() else _HEADER
-    pattern = re.compile(rf"<!-- bench:{re.escape(name)} -->.*?<!-- /bench:{re.escape(name)} -->",
-                         re.DOTALL)
+    pattern = re.compile(
+        rf"<!-- bench:{re.escape(name)} -->.*?<!-- /bench:{re.escape(name)} -->", re.DOTALL
+    )
     if pattern.search(text):
         text = pattern.sub(lambda _: section, text)
     else:

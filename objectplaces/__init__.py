@@ -1,5 +1,40 @@
-"""ObjectPlaces: roles and interaction sessions among mobile nodes."""
+"""ObjectPlaces: roles and interaction sessions among mobile nodes.
+
+The public API: ``RoleActivator`` (one per node), the role base classes ``Initiator``
+and ``Participant``, the ``groups`` module of group definitions, ``SimulatedNetwork``
+(in ``objectplaces.sim``) and, for real processes, ``start_node`` (in
+``objectplaces.mesh``).
+"""
 
 from __future__ import annotations
 
-__all__: list[str] = []
+from objectplaces import groups
+from objectplaces.activator import NodeStats, ObserverHandle, RoleActivator, Session
+from objectplaces.core.errors import (
+    DecodeError,
+    LocalProtocolError,
+    ObjectPlacesError,
+    RemoteProtocolError,
+)
+from objectplaces.core.node import NodeConfig, ParticipationInfo, SessionInfo
+from objectplaces.roles import Initiator, InitiatorRef, Participant, ParticipantRef, TimerHandle
+
+__all__ = [
+    "DecodeError",
+    "Initiator",
+    "InitiatorRef",
+    "LocalProtocolError",
+    "NodeConfig",
+    "NodeStats",
+    "ObjectPlacesError",
+    "ObserverHandle",
+    "Participant",
+    "ParticipantRef",
+    "ParticipationInfo",
+    "RemoteProtocolError",
+    "RoleActivator",
+    "Session",
+    "SessionInfo",
+    "TimerHandle",
+    "groups",
+]

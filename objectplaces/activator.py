@@ -1,0 +1,207 @@
+"""``RoleActivator``: the application's access point to one ObjectPlaces node.
+
+It is the same object on every runtime; the runtime hands it a clock and a ``wake``
+function that makes sure the machine's outputs get drained soon after a call (in the
+same instant, so updates made together are coalesced into one message).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from objectplaces.core.errors import LocalProtocolError
+from objectplaces.core.events import TimerHandle
+from objectplaces.core.groups import DefinitionLike
+from objectplaces.core.node import NodeMachine, ParticipationInfo, SessionInfo
+from objectplaces.core.roles import Initiator, Participant
+from tuplespace import TupleSpace
+
+__all__ = ["NodeStats", "ObserverHandle", "RoleActivator", "Session"]
+
+
+@dataclass(frozen=True, slots=True)
+class Session:
+    """A running interaction session, as returned by ``start_interaction``."""
+
+    session_id: str
+    role: Initiator
+
+
+@dataclass(frozen=True, slots=True)
+class ObserverHandle:
+    """A registered observer; ``cancel()`` unregisters it."""
+
+    cancel: Callable[[], None]
+
+
+@dataclass(frozen=True, slots=True)
+class NodeStats:
+    """What one node sent and received, by kind, and what it dropped and why."""
+
+    sent: dict[str, tuple[int, int]]
+    received: dict[str, tuple[int, int]]
+    counters: dict[str, int]
+
+    @property
+    def messages_sent(self) -> int:
+        """Frames this node sent."""
+        return sum(v[0] for v in self.sent.values())
+
+    @property
+    def bytes_sent(self) -> int:
+        """Bytes this node sent."""
+        return sum(v[1] for v in self.sent.values())
+
+    @property
+    def messages_received(self) -> int:
+        """Frames this node received."""
+        return sum(v[0] for v in self.received.values())
+
+    @property
+    def bytes_received(self) -> int:
+        """Bytes this node received."""
+        return sum(v[1] for v in self.received.values())
+
+
+class RoleActivator:
+    """Start and stop sessions, publish properties, register participant roles.
+
+    Args:
+        machine: the node's machine.
+        clock: the runtime's clock (virtual or real seconds).
+        wake: asks the runtime to drain the machine soon (idempotent).
+        space: the node's tuplespace.
+    """
+
+    def __init__(
+        self,
+        machine: NodeMachine,
+        *,
+        clock: Callable[[], float],
+        wake: Callable[[], None],
+        space: TupleSpace,
+    ) -> None:
+        self._machine = machine
+        self._clock = clock
+        self._wake = wake
+        self.space = space
+
+    @property
+    def node_id(self) -> str:
+        """This node's id."""
+        return self._machine.node_id
+
+    @property
+    def machine(self) -> NodeMachine:
+        """The node's sans-I/O machine (for runtimes and introspection)."""
+        return self._machine
+
+    def now(self) -> float:
+        """The runtime's clock."""
+        return self._clock()
+
+    def update_node_property(self, name: str, value: Any) -> None:
+        """Set one of this node's properties and publish it (same-instant updates coalesce).
+
+        Raises:
+            LocalProtocolError: a bad name, or a value that is not plain data.
+        """
+        self._machine.update_property(name, value, self._clock())
+        self._wake()
+
+    def register_node_property_observer(
+        self, observer: Callable[[str, str, Any], Any]
+    ) -> ObserverHandle:
+        """Call ``observer(node_id, name, value)`` on every property change, ours included."""
+        return ObserverHandle(self._machine.add_property_observer(observer))
+
+    def register_node_departure_observer(
+        self, observer: Callable[[str, Mapping[str, Any]], Any]
+    ) -> ObserverHandle:
+        """Call ``observer(node_id, last_properties)`` when a node fails or leaves."""
+        return ObserverHandle(self._machine.add_departure_observer(observer))
+
+    def set_participant_factory(self, name: str, factory: Callable[[], Participant] | None) -> None:
+        """Register the zero-argument factory of participant role ``name`` (None removes it)."""
+        self._machine.set_factory(name, factory)
+
+    def start_interaction(
+        self, initiator: Initiator, definition: DefinitionLike, participant_role: str
+    ) -> Session:
+        """Start a session: activate ``participant_role`` on every node matching ``definition``.
+
+        Raises:
+            LocalProtocolError: a bad argument, or ``initiator`` already in a session.
+        """
+        sid = self._machine.start_session(initiator, definition, participant_role, self._clock())
+        self._wake()
+        return Session(sid, initiator)
+
+    def stop_interaction(self, session: Session | str) -> None:
+        """Stop a session started on this node; every participant is deactivated.
+
+        Raises:
+            LocalProtocolError: no live session of this node has that id.
+        """
+        sid = session.session_id if isinstance(session, Session) else session
+        self._machine.now = self._clock()
+        self._machine.stop_session(sid)
+        self._wake()
+
+    def view_group(self, definition: DefinitionLike) -> frozenset[str]:
+        """The nodes that satisfy ``definition`` now, from the local view (no messages)."""
+        return self._machine.view_group(definition)
+
+    def call_later(self, delay: float, fn: Callable[[], Any]) -> TimerHandle:
+        """Run ``fn`` after ``delay`` seconds of the runtime's clock."""
+        self._machine.now = self._clock()
+        handle = self._machine.call_later(delay, fn)
+        self._wake()
+        return handle
+
+    @property
+    def properties(self) -> Mapping[str, Any]:
+        """This node's own properties."""
+        return self._machine.properties
+
+    def view(self) -> Mapping[str, Mapping[str, Any]]:
+        """The latest known properties of the other nodes this node hears."""
+        return self._machine.view()
+
+    def sessions(self) -> list[SessionInfo]:
+        """Live sessions initiated on this node."""
+        return self._machine.sessions()
+
+    def session_role(self, session_id: str) -> Initiator:
+        """The initiator role of a live session of this node.
+
+        Raises:
+            LocalProtocolError: no live session of this node has that id.
+        """
+        role = self._machine.session_role(session_id)
+        if role is None:
+            raise LocalProtocolError(f"unknown session {session_id!r} on node {self.node_id!r}")
+        return role
+
+    def participations(self) -> list[ParticipationInfo]:
+        """Participant roles active on this node."""
+        return self._machine.participations()
+
+    @property
+    def participant_roles(self) -> list[str]:
+        """Names of the participant roles this node can play."""
+        return sorted(self._machine.factories)
+
+    def stats(self) -> NodeStats:
+        """Traffic and drop counters of this node."""
+        machine = self._machine
+        return NodeStats(
+            {k: (v[0], v[1]) for k, v in sorted(machine.sent_by_kind.items())},
+            {k: (v[0], v[1]) for k, v in sorted(machine.received_by_kind.items())},
+            dict(sorted(machine.counters.items())),
+        )
+
+    def __repr__(self) -> str:
+        return f"<RoleActivator {self.node_id!r}>"

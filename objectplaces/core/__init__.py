@@ -1,0 +1,1 @@
+"""The sans-I/O core of ObjectPlaces: inputs in, outputs out; no clock, sockets or randomness."""

@@ -1,0 +1,261 @@
+"""The wire codec: compact binary frames (msgpack arrays with a leading type code).
+
+Every transport, the simulated one included, carries these bytes, so message and byte
+counts are real and a message that cannot be serialised fails where it is sent.
+
+Frame layouts (type code first)::
+
+    1  [1, seq, {name: value, ...}]                       property update, any values
+    2  [2, seq, x_mm, y_mm(, hull_mm(, {name: value}))]   property update, compact
+    3  [3]                                                leave
+    4  [4, session, epoch, seq, kind, payload]            channel data, to participant
+    5  [5, session, epoch, seq, kind, payload]            channel data, to initiator
+    6  [6, session, epoch, ack]                           ack of the to-participant stream
+    7  [7, session, epoch, ack]                           ack of the to-initiator stream
+
+Codes from ``FIRST_TRANSPORT_TYPE`` up belong to transports (hello, gossip ...).
+
+A position update is the hot message: the paper spends 16 bytes on it. Positions and
+hull lengths therefore travel as integer millimetres (``position`` as a pair of numbers,
+``hull_length`` as a number), which msgpack packs in 1-5 bytes each: a whole update is
+about 14 bytes. ``normalise_property`` applies the same rounding to the publisher's own
+copy, so every node sees exactly the same value.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Final
+
+import msgpack
+
+from objectplaces.core.errors import DecodeError, LocalProtocolError
+from objectplaces.core.messages import (
+    ChannelAck,
+    ChannelData,
+    FrameKind,
+    Leave,
+    Message,
+    PropertyUpdate,
+)
+
+__all__ = [
+    "DEFAULT_MAX_FRAME",
+    "FIRST_TRANSPORT_TYPE",
+    "POSITION",
+    "RADIUS",
+    "decode",
+    "encode",
+    "encode_value",
+    "frame_type",
+    "message_kind",
+    "normalise_property",
+]
+
+DEFAULT_MAX_FRAME: Final = 1 << 20
+FIRST_TRANSPORT_TYPE: Final = 32
+POSITION: Final = "position"
+RADIUS: Final = "hull_length"
+
+_PROPS, _COMPACT, _LEAVE, _TO_PART, _TO_INIT, _ACK_PART, _ACK_INIT = 1, 2, 3, 4, 5, 6, 7
+_MM: Final = 1000.0
+_KIND_NAMES: Final = {
+    _PROPS: "property",
+    _COMPACT: "property",
+    _LEAVE: "leave",
+    _TO_PART: "channel",
+    _TO_INIT: "channel",
+    _ACK_PART: "ack",
+    _ACK_INIT: "ack",
+}
+_FRAME_KINDS: Final = {k.value: k for k in FrameKind}
+
+
+def _is_real(value: object) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _position_mm(value: object) -> tuple[int, int] | None:
+    if isinstance(value, tuple | list) and len(value) == 2 and all(map(_is_real, value)):
+        return round(value[0] * _MM), round(value[1] * _MM)
+    return None
+
+
+def _radius_mm(value: object) -> int | None:
+    return round(value * _MM) if _is_real(value) and value >= 0 else None  # type: ignore[operator]
+
+
+def normalise_property(name: str, value: Any) -> Any:
+    """Round a property the way the wire will, so the publisher sees what peers see.
+
+    ``position`` (a pair of finite numbers) becomes a tuple of floats in whole
+    millimetres; ``hull_length`` (a finite number >= 0) a float in whole millimetres.
+    Every other value is returned unchanged.
+    """
+    if name == POSITION and (mm := _position_mm(value)) is not None:
+        return (mm[0] / _MM, mm[1] / _MM)
+    if name == RADIUS and (r := _radius_mm(value)) is not None:
+        return r / _MM
+    return value
+
+
+def encode_value(value: Any) -> bytes:
+    """Serialise plain data (dict, list, str, int, float, bool, None, bytes).
+
+    Raises:
+        LocalProtocolError: the value holds something that is not plain data.
+    """
+    try:
+        return msgpack.packb(value, use_bin_type=True, strict_types=False)  # type: ignore[no-any-return]
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise LocalProtocolError(f"not serialisable as plain data: {value!r} ({exc})") from exc
+
+
+def _property_frame(update: PropertyUpdate) -> list[Any]:
+    values = update.values
+    position = _position_mm(values.get(POSITION))
+    if position is None:
+        return [_PROPS, update.seq, dict(values)]
+    frame: list[Any] = [_COMPACT, update.seq, position[0], position[1]]
+    rest = {k: v for k, v in values.items() if k != POSITION}
+    radius = _radius_mm(rest.get(RADIUS)) if RADIUS in rest else None
+    if radius is not None:
+        del rest[RADIUS]
+    if radius is not None or rest:
+        frame.append(radius)
+    if rest:
+        frame.append(rest)
+    return frame
+
+
+def encode(message: Message) -> bytes:
+    """Encode one message as a frame.
+
+    Raises:
+        LocalProtocolError: a payload or property value is not plain data.
+    """
+    match message:
+        case PropertyUpdate():
+            frame = _property_frame(message)
+        case ChannelData(to_participant, session, epoch, seq, kind, payload):
+            code = _TO_PART if to_participant else _TO_INIT
+            frame = [code, session, epoch, seq, int(kind), payload]
+        case ChannelAck(of_participant_stream, session, epoch, ack):
+            code = _ACK_INIT if of_participant_stream else _ACK_PART
+            frame = [code, session, epoch, ack]
+        case Leave():
+            frame = [_LEAVE]
+    return encode_value(frame)
+
+
+def frame_type(data: bytes) -> int:
+    """Peek at a frame's type code without decoding the rest.
+
+    Raises:
+        DecodeError: the frame does not start with a msgpack array and a small int.
+    """
+    if len(data) >= 2 and 0x91 <= data[0] <= 0x9F and data[1] < 0x80:
+        return data[1]
+    raise DecodeError(f"not a frame: starts with {data[:2].hex() or 'nothing'}")
+
+
+def message_kind(data: bytes) -> str:
+    """Name a frame's family for statistics ("property", "channel", "ack", ...)."""
+    try:
+        return _KIND_NAMES.get(frame_type(data), "transport")
+    except DecodeError:
+        return "malformed"
+
+
+def _reject_ext(code: int, data: bytes) -> Any:
+    raise DecodeError(f"msgpack extension type {code} is not allowed")
+
+
+def _uint(value: Any, what: str) -> int:
+    if isinstance(value, int) and not isinstance(value, bool) and value >= 0:
+        return value
+    raise DecodeError(f"{what} must be a non-negative integer, got {value!r}")
+
+
+def _mm(value: Any, what: str) -> float:
+    if isinstance(value, int) and not isinstance(value, bool):
+        return value / _MM
+    raise DecodeError(f"{what} must be integer millimetres, got {value!r}")
+
+
+def _names(values: Any) -> dict[str, Any]:
+    if not isinstance(values, dict) or not all(isinstance(k, str) for k in values):
+        raise DecodeError(f"property values must be a map with string keys, got {values!r}")
+    return values
+
+
+def _decode_compact(frame: list[Any]) -> PropertyUpdate:
+    if not 4 <= len(frame) <= 6:
+        raise DecodeError(f"compact property frame has {len(frame)} fields, expected 4-6")
+    values: dict[str, Any] = {}
+    if len(frame) == 6:
+        values.update(_names(frame[5]))
+    values[POSITION] = (_mm(frame[2], "x"), _mm(frame[3], "y"))
+    if len(frame) >= 5 and frame[4] is not None:
+        values[RADIUS] = _mm(frame[4], "hull length")
+    return PropertyUpdate(_uint(frame[1], "seq"), values)
+
+
+def _decode_channel(frame: list[Any]) -> ChannelData:
+    if len(frame) != 6:
+        raise DecodeError(f"channel frame has {len(frame)} fields, expected 6")
+    kind = _FRAME_KINDS.get(frame[4]) if isinstance(frame[4], int) else None
+    if kind is None:
+        raise DecodeError(f"unknown channel frame kind {frame[4]!r}")
+    return ChannelData(
+        frame[0] == _TO_PART,
+        _uint(frame[1], "session"),
+        _uint(frame[2], "epoch"),
+        _uint(frame[3], "seq"),
+        kind,
+        frame[5],
+    )
+
+
+def _decode_ack(frame: list[Any]) -> ChannelAck:
+    if len(frame) != 4:
+        raise DecodeError(f"ack frame has {len(frame)} fields, expected 4")
+    return ChannelAck(
+        frame[0] == _ACK_INIT,
+        _uint(frame[1], "session"),
+        _uint(frame[2], "epoch"),
+        _uint(frame[3], "ack"),
+    )
+
+
+def decode(data: bytes, *, max_size: int = DEFAULT_MAX_FRAME) -> Message:
+    """Decode one frame into a message.
+
+    Raises:
+        DecodeError: the frame is oversized, malformed, or of an unknown type.
+    """
+    if len(data) > max_size:
+        raise DecodeError(f"frame of {len(data)} bytes exceeds the limit of {max_size}")
+    try:
+        frame = msgpack.unpackb(data, raw=False, strict_map_key=False, ext_hook=_reject_ext)
+    except DecodeError:
+        raise
+    except Exception as exc:  # msgpack raises several unrelated types on bad input
+        raise DecodeError(f"malformed frame: {exc}") from exc
+    if not isinstance(frame, list) or not frame or not isinstance(frame[0], int):
+        raise DecodeError(f"a frame is an array starting with a type code, got {frame!r:.80}")
+    match frame[0]:
+        case 1:
+            if len(frame) != 3:
+                raise DecodeError(f"property frame has {len(frame)} fields, expected 3")
+            return PropertyUpdate(_uint(frame[1], "seq"), _names(frame[2]))
+        case 2:
+            return _decode_compact(frame)
+        case 3:
+            return Leave()
+        case 4 | 5:
+            return _decode_channel(frame)
+        case 6 | 7:
+            return _decode_ack(frame)
+        case code:
+            raise DecodeError(f"unknown message type {code!r}")

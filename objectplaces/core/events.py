@@ -1,0 +1,78 @@
+"""What the node machine asks its driver to do: transmit frames and run callbacks."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any, TypeAlias
+
+__all__ = ["Broadcast", "Callback", "Output", "Publish", "Send", "Subscribe", "TimerHandle"]
+
+
+@dataclass(frozen=True, slots=True)
+class Send:
+    """Deliver ``data`` to one node."""
+
+    target: str
+    data: bytes
+    kind: str
+
+
+@dataclass(frozen=True, slots=True)
+class Broadcast:
+    """Deliver ``data`` to every node the transport knows."""
+
+    data: bytes
+    kind: str
+
+
+@dataclass(frozen=True, slots=True)
+class Publish:
+    """Deliver ``data`` to every node subscribed to any of ``cells`` (scoped dissemination).
+
+    More than one cell when the publisher just left a cell: its old cell's subscribers
+    must learn that it is gone, or they keep a stale position forever.
+    """
+
+    cells: tuple[tuple[int, int], ...]
+    data: bytes
+    kind: str
+
+
+@dataclass(frozen=True, slots=True)
+class Subscribe:
+    """From now on deliver to this node what is published in ``cells`` (None: everything)."""
+
+    cells: frozenset[tuple[int, int]] | None
+
+
+Output: TypeAlias = Send | Broadcast | Publish | Subscribe
+
+
+@dataclass(frozen=True, slots=True)
+class Callback:
+    """Run application code: a role method, a timer, or an observer.
+
+    Attributes:
+        fn: what to call.
+        args: its arguments.
+        session_id: the session it belongs to, for the log if it raises ("" for none).
+    """
+
+    fn: Callable[..., Any]
+    args: tuple[Any, ...]
+    session_id: str = ""
+
+
+@dataclass(eq=False, slots=True)
+class TimerHandle:
+    """A callback scheduled with ``call_later``; ``cancel()`` stops it from running."""
+
+    deadline: float
+    fn: Callable[[], Any]
+    owner: Any = None
+    cancelled: bool = field(default=False)
+
+    def cancel(self) -> None:
+        """Stop the callback from running (no effect once it ran)."""
+        self.cancelled = True

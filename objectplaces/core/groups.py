@@ -1,0 +1,261 @@
+"""Group definitions: which nodes take part in a session.
+
+A group definition is any callable ``(initiator_props, participant_props) -> bool``.
+The declarative ones here are callables too, and say more about themselves: they
+serialise to JSON (so the REST API and the dashboard can carry them) and they state a
+*reach*, the largest distance from the initiator at which a candidate can still match.
+The node engine uses the reach to ask its spatial index for candidates instead of
+testing every node it knows, which is what makes a session among N nodes cost about
+O(neighbours) per update rather than O(N).
+"""
+
+from __future__ import annotations
+
+import math
+from abc import ABC, abstractmethod
+from collections.abc import Callable, Mapping
+from typing import Any, TypeAlias
+
+from objectplaces.core.errors import LocalProtocolError
+
+__all__ = [
+    "AllOf",
+    "AnyOf",
+    "CirclesOverlap",
+    "DefinitionLike",
+    "GroupDefinition",
+    "MaxOf",
+    "PropertyEquals",
+    "Reach",
+    "Within",
+    "circles_overlap",
+    "definition_from_json",
+    "distance",
+    "property_equals",
+    "within",
+]
+
+Props: TypeAlias = Mapping[str, Any]
+DefinitionLike: TypeAlias = Callable[[Props, Props], bool]
+MaxOf: TypeAlias = Callable[[str], float]
+"""Asks the index for the largest numeric value of a property over the known nodes."""
+
+
+class Reach:
+    """Candidates must lie within ``radius`` of the initiator's ``position`` property."""
+
+    __slots__ = ("position", "radius")
+
+    def __init__(self, position: str, radius: float) -> None:
+        self.position = position
+        self.radius = radius
+
+    def __repr__(self) -> str:
+        return f"Reach({self.position!r}, {self.radius!r})"
+
+
+def _point(props: Props, name: str) -> tuple[float, float] | None:
+    value = props.get(name)
+    if isinstance(value, tuple | list) and len(value) == 2:
+        x, y = value
+        if isinstance(x, int | float) and isinstance(y, int | float):
+            return float(x), float(y)
+    return None
+
+
+def distance(a: Props, b: Props, position: str = "position") -> float | None:
+    """Euclidean distance between two nodes' positions, or None if either lacks one."""
+    pa, pb = _point(a, position), _point(b, position)
+    if pa is None or pb is None:
+        return None
+    return math.hypot(pa[0] - pb[0], pa[1] - pb[1])
+
+
+class GroupDefinition(ABC):
+    """A declarative, serialisable, spatially indexable group definition."""
+
+    @abstractmethod
+    def __call__(self, initiator: Props, participant: Props) -> bool:
+        """True when ``participant`` belongs to the initiator's group."""
+
+    @abstractmethod
+    def to_json(self) -> dict[str, Any]:
+        """A JSON-ready description that ``definition_from_json`` turns back into this."""
+
+    def reach(self, initiator: Props, max_of: MaxOf) -> Reach | None:
+        """The bound on candidates' distance, or None when any node may match."""
+        return None
+
+    def __and__(self, other: GroupDefinition) -> GroupDefinition:
+        return AllOf(self, other)
+
+    def __or__(self, other: GroupDefinition) -> GroupDefinition:
+        return AnyOf(self, other)
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, GroupDefinition) and self.to_json() == other.to_json()
+
+    def __hash__(self) -> int:
+        return hash(repr(self.to_json()))
+
+    def __repr__(self) -> str:
+        return f"definition_from_json({self.to_json()!r})"
+
+
+class CirclesOverlap(GroupDefinition):
+    """Members: nodes whose circle overlaps the initiator's, ``|p_i - p_j| <= r_i + r_j``.
+
+    A node without a position never matches; a missing radius counts as 0.
+    """
+
+    def __init__(self, position: str = "position", radius: str = "hull_length") -> None:
+        self.position = position
+        self.radius = radius
+
+    def _radius(self, props: Props) -> float:
+        value = props.get(self.radius, 0.0)
+        return float(value) if isinstance(value, int | float) else 0.0
+
+    def __call__(self, initiator: Props, participant: Props) -> bool:
+        d = distance(initiator, participant, self.position)
+        return d is not None and d <= self._radius(initiator) + self._radius(participant)
+
+    def to_json(self) -> dict[str, Any]:
+        return {"type": "circles_overlap", "position": self.position, "radius": self.radius}
+
+    def reach(self, initiator: Props, max_of: MaxOf) -> Reach | None:
+        return Reach(self.position, self._radius(initiator) + max_of(self.radius))
+
+
+class Within(GroupDefinition):
+    """Members: nodes within ``distance`` of the initiator."""
+
+    def __init__(self, distance: float, position: str = "position") -> None:
+        if not (isinstance(distance, int | float) and distance >= 0 and math.isfinite(distance)):
+            raise LocalProtocolError(
+                f"within: distance must be a finite number >= 0, got {distance!r}"
+            )
+        self.distance = float(distance)
+        self.position = position
+
+    def __call__(self, initiator: Props, participant: Props) -> bool:
+        d = distance(initiator, participant, self.position)
+        return d is not None and d <= self.distance
+
+    def to_json(self) -> dict[str, Any]:
+        return {"type": "within", "distance": self.distance, "position": self.position}
+
+    def reach(self, initiator: Props, max_of: MaxOf) -> Reach | None:
+        return Reach(self.position, self.distance)
+
+
+class PropertyEquals(GroupDefinition):
+    """Members: nodes whose property ``name`` equals ``value``."""
+
+    def __init__(self, name: str, value: Any) -> None:
+        self.name = name
+        self.value = value
+
+    def __call__(self, initiator: Props, participant: Props) -> bool:
+        return self.name in participant and participant[self.name] == self.value
+
+    def to_json(self) -> dict[str, Any]:
+        return {"type": "property_equals", "name": self.name, "value": self.value}
+
+
+class AllOf(GroupDefinition):
+    """Members: nodes that satisfy every one of ``parts``."""
+
+    def __init__(self, *parts: GroupDefinition) -> None:
+        self.parts = parts
+
+    def __call__(self, initiator: Props, participant: Props) -> bool:
+        return all(part(initiator, participant) for part in self.parts)
+
+    def to_json(self) -> dict[str, Any]:
+        return {"type": "and", "of": [part.to_json() for part in self.parts]}
+
+    def reach(self, initiator: Props, max_of: MaxOf) -> Reach | None:
+        # Any one bounded part bounds the conjunction; the tightest one is the best bound.
+        reaches = [r for part in self.parts if (r := part.reach(initiator, max_of)) is not None]
+        return min(reaches, key=lambda r: r.radius, default=None)
+
+
+class AnyOf(GroupDefinition):
+    """Members: nodes that satisfy at least one of ``parts``."""
+
+    def __init__(self, *parts: GroupDefinition) -> None:
+        self.parts = parts
+
+    def __call__(self, initiator: Props, participant: Props) -> bool:
+        return any(part(initiator, participant) for part in self.parts)
+
+    def to_json(self) -> dict[str, Any]:
+        return {"type": "or", "of": [part.to_json() for part in self.parts]}
+
+    def reach(self, initiator: Props, max_of: MaxOf) -> Reach | None:
+        # A disjunction is bounded only if every part is, around the same position.
+        reaches = [part.reach(initiator, max_of) for part in self.parts]
+        if not reaches or any(r is None for r in reaches):
+            return None
+        bounded = [r for r in reaches if r is not None]
+        if len({r.position for r in bounded}) != 1:
+            return None
+        return max(bounded, key=lambda r: r.radius)
+
+
+def circles_overlap(position: str = "position", radius: str = "hull_length") -> CirclesOverlap:
+    """Nodes whose circles (centre ``position``, radius ``radius``) overlap the initiator's."""
+    return CirclesOverlap(position, radius)
+
+
+def within(distance: float, position: str = "position") -> Within:
+    """Nodes within ``distance`` of the initiator's ``position``."""
+    return Within(distance, position)
+
+
+def property_equals(name: str, value: Any) -> PropertyEquals:
+    """Nodes whose property ``name`` equals ``value``."""
+    return PropertyEquals(name, value)
+
+
+def _string(obj: Mapping[str, Any], key: str, default: str) -> str:
+    value = obj.get(key, default)
+    if not isinstance(value, str) or not value:
+        raise LocalProtocolError(
+            f"group definition field {key!r} must be a non-empty string, got {value!r}"
+        )
+    return value
+
+
+def definition_from_json(obj: Any) -> GroupDefinition:
+    """Build a declarative definition from its JSON form (see each class's ``to_json``).
+
+    Raises:
+        LocalProtocolError: the object is not a valid definition; the message says why.
+    """
+    if not isinstance(obj, Mapping):
+        raise LocalProtocolError(f"a group definition is a JSON object, got {obj!r}")
+    kind = obj.get("type")
+    match kind:
+        case "circles_overlap":
+            return CirclesOverlap(
+                _string(obj, "position", "position"), _string(obj, "radius", "hull_length")
+            )
+        case "within":
+            if "distance" not in obj:
+                raise LocalProtocolError("group definition 'within' needs a 'distance'")
+            return Within(obj["distance"], _string(obj, "position", "position"))
+        case "property_equals":
+            if "value" not in obj:
+                raise LocalProtocolError("group definition 'property_equals' needs a 'value'")
+            return PropertyEquals(_string(obj, "name", ""), obj["value"])
+        case "and" | "or":
+            parts = obj.get("of")
+            if not isinstance(parts, list) or not parts:
+                raise LocalProtocolError(f"group definition {kind!r} needs a non-empty list 'of'")
+            built = [definition_from_json(part) for part in parts]
+            return AllOf(*built) if kind == "and" else AnyOf(*built)
+        case _:
+            known = "circles_overlap, within, property_equals, and, or"
+            raise LocalProtocolError(f"unknown group definition type {kind!r} (known: {known})")

@@ -1,0 +1,95 @@
+"""The messages nodes exchange, as plain frozen values.
+
+Two families travel between nodes:
+
+* property dissemination (unreliable, newest wins): ``PropertyUpdate`` and ``Leave``;
+* session channels (reliable, FIFO per initiator-participant pair): ``ChannelData``
+  carrying a ``FrameKind`` and ``ChannelAck``.
+
+A channel is named by the initiator's session number and an *epoch*: the n-th time that
+participant node was activated in that session. A node that leaves a group and comes back
+gets a fresh epoch, so nothing of its earlier channel can leak into the new one.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from enum import IntEnum
+from typing import Any, TypeAlias
+
+__all__ = [
+    "ChannelAck",
+    "ChannelData",
+    "FrameKind",
+    "Leave",
+    "Message",
+    "PropertyUpdate",
+]
+
+
+class FrameKind(IntEnum):
+    """What a reliable channel frame carries."""
+
+    ACTIVATE = 0  # initiator -> participant: payload [participant_role, initiator_role]
+    ACTIVATED = 1  # participant -> initiator
+    DECLINED = 2  # participant -> initiator: no factory for the role here
+    DEACTIVATE = 3  # initiator -> participant: session stopped or node left the group
+    ROLE = 4  # either way: an application message between roles
+
+
+@dataclass(frozen=True, slots=True)
+class PropertyUpdate:
+    """New values of some of the sender's properties, numbered by the sender.
+
+    Attributes:
+        seq: the sender's publication counter; per property, the highest seq wins.
+        values: property name -> value (only the names that changed, or all of them
+            when republished).
+    """
+
+    seq: int
+    values: Mapping[str, Any]
+
+
+@dataclass(frozen=True, slots=True)
+class Leave:
+    """The sender leaves the network on purpose (a crash sends nothing)."""
+
+
+@dataclass(frozen=True, slots=True)
+class ChannelData:
+    """One numbered frame of a session channel.
+
+    Attributes:
+        to_participant: direction: True from initiator to participant.
+        session: the session number on the initiator's node.
+        epoch: the participant's activation count in this session (1, 2, ...).
+        seq: position in this direction's stream, from 0.
+        kind: what the frame carries.
+        payload: the frame's content (see ``FrameKind``).
+    """
+
+    to_participant: bool
+    session: int
+    epoch: int
+    seq: int
+    kind: FrameKind
+    payload: Any = None
+
+
+@dataclass(frozen=True, slots=True)
+class ChannelAck:
+    """Cumulative acknowledgement: every frame up to ``ack`` arrived in order.
+
+    ``of_participant_stream`` tells which stream is acknowledged: False when a participant
+    acks the initiator's frames, True when the initiator acks the participant's.
+    """
+
+    of_participant_stream: bool
+    session: int
+    epoch: int
+    ack: int
+
+
+Message: TypeAlias = PropertyUpdate | Leave | ChannelData | ChannelAck

@@ -1,0 +1,141 @@
+"""The role base classes application code subclasses: ``Initiator`` and ``Participant``.
+
+Callbacks (``in_group``, ``receive`` ...) are plain methods called by the middleware, one
+at a time, never concurrently; they must not block. A role gets its context when the
+middleware activates it; before that, ``send`` and friends raise ``LocalProtocolError``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any, Protocol
+
+from objectplaces.core.errors import LocalProtocolError
+from objectplaces.core.events import TimerHandle
+from objectplaces.core.ids import InitiatorRef, ParticipantRef
+
+__all__ = ["Initiator", "InitiatorBinding", "Participant", "ParticipantBinding", "Role"]
+
+
+class _Binding(Protocol):
+    node_id: str
+    session_id: str
+    space: Any
+
+    def now(self) -> float: ...
+
+    def call_later(self, delay: float, fn: Callable[[], Any]) -> TimerHandle: ...
+
+
+class InitiatorBinding(_Binding, Protocol):
+    """What the middleware gives an initiator role (internal)."""
+
+    def send(self, participant: ParticipantRef, message: Any) -> bool: ...
+
+    def members(self) -> frozenset[ParticipantRef]: ...
+
+    def stop(self) -> None: ...
+
+
+class ParticipantBinding(_Binding, Protocol):
+    """What the middleware gives a participant role (internal)."""
+
+    initiator: InitiatorRef
+
+    def send(self, message: Any) -> bool: ...
+
+
+class Role:
+    """What every role can do: know where it runs, read the clock, set timers."""
+
+    _binding: Any = None
+
+    def _bound(self) -> Any:
+        if self._binding is None:
+            raise LocalProtocolError(f"{type(self).__name__} is not active in any session")
+        return self._binding
+
+    @property
+    def node_id(self) -> str:
+        """The id of the node this role runs on."""
+        return self._bound().node_id  # type: ignore[no-any-return]
+
+    @property
+    def session_id(self) -> str:
+        """The id of the session this role plays in."""
+        return self._bound().session_id  # type: ignore[no-any-return]
+
+    @property
+    def space(self) -> Any:
+        """The node's tuplespace, shared with the application components."""
+        return self._bound().space
+
+    def now(self) -> float:
+        """The node's clock: virtual time in the simulation, real time on the mesh."""
+        return self._bound().now()  # type: ignore[no-any-return]
+
+    def call_later(self, delay: float, fn: Callable[[], Any]) -> TimerHandle:
+        """Run ``fn`` after ``delay`` seconds unless the role is deactivated first."""
+        return self._bound().call_later(delay, fn)  # type: ignore[no-any-return]
+
+
+class Initiator(Role):
+    """Starts and owns a session; sees all participants. Subclass and override callbacks."""
+
+    def started(self) -> None:
+        """The session started (called once, before any ``in_group``)."""
+
+    def in_group(self, participant: ParticipantRef) -> None:
+        """A participant role was activated on ``participant.node_id``."""
+
+    def out_group(self, participant: ParticipantRef) -> None:
+        """``participant`` left the group; nothing more will be received from it."""
+
+    def receive(self, participant: ParticipantRef, message: Any) -> None:
+        """``participant`` sent ``message`` (only current members ever get here)."""
+
+    def send(self, participant: ParticipantRef, message: Any) -> bool:
+        """Send ``message`` to one participant, reliably and in order.
+
+        Returns:
+            False when ``participant`` is no longer a member (nothing is sent).
+
+        Raises:
+            LocalProtocolError: ``message`` is not plain data.
+        """
+        return self._bound().send(participant, message)  # type: ignore[no-any-return]
+
+    @property
+    def members(self) -> frozenset[ParticipantRef]:
+        """The participants currently in the group."""
+        return self._bound().members()  # type: ignore[no-any-return]
+
+    def stop(self) -> None:
+        """Stop the session: every participant is deactivated."""
+        self._bound().stop()
+
+
+class Participant(Role):
+    """Activated by the middleware on nodes that satisfy a group definition."""
+
+    def in_group_of(self, initiator: InitiatorRef) -> None:
+        """The role was activated in ``initiator``'s session."""
+
+    def out_group_of(self, initiator: InitiatorRef) -> None:
+        """The role was deactivated: the session stopped or this node left the group."""
+
+    def receive(self, message: Any) -> None:
+        """The initiator sent ``message``."""
+
+    def send(self, message: Any) -> bool:
+        """Send ``message`` to the initiator, reliably and in order.
+
+        Returns:
+            False when the role is no longer active (nothing is sent).
+        """
+        return self._bound().send(message)  # type: ignore[no-any-return]
+
+    @property
+    def initiator(self) -> InitiatorRef:
+        """The initiator of this role's session."""
+        return self._bound().initiator  # type: ignore[no-any-return]

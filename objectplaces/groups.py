@@ -1,0 +1,34 @@
+"""Group definitions: any callable ``(initiator_props, participant_props) -> bool``, or
+the declarative ones here, which serialise to JSON and resolve through a spatial index."""
+
+from __future__ import annotations
+
+from objectplaces.core.groups import (
+    AllOf,
+    AnyOf,
+    CirclesOverlap,
+    DefinitionLike,
+    GroupDefinition,
+    PropertyEquals,
+    Within,
+    circles_overlap,
+    definition_from_json,
+    distance,
+    property_equals,
+    within,
+)
+
+__all__ = [
+    "AllOf",
+    "AnyOf",
+    "CirclesOverlap",
+    "DefinitionLike",
+    "GroupDefinition",
+    "PropertyEquals",
+    "Within",
+    "circles_overlap",
+    "definition_from_json",
+    "distance",
+    "property_equals",
+    "within",
+]

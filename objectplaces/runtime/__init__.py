@@ -1,0 +1,1 @@
+"""Drivers that feed the sans-I/O core: a simulated runtime and an asyncio runtime."""

@@ -1,0 +1,256 @@
+"""``SimulatedNetwork``: many ObjectPlaces nodes in one process, in virtual time.
+
+Seeded and deterministic: the same seed and the same calls give the same run, message
+for message. Every frame goes through the wire codec, so ``stats()`` counts real bytes.
+"""
+
+from __future__ import annotations
+
+import random
+from collections.abc import Callable, Iterable, Mapping
+from typing import Any
+
+from objectplaces.activator import RoleActivator
+from objectplaces.core.errors import LocalProtocolError
+from objectplaces.core.events import Output
+from objectplaces.core.messages import Message
+from objectplaces.core.node import NodeConfig, NodeMachine
+from objectplaces.runtime.pump import Pump
+from objectplaces.runtime.sim import EventLoop
+from objectplaces.transport.memory import LinkParams, MemoryNetwork, NetworkStats
+from tuplespace import TupleSpace
+
+__all__ = ["SimulatedNetwork"]
+
+_UNSET: Any = object()
+
+
+class _SimNode:
+    """One node on the simulated network: its machine, pump and facade."""
+
+    def __init__(self, net: SimulatedNetwork, machine: NodeMachine, space: TupleSpace) -> None:
+        self.net = net
+        self.machine = machine
+        self.timer_at: float | None = None
+        self.wake_pending = False
+        self.alive = True
+        node_id = machine.node_id
+        self.pump = Pump(machine, self._transmit, self._schedule)
+        self.activator = RoleActivator(machine, clock=net._now, wake=self.wake, space=space)
+        self._node_id = node_id
+
+    def _transmit(self, output: Output) -> None:
+        self.net._network.transmit(self._node_id, output)
+
+    def _schedule(self, deadline: float | None) -> None:
+        if deadline is None or not self.alive:
+            return
+        if self.timer_at is None or deadline < self.timer_at:
+            self.timer_at = deadline
+            self.net._loop.call_at(deadline, self._on_timer)
+
+    def _on_timer(self) -> None:
+        if not self.alive:
+            return
+        now = self.net._loop.now
+        if self.timer_at is not None and self.timer_at <= now:
+            self.timer_at = None
+        self.machine.tick(now)
+        self.pump.drain()
+
+    def wake(self) -> None:
+        if not self.wake_pending and self.alive:
+            self.wake_pending = True
+            self.net._loop.call_at(self.net._loop.now, self._on_wake)
+
+    def _on_wake(self) -> None:
+        self.wake_pending = False
+        if self.alive:
+            self.pump.drain()
+
+    def deliver(self, source: str, message: Message, size: int) -> None:
+        self.machine.receive_message(source, message, self.net._loop.now, size=size)
+        self.pump.drain()
+
+    def sync(self, subscriber: str) -> None:
+        self.machine.send_properties_to(subscriber)
+        self.pump.drain()
+
+
+class SimulatedNetwork:
+    """An in-memory network of ObjectPlaces nodes driven by a virtual clock.
+
+    Args:
+        seed: seeds every random choice (delay jitter, loss, duplication, reordering).
+        delay: one-way delay of every link, seconds.
+        jitter: delays vary uniformly within +-jitter.
+        loss: probability that a frame is lost.
+        duplicate: probability that a frame arrives twice.
+        reorder: probability that a frame is held back by up to 4x (delay + jitter).
+        cell_size: grid cell side for scoped dissemination and the spatial index.
+        property_interval: default republication interval of new nodes (None: off).
+        failure_timeout: default failure timeout of new nodes (None: 3 intervals).
+        retransmit_timeout: first retransmission delay of session channel frames.
+    """
+
+    def __init__(
+        self,
+        seed: int = 0,
+        *,
+        delay: float = 0.005,
+        jitter: float = 0.0,
+        loss: float = 0.0,
+        duplicate: float = 0.0,
+        reorder: float = 0.0,
+        cell_size: float = 25.0,
+        property_interval: float | None = None,
+        failure_timeout: float | None = None,
+        retransmit_timeout: float = 0.2,
+    ) -> None:
+        self.seed = seed
+        self._loop = EventLoop()
+        self._network = MemoryNetwork(
+            self._loop, random.Random(seed), LinkParams(delay, jitter, loss, duplicate, reorder)
+        )
+        self._defaults = NodeConfig(
+            property_interval=property_interval,
+            failure_timeout=failure_timeout,
+            cell_size=cell_size,
+            retransmit_timeout=retransmit_timeout,
+        )
+        self._nodes: dict[str, _SimNode] = {}
+
+    def _now(self) -> float:
+        return self._loop.now
+
+    @property
+    def now(self) -> float:
+        """The virtual time, in seconds since the network was made."""
+        return self._loop.now
+
+    @property
+    def loop(self) -> EventLoop:
+        """The event loop (to schedule application work in virtual time)."""
+        return self._loop
+
+    def add_node(
+        self,
+        node_id: str,
+        *,
+        interest_radius: float | None = None,
+        property_interval: float | None = _UNSET,
+        failure_timeout: float | None = _UNSET,
+        space: TupleSpace | None = None,
+    ) -> RoleActivator:
+        """Add a node (a restarted node may reuse the id of a removed one).
+
+        Args:
+            node_id: unique among live nodes.
+            interest_radius: scoped dissemination radius (None: hear every node).
+            property_interval: overrides the network's default.
+            failure_timeout: overrides the network's default.
+            space: the node's tuplespace (a new one on the virtual clock by default).
+
+        Raises:
+            LocalProtocolError: the id is taken or invalid.
+        """
+        if node_id in self._nodes:
+            raise LocalProtocolError(f"node {node_id!r} is already on the network")
+        if interest_radius is not None and not interest_radius > 0:
+            raise LocalProtocolError(f"interest_radius must be > 0, got {interest_radius!r}")
+        defaults = self._defaults
+        config = NodeConfig(
+            property_interval=(
+                defaults.property_interval if property_interval is _UNSET else property_interval
+            ),
+            failure_timeout=(
+                defaults.failure_timeout if failure_timeout is _UNSET else failure_timeout
+            ),
+            interest_radius=interest_radius,
+            cell_size=defaults.cell_size,
+            retransmit_timeout=defaults.retransmit_timeout,
+        )
+        space = space if space is not None else TupleSpace(clock=self._now)
+        machine = NodeMachine(node_id, now=self.now, config=config, space=space)
+        node = _SimNode(self, machine, space)
+        self._nodes[node_id] = node
+        self._network.attach(node_id, node.deliver, node.sync)
+        node.wake()
+        return node.activator
+
+    def remove_node(self, node_id: str) -> None:
+        """Crash ``node_id``: it stops at once, sends nothing more, and loses what is in flight.
+
+        Raises:
+            LocalProtocolError: no such live node.
+        """
+        node = self._nodes.pop(node_id, None)
+        if node is None:
+            raise LocalProtocolError(f"unknown node {node_id!r}")
+        node.alive = False
+        self._network.detach(node_id)
+
+    def leave(self, node_id: str) -> None:
+        """Remove ``node_id`` gracefully: it stops its sessions and tells every peer."""
+        node = self._nodes.get(node_id)
+        if node is None:
+            raise LocalProtocolError(f"unknown node {node_id!r}")
+        node.machine.leave(self.now)
+        node.pump.drain()
+        self.remove_node(node_id)
+
+    def node(self, node_id: str) -> RoleActivator:
+        """The live node ``node_id``.
+
+        Raises:
+            LocalProtocolError: no such live node.
+        """
+        node = self._nodes.get(node_id)
+        if node is None:
+            raise LocalProtocolError(f"unknown node {node_id!r}")
+        return node.activator
+
+    @property
+    def nodes(self) -> Mapping[str, RoleActivator]:
+        """Every live node by id, in the order they were added."""
+        return {node_id: node.activator for node_id, node in self._nodes.items()}
+
+    def set_link(
+        self, source: str, target: str, *, both_ways: bool = True, **params: float
+    ) -> None:
+        """Change ``delay``, ``jitter``, ``loss``, ``duplicate`` or ``reorder`` of one link."""
+        self._network.set_link(source, target, **params)
+        if both_ways:
+            self._network.set_link(target, source, **params)
+
+    def partition(self, *groups: Iterable[str]) -> None:
+        """Split the network into ``groups`` (unnamed nodes form one more group)."""
+        self._network.partition(groups)
+
+    def heal(self) -> None:
+        """Reconnect every partition."""
+        self._network.heal()
+
+    def run_for(self, seconds: float) -> None:
+        """Advance virtual time by ``seconds``, delivering and firing everything due."""
+        if not seconds >= 0:
+            raise LocalProtocolError(f"seconds must be >= 0, got {seconds!r}")
+        self._loop.run_until(self._loop.now + seconds)
+
+    def run_until(self, predicate: Callable[[], bool], timeout: float) -> bool:
+        """Advance until ``predicate()`` holds (checked after every event) or ``timeout`` passes.
+
+        Returns:
+            True when the predicate held.
+        """
+        if predicate():
+            return True
+        return self._loop.run_until(self._loop.now + timeout, predicate)
+
+    def call_later(self, delay: float, fn: Callable[[], Any]) -> None:
+        """Run ``fn`` after ``delay`` virtual seconds (for drivers of simulated applications)."""
+        self._loop.call_at(self._loop.now + delay, fn)
+
+    def stats(self) -> NetworkStats:
+        """Messages and bytes so far, in total, per node and per message kind."""
+        return self._network.stats()

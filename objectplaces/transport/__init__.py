@@ -1,0 +1,1 @@
+"""Transports: the in-memory simulated network and the WebSocket mesh."""

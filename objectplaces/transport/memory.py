@@ -1,0 +1,339 @@
+"""The in-memory network of the simulation: seeded delay, jitter, loss, duplication,
+reordering and partitions, in virtual time, with real wire bytes counted.
+
+It also plays the part a content router plays on a real deployment: it keeps the cell
+subscriptions nodes declare and delivers each ``Publish`` to the subscribers of its
+cells. When a node subscribes to a cell, the router asks the nodes that last published
+there to send the newcomer their properties, so its view fills within one delay instead
+of one republication interval.
+"""
+
+from __future__ import annotations
+
+import random
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field, replace
+
+from objectplaces.core import codec
+from objectplaces.core.errors import DecodeError, LocalProtocolError
+from objectplaces.core.events import Broadcast, Output, Publish, Send, Subscribe
+from objectplaces.core.messages import Message
+from objectplaces.runtime.sim import EventLoop
+
+__all__ = ["LinkParams", "MemoryNetwork", "NetworkStats", "NodeTraffic"]
+
+Cell = tuple[int, int]
+Deliver = Callable[[str, Message, int], None]
+Sync = Callable[[str], None]
+
+
+@dataclass(frozen=True, slots=True)
+class LinkParams:
+    """How one directed link behaves; delays in seconds, the rest probabilities."""
+
+    delay: float = 0.005
+    jitter: float = 0.0
+    loss: float = 0.0
+    duplicate: float = 0.0
+    reorder: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("delay", "jitter"):
+            value = getattr(self, name)
+            if not value >= 0:
+                raise LocalProtocolError(f"{name} must be >= 0 seconds, got {value!r}")
+        for name in ("loss", "duplicate", "reorder"):
+            value = getattr(self, name)
+            if not 0 <= value <= 1:
+                raise LocalProtocolError(f"{name} must be a probability in [0, 1], got {value!r}")
+
+
+@dataclass(slots=True)
+class NodeTraffic:
+    """Messages and bytes one node sent and received, by message kind."""
+
+    sent: dict[str, list[int]] = field(default_factory=dict)
+    received: dict[str, list[int]] = field(default_factory=dict)
+
+    @property
+    def sent_messages(self) -> int:
+        """Messages this node put on the wire."""
+        return sum(v[0] for v in self.sent.values())
+
+    @property
+    def sent_bytes(self) -> int:
+        """Bytes this node put on the wire."""
+        return sum(v[1] for v in self.sent.values())
+
+    @property
+    def received_messages(self) -> int:
+        """Messages delivered to this node."""
+        return sum(v[0] for v in self.received.values())
+
+    @property
+    def received_bytes(self) -> int:
+        """Bytes delivered to this node."""
+        return sum(v[1] for v in self.received.values())
+
+
+@dataclass(frozen=True, slots=True)
+class NetworkStats:
+    """Traffic of the whole simulated network.
+
+    Attributes:
+        messages: frames put on the wire (one per recipient).
+        bytes: their total size.
+        by_kind: kind -> (messages, bytes).
+        per_node: node -> its traffic.
+        dropped: reason ("loss", "partition", "dead") -> frames dropped.
+        delivered: frames that reached a live node.
+    """
+
+    messages: int
+    bytes: int
+    by_kind: dict[str, tuple[int, int]]
+    per_node: dict[str, NodeTraffic]
+    dropped: dict[str, int]
+    delivered: int
+
+
+class MemoryNetwork:
+    """Routes frames between attached nodes through the event loop."""
+
+    def __init__(self, loop: EventLoop, rng: random.Random, defaults: LinkParams) -> None:
+        self.loop = loop
+        self.rng = rng
+        self.defaults = defaults
+        self._links: dict[tuple[str, str], LinkParams] = {}
+        self._nodes: dict[str, tuple[int, Deliver, Sync]] = {}
+        self._incarnations: dict[str, int] = {}
+        self._component: dict[str, int] | None = None
+        self._wildcard: dict[str, None] = {}
+        self._cell_subs: dict[Cell, dict[str, None]] = {}
+        self._node_cells: dict[str, frozenset[Cell] | None] = {}
+        self._publishers_in: dict[Cell, dict[str, None]] = {}
+        self._last_cell: dict[str, Cell] = {}
+        self._traffic: dict[str, NodeTraffic] = {}
+        self._dropped: dict[str, int] = {"loss": 0, "partition": 0, "dead": 0}
+        self._delivered = 0
+        self._messages = 0
+        self._bytes = 0
+        self._by_kind: dict[str, list[int]] = {}
+
+    # -- membership -----------------------------------------------------------------
+
+    def attach(self, node: str, deliver: Deliver, sync: Sync) -> None:
+        """Connect ``node``; frames for it go to ``deliver``, sync requests to ``sync``."""
+        if node in self._nodes:
+            raise LocalProtocolError(f"node {node!r} is already on the network")
+        incarnation = self._incarnations.get(node, 0) + 1
+        self._incarnations[node] = incarnation
+        self._nodes[node] = (incarnation, deliver, sync)
+        self._traffic.setdefault(node, NodeTraffic())
+
+    def detach(self, node: str) -> None:
+        """Disconnect ``node`` at once, as a crash: frames in flight to it are lost."""
+        if self._nodes.pop(node, None) is None:
+            raise LocalProtocolError(f"unknown node {node!r}")
+        self._set_subscription(node, frozenset())
+        self._wildcard.pop(node, None)
+        self._node_cells.pop(node, None)
+        cell = self._last_cell.pop(node, None)
+        if cell is not None:
+            self._publishers_in[cell].pop(node, None)
+
+    def __contains__(self, node: object) -> bool:
+        return node in self._nodes
+
+    @property
+    def nodes(self) -> list[str]:
+        """Attached nodes, in attachment order."""
+        return list(self._nodes)
+
+    # -- link behaviour ---------------------------------------------------------------
+
+    def set_link(self, source: str, target: str, **params: float) -> None:
+        """Override the behaviour of the directed link ``source -> target``."""
+        base = self._links.get((source, target), self.defaults)
+        try:
+            self._links[(source, target)] = replace(base, **params)
+        except TypeError as exc:
+            raise LocalProtocolError(f"unknown link parameter in {sorted(params)}") from exc
+
+    def partition(self, groups: Iterable[Iterable[str]]) -> None:
+        """Split the network: nodes in different groups cannot reach each other.
+
+        Nodes named in no group form one more group together.
+        """
+        component: dict[str, int] = {}
+        for number, group in enumerate(groups, start=1):
+            for node in group:
+                if node in component:
+                    raise LocalProtocolError(f"node {node!r} is in two partition groups")
+                component[node] = number
+        self._component = component
+
+    def heal(self) -> None:
+        """End every partition."""
+        self._component = None
+
+    def _separated(self, a: str, b: str) -> bool:
+        component = self._component
+        return component is not None and component.get(a, 0) != component.get(b, 0)
+
+    # -- transmission -----------------------------------------------------------------
+
+    def transmit(self, source: str, output: Output) -> None:
+        """Carry one output of ``source``'s machine."""
+        match output:
+            case Send(target, data, kind):
+                self._send(source, (target,), data, kind)
+            case Broadcast(data, kind):
+                self._send(source, [n for n in self._nodes if n != source], data, kind)
+            case Publish(cells, data, kind):
+                self._last_published(source, cells[0])
+                targets: dict[str, None] = dict(self._wildcard)
+                for cell in cells:
+                    subs = self._cell_subs.get(cell)
+                    if subs:
+                        targets.update(subs)
+                targets.pop(source, None)
+                self._send(source, targets, data, kind)
+            case Subscribe(cells):
+                self._subscribe(source, cells)
+
+    def _send(self, source: str, targets: Iterable[str], data: bytes, kind: str) -> None:
+        try:
+            message = codec.decode(data)
+        except DecodeError:
+            message = None  # still delivered as bytes-less garbage: counted, then dropped
+        size = len(data)
+        traffic = self._traffic[source].sent
+        tally = traffic.get(kind)
+        if tally is None:
+            tally = traffic[kind] = [0, 0]
+        by_kind = self._by_kind.get(kind)
+        if by_kind is None:
+            by_kind = self._by_kind[kind] = [0, 0]
+        rng = self.rng
+        loop = self.loop
+        now = loop.now
+        links = self._links
+        defaults = self.defaults
+        count = 0
+        for target in targets:
+            count += 1
+            if self._component is not None and self._separated(source, target):
+                self._dropped["partition"] += 1
+                continue
+            link = links.get((source, target), defaults) if links else defaults
+            if link.loss and rng.random() < link.loss:
+                self._dropped["loss"] += 1
+                continue
+            copies = 2 if link.duplicate and rng.random() < link.duplicate else 1
+            incarnation = self._incarnations.get(target, 0)
+            for _ in range(copies):
+                delay = link.delay
+                if link.jitter:
+                    delay = max(0.0, delay + link.jitter * (2.0 * rng.random() - 1.0))
+                if link.reorder and rng.random() < link.reorder:
+                    delay += rng.random() * 4.0 * (link.delay + link.jitter)
+                loop.call_at(
+                    now + delay, self._arrive, source, target, incarnation, message, size, kind
+                )
+        tally[0] += count
+        tally[1] += count * size
+        by_kind[0] += count
+        by_kind[1] += count * size
+        self._messages += count
+        self._bytes += count * size
+
+    def _arrive(
+        self,
+        source: str,
+        target: str,
+        incarnation: int,
+        message: Message | None,
+        size: int,
+        kind: str,
+    ) -> None:
+        entry = self._nodes.get(target)
+        if entry is None or entry[0] != incarnation:
+            self._dropped["dead"] += 1
+            return
+        received = self._traffic[target].received
+        tally = received.get(kind)
+        if tally is None:
+            tally = received[kind] = [0, 0]
+        tally[0] += 1
+        tally[1] += size
+        self._delivered += 1
+        if message is not None:
+            entry[1](source, message, size)
+
+    # -- cell subscriptions -------------------------------------------------------------
+
+    def _last_published(self, node: str, cell: Cell) -> None:
+        old = self._last_cell.get(node)
+        if old == cell:
+            return
+        if old is not None:
+            self._publishers_in[old].pop(node, None)
+        self._last_cell[node] = cell
+        self._publishers_in.setdefault(cell, {})[node] = None
+
+    def _subscribe(self, node: str, cells: frozenset[Cell] | None) -> None:
+        if cells is None:
+            self._set_subscription(node, frozenset())
+            self._node_cells[node] = None
+            self._wildcard[node] = None
+            publishers: Iterable[str] = [n for n in self._nodes if n != node]
+        else:
+            self._wildcard.pop(node, None)
+            old = self._set_subscription(node, cells)
+            added = sorted(cells - old)
+            found: dict[str, None] = {}
+            for cell in added:
+                found.update(self._publishers_in.get(cell, {}))
+            found.pop(node, None)
+            publishers = found
+        for publisher in publishers:
+            link = self._links.get((node, publisher), self.defaults)
+            incarnation = self._incarnations[publisher]
+            self.loop.call_at(self.loop.now + link.delay, self._sync, publisher, incarnation, node)
+
+    def _set_subscription(self, node: str, cells: frozenset[Cell]) -> frozenset[Cell]:
+        old = self._node_cells.get(node) or frozenset()
+        for cell in old - cells:
+            subs = self._cell_subs[cell]
+            subs.pop(node, None)
+            if not subs:
+                del self._cell_subs[cell]
+        for cell in sorted(cells - old):
+            self._cell_subs.setdefault(cell, {})[node] = None
+        self._node_cells[node] = cells
+        return old
+
+    def _sync(self, publisher: str, incarnation: int, subscriber: str) -> None:
+        entry = self._nodes.get(publisher)
+        if entry is not None and entry[0] == incarnation and subscriber in self._nodes:
+            entry[2](subscriber)
+
+    # -- statistics -------------------------------------------------------------------
+
+    def stats(self) -> NetworkStats:
+        """A snapshot of the traffic so far."""
+        return NetworkStats(
+            messages=self._messages,
+            bytes=self._bytes,
+            by_kind={k: (v[0], v[1]) for k, v in sorted(self._by_kind.items())},
+            per_node={
+                n: NodeTraffic(
+                    {k: list(v) for k, v in t.sent.items()},
+                    {k: list(v) for k, v in t.received.items()},
+                )
+                for n, t in self._traffic.items()
+            },
+            dropped=dict(self._dropped),
+            delivered=self._delivered,
+        )
