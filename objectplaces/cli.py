@@ -35,7 +35,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     subcommands = parser.add_subparsers(title="commands", metavar="COMMAND")
     for entry in sorted(entry_points(group=COMMAND_GROUP), key=lambda e: e.name):
-        register: Register = entry.load()
+        try:
+            register: Register = entry.load()
+        except (ImportError, AttributeError) as exc:
+            # One broken plugin must not take the other commands down with it.
+            print(f"objectplaces: command {entry.name!r} unavailable: {exc}", file=sys.stderr)
+            continue
         register(subcommands)
     return parser
 
