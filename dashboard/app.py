@@ -120,8 +120,8 @@ class _Dashboard:
                 records[rec.session_id] = rec
         for sid in [s for s in self.api_sessions if s not in records]:
             del self.api_sessions[sid]
-        for sid in self.api_sessions:
-            records[sid] = _with_via_api(records[sid])
+        for sid, api in self.api_sessions.items():
+            records[sid] = _as_api_session(records[sid], api.role)
         return records
 
     def counters(self) -> dict[str, dict[str, Any]]:
@@ -176,11 +176,12 @@ def _responder_factory(node: Any) -> Callable[[], PollResponder]:
     return lambda: PollResponder(lambda: node.properties)
 
 
-def _with_via_api(rec: SessionRecord) -> SessionRecord:
+def _as_api_session(rec: SessionRecord, role: str) -> SessionRecord:
+    # The node knows the role's class; the API knows the name it was started under.
     return SessionRecord(
         session_id=rec.session_id,
         node=rec.node,
-        role=rec.role,
+        role=role,
         participant_role=rec.participant_role,
         members=rec.members,
         started_at=rec.started_at,

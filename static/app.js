@@ -17,7 +17,10 @@ const COLORS = {
   pathBidirectional: "#58708a",
   arrow: "#7f95ab",
   point: "#4a5b6c",
-  station: { pick: "#ff8a3d", drop: "#ffb86b", parking: "#8c9eff", charging: "#b388ff", other: "#ff8a3d" },
+  station: {
+    pick: "#ff8a3d", drop: "#ffc46b", pickdrop: "#ff6b6b", parking: "#5c6bc0", charging: "#b388ff",
+    other: "#ff8a3d",
+  },
   status: {
     idle: "#7f8c99", driving: "#4aa3ff", moving: "#4aa3ff", waiting: "#ff9f43",
     blocked: "#ff9f43", loading: "#00d2d3", unloading: "#00d2d3", charging: "#b388ff",
@@ -152,7 +155,8 @@ function drawLayer() {
   }
   c.fillStyle = COLORS.point;
   c.fill();
-  const half = 6 * px;
+  // Stations can sit 1.25 m apart: keep markers and labels from running together.
+  const half = Math.min(6, 0.4 * view.scale) * px;
   for (const st of state.layout.stations) {
     c.fillStyle = COLORS.station[st.kind] || COLORS.station.other;
     c.fillRect(st.x - half, st.y - half, 2 * half, 2 * half);
@@ -162,9 +166,11 @@ function drawLayer() {
   c.font = "11px system-ui, sans-serif";
   c.fillStyle = "#c9d3dd";
   c.textBaseline = "middle";
+  const roomy = view.scale >= 40;
   for (const st of state.layout.stations) {
+    if (!roomy && (st.kind === "parking" || st.kind === "charging")) continue;
     const [sx, sy] = toScreen(st.x, st.y);
-    c.fillText(st.id, sx + 9, sy - 9);
+    c.fillText(st.id, sx + half * view.scale + 3, sy - half * view.scale - 3);
   }
   view.layerDirty = false;
 }
@@ -252,6 +258,8 @@ function drawFrame(nowMs) {
   ctx.setLineDash([4 * px, 3 * px]);
   ctx.strokeStyle = COLORS.requestedStroke;
   ctx.stroke();
+  // Dashed strokes are slow to rasterise without a GPU; circles are long, keep them solid.
+  ctx.setLineDash([]);
 
   // Hull-projection circles: all of them on the toggle, the hovered one always.
   ctx.beginPath();
@@ -263,9 +271,8 @@ function drawFrame(nowMs) {
     ctx.arc(v.x + dx, v.y + dy, r, 0, Math.PI * 2);
   }
   ctx.strokeStyle = ui.showCircles ? COLORS.circle : COLORS.circleHover;
-  ctx.lineWidth = 1.2 * px;
+  ctx.lineWidth = px;
   ctx.stroke();
-  ctx.setLineDash([]);
 
   if (ui.showSessions) drawSessionLines(px, t);
 
