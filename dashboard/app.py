@@ -47,8 +47,7 @@ from dashboard.schemas import (
     json_value,
 )
 from dashboard.source import FleetSource, InitiatorFactory
-from objectplaces.core import groups
-from objectplaces.core.errors import ObjectPlacesError
+from objectplaces import Initiator, ObjectPlacesError, RoleActivator, Session, groups
 
 __all__ = ["STATIC_DIR", "create_app"]
 
@@ -62,18 +61,14 @@ _ERRORS: dict[int | str, dict[str, Any]] = {
 }
 
 
-class _ClientGone(Exception):
-    """The feed client disconnected."""
-
-
 @dataclass(slots=True)
 class _ApiSession:
     """A session started through ``POST /api/sessions``."""
 
     node: str
     role: str
-    handle: Any
-    initiator: Any
+    handle: Session
+    initiator: Initiator
     params: dict[str, Any]
 
 
@@ -95,7 +90,7 @@ class _Dashboard:
         roles[POLL_ROLE] = poll_factory
         return roles
 
-    def node(self, node_id: str, *, status: int = 404) -> Any:
+    def node(self, node_id: str, *, status: int = 404) -> RoleActivator:
         """The node handle, or an HTTP error naming the unknown id."""
         nodes = self.source.nodes()
         if node_id not in nodes:
@@ -172,8 +167,14 @@ class _Dashboard:
                 self.publish()
 
 
-def _responder_factory(node: Any) -> Callable[[], PollResponder]:
+def _responder_factory(node: RoleActivator) -> Callable[[], PollResponder]:
     return lambda: PollResponder(lambda: node.properties)
+
+
+def _log_sender_end(task: asyncio.Future[None]) -> None:
+    if not task.cancelled() and task.exception() is not None:
+        # A client that vanishes mid-send ends here; it is normal, not an error.
+        log.debug("feed sender ended: %r", task.exception())
 
 
 def _as_api_session(rec: SessionRecord, role: str) -> SessionRecord:
@@ -280,7 +281,7 @@ def create_app(
 
     # ---- nodes ------------------------------------------------------------------------
 
-    def node_out(node_id: str, node: Any) -> dict[str, Any]:
+    def node_out(node_id: str, node: RoleActivator) -> dict[str, Any]:
         counters = introspect.counters_of(node)
         return {
             "id": node_id,
@@ -398,8 +399,11 @@ def create_app(
                     "only sessions started through POST /api/sessions can be stopped",
                 )
             raise HTTPException(404, f"unknown session {session_id!r}")
-        dash.node(api.node).stop_interaction(api.handle)
         del dash.api_sessions[session_id]
+        try:
+            dash.node(api.node).stop_interaction(api.handle)
+        except ObjectPlacesError as exc:
+            raise HTTPException(404, f"session {session_id!r} has already ended") from exc
         return StoppedOut(id=session_id)
 
     # ---- groups, locks, tasks, metrics ------------------------------------------------
@@ -535,22 +539,18 @@ def create_app(
                 if message is not None:
                     await websocket.send_text(json.dumps(message, separators=(",", ":")))
 
-        async def receive() -> None:
+        # The sender lives exactly as long as this handler: it is cancelled in
+        # ``finally`` without awaiting it, so a cancellation arriving from the server
+        # (shutdown, a test client closing) is never swallowed or re-raised twice.
+        sender = asyncio.ensure_future(send())
+        sender.add_done_callback(_log_sender_end)
+        try:
             while True:
                 msg = await websocket.receive()
                 if msg["type"] == "websocket.disconnect":
-                    raise _ClientGone
-
-        try:
-            async with asyncio.TaskGroup() as tasks:
-                tasks.create_task(send())
-                tasks.create_task(receive())
-        except* _ClientGone:
-            pass
-        except* Exception as group:
-            # A client that vanishes mid-send is normal; anything else is worth a line.
-            log.debug("feed client ended: %r", group.exceptions)
+                    break
         finally:
+            sender.cancel()
             dash.hub.remove(handle)
             dash.wakers.pop(handle, None)
 

@@ -10,6 +10,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from dashboard.feed import SessionRecord
+from objectplaces import NodeStats, RoleActivator
 
 __all__ = [
     "counters_of",
@@ -20,7 +21,7 @@ __all__ = [
 ]
 
 
-def sessions_of(node_id: str, node: Any) -> list[SessionRecord]:
+def sessions_of(node_id: str, node: RoleActivator) -> list[SessionRecord]:
     """The live sessions ``node`` initiated, oldest first.
 
     Args:
@@ -41,7 +42,7 @@ def sessions_of(node_id: str, node: Any) -> list[SessionRecord]:
     ]
 
 
-def participations_of(node: Any) -> list[dict[str, Any]]:
+def participations_of(node: RoleActivator) -> list[dict[str, Any]]:
     """The participant roles active on ``node``: ``{session_id, initiator, role}``."""
     return [
         {"session_id": str(p.session_id), "initiator": str(p.initiator), "role": p.participant_role}
@@ -49,24 +50,24 @@ def participations_of(node: Any) -> list[dict[str, Any]]:
     ]
 
 
-def properties_of(node: Any) -> Mapping[str, Any]:
+def properties_of(node: RoleActivator) -> Mapping[str, Any]:
     """The node's own current properties."""
-    props: Mapping[str, Any] = node.properties
-    return props
+    return node.properties
 
 
-def view_of(node: Any) -> Mapping[str, Mapping[str, Any]]:
+def view_of(node: RoleActivator) -> Mapping[str, Mapping[str, Any]]:
     """The latest properties ``node`` knows of every other node, by node id."""
-    view: Mapping[str, Mapping[str, Any]] = node.view()
+    view = node.view()
     return {k: view[k] for k in sorted(view)}
 
 
-def counters_of(node: Any, *, full: bool = False) -> dict[str, Any]:
+def counters_of(node: RoleActivator, *, full: bool = False) -> dict[str, Any]:
     """The node's traffic: ``{"messages": n, "bytes": n}`` sent plus received.
 
     Args:
         node: the node handle.
-        full: also include every counter the node keeps (for the node detail).
+        full: also include ``sent`` and ``received`` as ``{kind: [messages, bytes]}``
+            and the node's drop ``counters`` (for the node detail).
     """
     stats = node.stats()
     out: dict[str, Any] = {
@@ -78,10 +79,9 @@ def counters_of(node: Any, *, full: bool = False) -> dict[str, Any]:
     return out
 
 
-def _plain(stats: Any) -> dict[str, Any]:
-    if isinstance(stats, Mapping):
-        return dict(stats)
-    fields = getattr(stats, "__dataclass_fields__", None)
-    if fields is not None:
-        return {name: getattr(stats, name) for name in fields}
-    return {}
+def _plain(stats: NodeStats) -> dict[str, Any]:
+    return {
+        "sent": {k: list(v) for k, v in stats.sent.items()},
+        "received": {k: list(v) for k, v in stats.received.items()},
+        "counters": dict(stats.counters),
+    }

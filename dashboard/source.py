@@ -18,6 +18,7 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import Any, Protocol, runtime_checkable
 
 from agv_app.layout import Layout
+from objectplaces import Initiator, RoleActivator
 
 __all__ = [
     "XY",
@@ -34,8 +35,8 @@ XY = Sequence[float]
 Polygon = Sequence[XY]
 """A simple polygon as its vertices ``[(x, y), ...]``, not closed."""
 
-InitiatorFactory = Callable[[Mapping[str, Any]], Any]
-"""Builds a fresh initiator role (an ``objectplaces.Initiator``) from request parameters.
+InitiatorFactory = Callable[[Mapping[str, Any]], Initiator]
+"""Builds a fresh initiator role from request parameters.
 
 The mapping is the ``params`` object of ``POST /api/sessions`` (empty when absent). A
 factory raises ``ValueError`` with a clear message when a parameter is missing or bad;
@@ -134,8 +135,8 @@ class FleetSource(Protocol):
         """Every AGV, in a stable order (by id is best)."""
         ...
 
-    def nodes(self) -> Mapping[str, Any]:
-        """The middleware node handles (``objectplaces.RoleActivator``) the dashboard
+    def nodes(self) -> Mapping[str, RoleActivator]:
+        """The middleware node handles the dashboard
         may inspect and start sessions on, by node id: every AGV, every station, and
         the dashboard's own observer node (see ``observer_id``)."""
         ...

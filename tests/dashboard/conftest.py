@@ -1,0 +1,131 @@
+"""Fixtures: the dashboard over a real simulated ObjectPlaces network.
+
+``NetworkSource`` is a ``FleetSource`` made of real middleware nodes (an observer, a
+few parked nodes with positions, and station nodes) on the demo warehouse. It drives
+no vehicles: that is the fleet's job; it exists so the REST API's sessions, polls and
+group views run against the real middleware.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Mapping, Sequence
+
+import pytest
+from starlette.exceptions import StarletteDeprecationWarning
+
+# Starlette's test client now prefers the httpx2 package and warns on import when it
+# falls back to httpx, which is what the dev extras provide; the warning says nothing
+# about this code.
+with warnings.catch_warnings():
+    warnings.simplefilter("ignore", StarletteDeprecationWarning)
+    from starlette.testclient import TestClient as TestClient
+
+from agv_app.demo_layout import demo_warehouse
+from agv_app.layout import Layout
+from dashboard.app import create_app
+from dashboard.source import InitiatorFactory, UnknownStationError, VehicleView
+from objectplaces import RoleActivator
+from objectplaces.sim import SimulatedNetwork
+
+PARKED = {"agv-1": (10.0, 9.0), "agv-2": (14.0, 9.0), "agv-3": (40.0, 30.0)}
+TOKEN = "s3cret"
+
+
+class NetworkSource:
+    """Real nodes on a simulated network, parked; tasks are only counted."""
+
+    def __init__(self) -> None:
+        self.layout = demo_warehouse()
+        self.net = SimulatedNetwork(seed=1, delay=0.005)
+        self._nodes: dict[str, RoleActivator] = {"dashboard": self.net.add_node("dashboard")}
+        for node_id, (x, y) in PARKED.items():
+            node = self.net.add_node(node_id)
+            node.update_node_property("position", (x, y))
+            node.update_node_property("hull_length", 1.5)
+            node.update_node_property("status", "idle")
+            self._nodes[node_id] = node
+        self.tasks: list[str] = []
+        self._paused = False
+        self._speed = 1.0
+        self.net.run_for(0.5)
+
+    def layout_view(self) -> Layout:
+        return self.layout
+
+    def vehicles(self) -> Sequence[VehicleView]:
+        return []
+
+    def nodes(self) -> Mapping[str, RoleActivator]:
+        return self._nodes
+
+    @property
+    def observer_id(self) -> str:
+        return "dashboard"
+
+    def initiator_roles(self) -> Mapping[str, InitiatorFactory]:
+        return {}
+
+    def metrics(self) -> Mapping[str, float]:
+        stats = [n.stats() for n in self._nodes.values()]
+        return {
+            "tasks_created": float(len(self.tasks)),
+            "messages": float(sum(s.messages_sent for s in stats)),
+        }
+
+    def create_task(self, station_id: str) -> str:
+        station = self.layout.stations.get(station_id)
+        if station is None:
+            raise UnknownStationError(station_id)
+        if station.kind in ("parking", "charging"):
+            raise ValueError(f"station {station_id!r} is a {station.kind} spot, not a workstation")
+        self.tasks.append(station_id)
+        return f"task-{len(self.tasks)}"
+
+    def pause(self) -> None:
+        self._paused = True
+
+    def resume(self) -> None:
+        self._paused = False
+
+    def set_speed(self, factor: float) -> None:
+        if not factor > 0:
+            raise ValueError(f"speed must be > 0, got {factor!r}")
+        self._speed = factor
+
+    @property
+    def paused(self) -> bool:
+        return self._paused
+
+    @property
+    def speed(self) -> float:
+        return self._speed
+
+    @property
+    def now(self) -> float:
+        return self.net.now
+
+    def advance(self, seconds: float) -> None:
+        self.net.run_for(seconds)
+
+
+@pytest.fixture
+def source() -> NetworkSource:
+    return NetworkSource()
+
+
+@pytest.fixture
+def client(source: NetworkSource) -> TestClient:
+    """The app without its real-time runner: tests advance the network themselves."""
+    return TestClient(create_app(source))
+
+
+@pytest.fixture
+def guarded(source: NetworkSource) -> TestClient:
+    """The app with a token configured."""
+    return TestClient(create_app(source, token=TOKEN))
+
+
+def advance(source: NetworkSource, seconds: float = 0.5) -> None:
+    """Let the network deliver what the last request caused."""
+    source.advance(seconds)
