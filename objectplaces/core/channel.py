@@ -90,9 +90,8 @@ class Channel:
                 self.expected += 1
         elif self.expected < frame.seq < self.expected + _WINDOW:
             self._buffer[frame.seq] = frame
-        ack = ChannelAck(
-            not self.outbound_to_participant, self.session, self.epoch, self.expected - 1
-        )
+        # The initiator's end acks the participant's stream, and the other way round.
+        ack = ChannelAck(self.outbound_to_participant, self.session, self.epoch, self.expected - 1)
         return deliver, ack
 
     def deadline(self) -> float | None:

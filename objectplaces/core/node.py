@@ -707,6 +707,11 @@ class NodeMachine:
         else:
             closing = session.closing.get((source, frame.epoch))
             if closing is None:
+                if source in session.declined and session.epochs.get(source) == frame.epoch:
+                    # Our ack of its DECLINED was lost: ack again so it can forget us.
+                    ack = ChannelAck(True, frame.session, frame.epoch, frame.seq)
+                    self._emit(Send(source, codec.encode(ack), "ack"))
+                    return
                 self._count("dropped_unknown_session")
                 return
             # Guarantee 1: a removed participant's late frames are acked, never delivered.

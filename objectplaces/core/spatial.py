@@ -63,6 +63,8 @@ class GridIndex:
         if not math.isfinite(radius):
             yield from self._where
             return
+        # A hair wider than asked, so float rounding at a cell border never hides a node.
+        radius = radius * (1.0 + 1e-9) + 1e-9
         x0, y0 = self.cell_of(x - radius, y - radius)
         x1, y1 = self.cell_of(x + radius, y + radius)
         if (x1 - x0 + 1) * (y1 - y0 + 1) > len(self._cells):

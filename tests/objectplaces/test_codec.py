@@ -1,0 +1,161 @@
+"""The wire codec: round trips, compactness, and clear rejection of bad frames."""
+
+from __future__ import annotations
+
+import contextlib
+import math
+
+import msgpack
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from objectplaces import DecodeError, LocalProtocolError
+from objectplaces.core import codec
+from objectplaces.core.messages import (
+    ChannelAck,
+    ChannelData,
+    FrameKind,
+    Leave,
+    PropertyUpdate,
+)
+
+plain = st.recursive(
+    st.none()
+    | st.booleans()
+    | st.integers(-(2**63), 2**64 - 1)
+    | st.text(max_size=20)
+    | st.binary(max_size=20)
+    | st.floats(allow_nan=False),
+    lambda inner: (
+        st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=8), inner, max_size=4)
+    ),
+    max_leaves=12,
+)
+
+
+def test_position_update_is_as_small_as_the_papers() -> None:
+    update = PropertyUpdate(1234, {"position": (31.234, 17.5), "hull_length": 2.4})
+    frame = codec.encode(update)
+    assert len(frame) <= 16
+    assert codec.decode(frame) == update
+
+
+def test_compact_update_keeps_other_properties() -> None:
+    update = PropertyUpdate(7, {"position": (-3.0, 4.25), "status": "idle"})
+    decoded = codec.decode(codec.encode(update))
+    assert isinstance(decoded, PropertyUpdate)
+    assert dict(decoded.values) == {"position": (-3.0, 4.25), "status": "idle"}
+
+
+def test_position_is_rounded_to_millimetres_and_normalising_matches_the_wire() -> None:
+    value = (1.23456, 9.87654)
+    decoded = codec.decode(codec.encode(PropertyUpdate(1, {"position": value})))
+    assert isinstance(decoded, PropertyUpdate)
+    assert decoded.values["position"] == (1.235, 9.877)
+    assert codec.normalise_property("position", value) == decoded.values["position"]
+    assert codec.normalise_property("status", value) is value
+
+
+@pytest.mark.parametrize(
+    "message",
+    [
+        Leave(),
+        ChannelData(True, 3, 1, 0, FrameKind.ACTIVATE, ["voter", "Requester"]),
+        ChannelData(False, 3, 2, 9, FrameKind.ROLE, {"vote": "allow", "n": [1, 2]}),
+        ChannelAck(True, 5, 1, 17),
+        ChannelAck(False, 5, 1, 0),
+        PropertyUpdate(0, {"a": [1, 2], "b": None}),
+    ],
+)
+def test_round_trip(message: object) -> None:
+    assert codec.decode(codec.encode(message)) == message  # type: ignore[arg-type]
+
+
+@given(seq=st.integers(0, 2**40), values=st.dictionaries(st.text(max_size=10), plain, max_size=5))
+def test_property_updates_round_trip(seq: int, values: dict[str, object]) -> None:
+    decoded = codec.decode(codec.encode(PropertyUpdate(seq, values)))
+    assert isinstance(decoded, PropertyUpdate)
+    assert decoded.seq == seq
+    assert set(decoded.values) == set(values)
+
+
+@given(x=st.floats(-1e6, 1e6), y=st.floats(-1e6, 1e6), r=st.floats(0, 1e4))
+def test_normalised_positions_survive_the_wire_exactly(x: float, y: float, r: float) -> None:
+    values = {
+        "position": codec.normalise_property("position", (x, y)),
+        "hull_length": codec.normalise_property("hull_length", r),
+    }
+    decoded = codec.decode(codec.encode(PropertyUpdate(1, values)))
+    assert isinstance(decoded, PropertyUpdate)
+    assert decoded.values == values
+
+
+@given(st.binary(max_size=64))
+def test_random_bytes_decode_or_fail_with_decode_error(data: bytes) -> None:
+    with contextlib.suppress(DecodeError):
+        codec.decode(data)
+
+
+@given(
+    base=st.sampled_from(
+        [
+            codec.encode(PropertyUpdate(3, {"position": (1.0, 2.0), "hull_length": 1.0})),
+            codec.encode(ChannelData(True, 1, 1, 0, FrameKind.ROLE, {"x": 1})),
+            codec.encode(ChannelAck(False, 1, 1, 3)),
+        ]
+    ),
+    index=st.integers(0, 40),
+    byte=st.integers(0, 255),
+)
+def test_mutated_frames_decode_or_fail_with_decode_error(
+    base: bytes, index: int, byte: int
+) -> None:
+    data = bytearray(base)
+    data[index % len(data)] = byte
+    with contextlib.suppress(DecodeError):
+        codec.decode(bytes(data))
+
+
+@pytest.mark.parametrize(
+    ("frame", "reason"),
+    [
+        (msgpack.packb({"not": "an array"}), "array starting with a type code"),
+        (msgpack.packb([99, 1]), "unknown message type 99"),
+        (msgpack.packb([1, -1, {}]), "seq must be a non-negative integer"),
+        (msgpack.packb([1, 1, {1: 2}]), "string keys"),
+        (msgpack.packb([4, 1, 1, 0, 77, None]), "unknown channel frame kind"),
+        (msgpack.packb([6, 1, 1]), "ack frame has 3 fields"),
+        (msgpack.packb([2, 1, 1.5, 2]), "integer millimetres"),
+        (b"\xc1", "malformed frame"),
+        (msgpack.packb([1, 1, {}]) + b"\x00", "malformed frame"),
+    ],
+)
+def test_malformed_frames_are_rejected_with_a_reason(frame: bytes, reason: str) -> None:
+    with pytest.raises(DecodeError, match=reason):
+        codec.decode(frame)
+
+
+def test_oversized_frame_is_rejected_before_parsing() -> None:
+    with pytest.raises(DecodeError, match="exceeds the limit of 100"):
+        codec.decode(b"\x00" * 101, max_size=100)
+
+
+def test_unserialisable_value_fails_where_it_is_sent() -> None:
+    with pytest.raises(LocalProtocolError, match="not serialisable"):
+        codec.encode_value({"f": object()})
+
+
+def test_frame_type_peeks_without_decoding() -> None:
+    assert codec.frame_type(codec.encode(Leave())) == 3
+    assert codec.message_kind(codec.encode(ChannelAck(True, 1, 1, 1))) == "ack"
+    assert codec.message_kind(b"") == "malformed"
+    with pytest.raises(DecodeError):
+        codec.frame_type(b"\xff\xff")
+
+
+def test_non_finite_positions_take_the_generic_path() -> None:
+    update = PropertyUpdate(1, {"position": (math.inf, 0.0)})
+    decoded = codec.decode(codec.encode(update))
+    assert isinstance(decoded, PropertyUpdate)
+    assert decoded.values["position"] == [math.inf, 0.0]

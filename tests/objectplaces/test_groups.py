@@ -1,0 +1,131 @@
+"""Group definitions: evaluation, JSON form, reach, and the spatial index behind them."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from objectplaces import LocalProtocolError, groups
+from objectplaces.core.spatial import GridIndex, RunningMax
+
+
+def props(x: float, y: float, r: float = 1.0, **extra: object) -> dict[str, object]:
+    return {"position": (x, y), "hull_length": r, **extra}
+
+
+def test_circles_overlap_is_the_papers_collision_range() -> None:
+    defn = groups.circles_overlap()
+    assert defn(props(0, 0, 2), props(4, 0, 2))
+    assert not defn(props(0, 0, 2), props(4.01, 0, 2))
+    assert not defn(props(0, 0, 2), {"hull_length": 5})
+    assert defn(props(0, 0, 2), {"position": (1, 0)})  # a missing radius counts as 0
+
+
+def test_within_and_property_equals_and_combinations() -> None:
+    near_idle = groups.within(5.0) & groups.property_equals("status", "idle")
+    assert near_idle(props(0, 0), props(3, 4, status="idle"))
+    assert not near_idle(props(0, 0), props(3, 4, status="busy"))
+    assert not near_idle(props(0, 0), props(3, 4.1, status="idle"))
+    either = groups.within(1.0) | groups.property_equals("kind", "station")
+    assert either(props(0, 0), props(50, 50, kind="station"))
+    assert not either(props(0, 0), props(50, 50))
+
+
+@pytest.mark.parametrize(
+    "defn",
+    [
+        groups.circles_overlap(),
+        groups.circles_overlap(position="pos", radius="r"),
+        groups.within(12.5),
+        groups.property_equals("status", "idle"),
+        groups.within(3) & groups.property_equals("status", "idle"),
+        groups.within(3) | groups.circles_overlap(),
+    ],
+)
+def test_json_round_trip(defn: groups.GroupDefinition) -> None:
+    again = groups.definition_from_json(defn.to_json())
+    assert again == defn
+    assert again.to_json() == defn.to_json()
+
+
+@pytest.mark.parametrize(
+    ("obj", "reason"),
+    [
+        ([1, 2], "is a JSON object"),
+        ({"type": "nearest"}, "unknown group definition type 'nearest'"),
+        ({"type": "within"}, "needs a 'distance'"),
+        ({"type": "within", "distance": -1}, "finite number >= 0"),
+        ({"type": "property_equals", "name": "x"}, "needs a 'value'"),
+        ({"type": "and", "of": []}, "non-empty list 'of'"),
+        ({"type": "circles_overlap", "position": 3}, "non-empty string"),
+    ],
+)
+def test_invalid_json_is_refused_clearly(obj: object, reason: str) -> None:
+    with pytest.raises(LocalProtocolError, match=reason):
+        groups.definition_from_json(obj)
+
+
+def test_reach_bounds_candidates() -> None:
+    def max_of(name: str) -> float:
+        return 3.0
+
+    assert groups.circles_overlap().reach(props(0, 0, 2), max_of).radius == 5.0  # type: ignore[union-attr]
+    assert groups.within(7).reach(props(0, 0), max_of).radius == 7.0  # type: ignore[union-attr]
+    assert groups.property_equals("a", 1).reach(props(0, 0), max_of) is None
+    both = groups.within(7) & groups.property_equals("a", 1)
+    assert both.reach(props(0, 0), max_of).radius == 7.0  # type: ignore[union-attr]
+    assert (groups.within(7) | groups.property_equals("a", 1)).reach(props(0, 0), max_of) is None
+    assert (groups.within(7) | groups.within(9)).reach(props(0, 0), max_of).radius == 9.0  # type: ignore[union-attr]
+
+
+points = st.lists(st.tuples(st.floats(-100, 100), st.floats(-100, 100)), min_size=0, max_size=40)
+
+
+@given(
+    points=points,
+    centre=st.tuples(st.floats(-100, 100), st.floats(-100, 100)),
+    radius=st.floats(0, 80),
+    cell=st.sampled_from([1.0, 7.5, 25.0]),
+)
+def test_grid_index_never_misses_a_node_in_range(
+    points: list[tuple[float, float]], centre: tuple[float, float], radius: float, cell: float
+) -> None:
+    index = GridIndex(cell)
+    for i, (x, y) in enumerate(points):
+        index.place(f"n{i}", x, y)
+    for i, (x, y) in enumerate(points[::2]):
+        index.place(f"n{2 * i}", y, x)  # moves keep the index consistent
+    where = {f"n{i}": p for i, p in enumerate(points)}
+    for i, (x, y) in enumerate(points[::2]):
+        where[f"n{2 * i}"] = (y, x)
+    found = set(index.near(*centre, radius))
+    within = {n for n, (x, y) in where.items() if math.dist((x, y), centre) <= radius}
+    assert within <= found
+    assert len(index) == len(where)
+
+
+def test_grid_index_remove_and_infinite_reach() -> None:
+    index = GridIndex(10.0)
+    index.place("a", 0, 0)
+    index.place("b", 500, 500)
+    assert set(index.near(0, 0, math.inf)) == {"a", "b"}
+    index.remove("b")
+    index.remove("unknown")
+    assert set(index.near(0, 0, 1000)) == {"a"}
+    with pytest.raises(ValueError, match="cell_size"):
+        GridIndex(0)
+
+
+def test_running_max_follows_increases_and_decreases() -> None:
+    running = RunningMax()
+    assert running.value == 0.0
+    running.set("a", 3.0)
+    running.set("b", 5.0)
+    assert running.value == 5.0
+    running.set("b", 1.0)
+    assert running.value == 3.0
+    running.remove("a")
+    assert running.value == 1.0
