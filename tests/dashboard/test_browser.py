@@ -1,0 +1,149 @@
+"""The page in real headless chromium, served by uvicorn over real middleware nodes."""
+
+from __future__ import annotations
+
+import socket
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import httpx
+import pytest
+import uvicorn
+
+from dashboard.app import create_app
+from tests.dashboard.conftest import NetworkSource
+
+CHROMIUM = Path("/usr/bin/chromium")
+CHROMIUM_ARGS = [
+    "--no-sandbox",
+    "--headless",
+    "--disable-gpu",
+    "--disable-background-networking",
+    "--disable-component-update",
+]
+
+pytestmark = [
+    pytest.mark.browser,
+    pytest.mark.skipif(not CHROMIUM.exists(), reason="needs /usr/bin/chromium (make chromium)"),
+]
+
+
+class Served:
+    """A dashboard listening on a free loopback port in a background thread."""
+
+    def __init__(self, source: NetworkSource) -> None:
+        self.source = source
+        self.sock = socket.socket()
+        self.sock.bind(("127.0.0.1", 0))
+        self.url = f"http://127.0.0.1:{self.sock.getsockname()[1]}"
+        config = uvicorn.Config(create_app(source), log_level="warning", lifespan="on")
+        self.server = uvicorn.Server(config)
+        self.thread = threading.Thread(
+            target=self.server.run, kwargs={"sockets": [self.sock]}, daemon=True
+        )
+
+    def __enter__(self) -> Served:
+        self.thread.start()
+        deadline = time.monotonic() + 10
+        while not self.server.started:
+            assert time.monotonic() < deadline, "the dashboard did not start"
+            time.sleep(0.02)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.server.should_exit = True
+        self.thread.join(timeout=10)
+        self.sock.close()
+
+
+@pytest.fixture
+def served(source: NetworkSource) -> Iterator[Served]:
+    with Served(source) as s:
+        yield s
+
+
+@pytest.fixture
+def page(served: Served, tmp_path: Path) -> Iterator[Any]:
+    sync_api = pytest.importorskip("playwright.sync_api")
+    with sync_api.sync_playwright() as pw:
+        browser = pw.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
+        page = browser.new_page(viewport={"width": 1400, "height": 900})
+        problems: list[str] = []
+        page.on(
+            "console",
+            lambda m: problems.append(f"{m.type}: {m.text}") if m.type == "error" else None,
+        )
+        page.on("pageerror", lambda e: problems.append(f"pageerror: {e}"))
+        page.on("requestfailed", lambda r: problems.append(f"request failed: {r.url}"))
+        page.goto(served.url + "/")
+        page.wait_for_function("window.__dashboard && window.__dashboard.ready", timeout=10_000)
+        yield page
+        page.screenshot(path=str(tmp_path / "dashboard.png"))
+        browser.close()
+        assert problems == [], problems
+
+
+def test_page_loads_and_draws_without_errors(page: Any) -> None:
+    page.wait_for_function("window.__dashboard.frames > 30", timeout=10_000)
+    assert page.locator("#conn-status").text_content() == "live"
+    stations = page.evaluate("window.__dashboard.stationIds()")
+    assert "pick-A1-1" in stations
+    nodes = page.locator("#nodes-panel tr[data-node-id]")
+    page.wait_for_function(
+        "document.querySelectorAll('#nodes-panel tr[data-node-id]').length === 4"
+    )
+    assert nodes.first.get_attribute("data-node-id") == "agv-1"
+
+
+def test_session_started_over_rest_shows_in_the_panel(page: Any, served: Served) -> None:
+    r = httpx.post(
+        served.url + "/api/sessions",
+        json={
+            "node": "agv-1",
+            "role": "poll",
+            "definition": {"type": "within", "distance": 10.0},
+            "participant_role": "poll-responder",
+            "params": {"property": "status"},
+        },
+    )
+    assert r.status_code == 201, r.text
+    sid = r.json()["id"]
+    row = page.locator(f'#sessions-panel tr[data-session-id="{sid}"]')
+    row.wait_for(timeout=5_000)
+    members = row.locator("td[data-members]")
+    page.wait_for_function(
+        'sid => (document.querySelector(`#sessions-panel tr[data-session-id="${sid}"] '
+        "td[data-members]`) || {}).getAttribute?.('data-members') === 'agv-2'",
+        arg=sid,
+        timeout=5_000,
+    )
+    assert members.get_attribute("data-members") == "agv-2"
+    assert "poll" in row.text_content()
+    httpx.delete(served.url + f"/api/sessions/{sid.replace('#', '%23')}")
+    row.wait_for(state="detached", timeout=5_000)
+
+
+def test_clicking_a_station_creates_a_task(page: Any, served: Served) -> None:
+    pos = page.evaluate("window.__dashboard.stationScreenPosition('pick-A1-1')")
+    assert pos is not None
+    page.mouse.click(pos["x"], pos["y"])
+    page.wait_for_function("window.__dashboard.lastTask !== null", timeout=5_000)
+    assert page.evaluate("window.__dashboard.lastTask") == {"id": "task-1", "station": "pick-A1-1"}
+    assert "task-1 created at pick-A1-1" in page.locator("#control-status").text_content()
+    assert served.source.tasks == ["pick-A1-1"]
+
+
+def test_pause_and_speed_controls(page: Any, served: Served) -> None:
+    page.click("#btn-pause")
+    page.wait_for_function("document.querySelector('#sim-clock').textContent.includes('paused')")
+    assert served.source.paused
+    page.select_option("#speed", "5")
+    deadline = time.monotonic() + 5
+    while served.source.speed != 5.0:
+        assert time.monotonic() < deadline
+        time.sleep(0.05)
+    page.click("#btn-resume")
+    page.wait_for_function("!document.querySelector('#sim-clock').textContent.includes('paused')")
