@@ -2,17 +2,33 @@
 
 from __future__ import annotations
 
+import copy
+import json
 import math
+import re
+from pathlib import Path
+from typing import Any
 
 import pytest
 
+from agv_app.demo_layout import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
+from agv_app.geometry import Area, Polyline, hull, hull_projection, overlaps
 from agv_app.layout import (
     Layout,
     LayoutError,
+    LayoutFileError,
     NoRouteError,
     Point,
     Segment,
     Station,
+)
+from agv_app.layout_json import (
+    layout_from_json,
+    layout_schema,
+    layout_to_json,
+    load_any,
+    load_layout,
+    save_layout,
 )
 
 
@@ -296,3 +312,237 @@ def test_layout_is_read_only() -> None:
         layout.points["z"] = Point("z", 0, 0)  # type: ignore[index]
     with pytest.raises(AttributeError):
         layout.spam = 1  # type: ignore[attr-defined]
+
+
+# -- JSON format ------------------------------------------------------------------------
+
+GOOD: dict[str, Any] = {
+    "format": "objectplaces-layout",
+    "version": 1,
+    "name": "tiny",
+    "points": [
+        {"id": "a", "x": 0, "y": 0},
+        {"id": "b", "x": 10, "y": 0},
+        {"id": "c", "x": 10, "y": 5, "passing": True},
+    ],
+    "segments": [
+        {"id": "ab", "start": "a", "end": "b", "bidirectional": True},
+        {"id": "bc", "start": "b", "end": "c", "via": [[12, 2.5]]},
+        {"id": "ca", "start": "c", "end": "a"},
+    ],
+    "stations": [{"id": "s1", "point": "a", "kind": "pick"}, {"id": "s2", "point": "c"}],
+    "blocks": {"B": ["ab", "c"]},
+}
+
+
+def test_json_roundtrip(tmp_path: Path) -> None:
+    layout = layout_from_json(GOOD)
+    assert layout.name == "tiny"
+    assert layout.station("s2").kind == "pickdrop"
+    assert layout.segment("bc").via == ((12.0, 2.5),)
+    assert layout.is_passing_place("c")
+    path = tmp_path / "tiny.json"
+    save_layout(layout, path)
+    again = load_layout(path)
+    assert layout_to_json(again) == layout_to_json(layout)
+    assert layout_to_json(again)["segments"][0] == GOOD["segments"][0]
+    assert load_any(path).name == "tiny"
+
+
+def test_demo_roundtrips_through_json() -> None:
+    demo = demo_warehouse()
+    doc = json.loads(json.dumps(layout_to_json(demo)))
+    assert layout_to_json(layout_from_json(doc)) == layout_to_json(demo)
+
+
+def test_docs_example_loads() -> None:
+    text = (Path(__file__).parents[2] / "docs" / "layout-format.md").read_text()
+    example = text.split("```json", 1)[1].split("```", 1)[0]
+    layout = layout_from_json(json.loads(example))
+    assert len(layout.stations) >= 2
+
+
+def test_schema_is_valid_draft_2020_12() -> None:
+    import jsonschema
+
+    jsonschema.Draft202012Validator.check_schema(dict(layout_schema()))
+
+
+def broken(path: str, value: object) -> dict[str, Any]:
+    """GOOD with the element at a dotted path replaced (or deleted if value is ...)."""
+    doc = copy.deepcopy(GOOD)
+    *keys, last = path.split(".")
+    node: Any = doc
+    for k in keys:
+        node = node[int(k)] if k.isdigit() else node[k]
+    key: Any = int(last) if last.isdigit() else last
+    if value is ...:
+        del node[key]
+    else:
+        node[key] = value
+    return doc
+
+
+@pytest.mark.parametrize(
+    ("doc", "where", "message"),
+    [
+        (broken("format", "svg"), "$.format", "'objectplaces-layout' was expected"),
+        (broken("version", 2), "$.version", "1 was expected"),
+        (broken("points", ...), "$", "'points' is a required property"),
+        (broken("points.1.x", "ten"), "$.points[1].x", "'ten' is not of type 'number'"),
+        (broken("segments.0.colour", "red"), "$.segments[0]", "Additional properties"),
+        (broken("segments.1.via", [[1, 2, 3]]), "$.segments[1].via[0]", "is too long"),
+        (broken("stations.1.kind", "dock"), "$.stations[1].kind", "'dock' is not one of"),
+        (broken("points.1.id", ""), "$.points[1].id", "should be non-empty"),
+        (broken("points.1.id", "a"), "$.points[1].id", "duplicate point id 'a'"),
+        (broken("segments.1.id", "ab"), "$.segments[1].id", "duplicate segment id 'ab'"),
+        (
+            broken("segments.1.end", "zz"),
+            "$.segments[1].end",
+            "segment 'bc': unknown end point 'zz'",
+        ),
+        (
+            broken("segments.0.start", "zz"),
+            "$.segments[0].start",
+            "segment 'ab': unknown start point 'zz'",
+        ),
+        (
+            broken("points.1.x", 0),
+            "$.segments[0]",
+            "segment 'ab': zero length between vertices 0 and 1",
+        ),
+        (
+            broken("segments.1.via", [[10, 0]]),
+            "$.segments[1]",
+            "segment 'bc': zero length between vertices 0 and 1",
+        ),
+        (broken("stations.1.id", "s1"), "$.stations[1].id", "duplicate station id 's1'"),
+        (
+            broken("stations.1.point", "q"),
+            "$.stations[1].point",
+            "station 's2': unknown point 'q'",
+        ),
+        (
+            broken("blocks.B", ["ab", "nope"]),
+            "$.blocks['B'][1]",
+            "block 'B': unknown member 'nope'",
+        ),
+        (
+            broken("segments.2", {"id": "ac", "start": "a", "end": "c"}),
+            "$.stations",
+            "stations not mutually reachable",
+        ),
+        (
+            broken("segments.2", {"id": "bc2", "start": "b", "end": "c"}),
+            "$",
+            "segment 'bc2': 'b' -> 'c' is already served by segment 'bc'",
+        ),
+    ],
+)
+def test_json_errors_name_the_path(doc: dict[str, Any], where: str, message: str) -> None:
+    with pytest.raises(LayoutFileError, match=re.escape(message)) as exc:
+        layout_from_json(doc)
+    assert exc.value.where == where
+    assert str(exc.value).startswith(where + ": ")
+
+
+def test_json_file_errors(tmp_path: Path) -> None:
+    with pytest.raises(LayoutFileError, match="cannot read layout file"):
+        load_layout(tmp_path / "missing.json")
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"format": ')
+    with pytest.raises(LayoutFileError, match="not valid JSON") as exc:
+        load_layout(bad)
+    assert exc.value.where == "line 1 column 12"
+    bad.write_text(json.dumps(GOOD).replace('"x": 10', '"x": NaN', 1))
+    with pytest.raises(LayoutFileError, match="NaN is not a number"):
+        load_layout(bad)
+    huge = json.dumps(GOOD).replace('"x": 10', '"x": 1e999', 1)
+    bad.write_text(huge)
+    with pytest.raises(LayoutFileError, match="point 'b': non-finite position"):
+        load_layout(bad)
+
+
+def test_layout_without_name_takes_file_stem(tmp_path: Path) -> None:
+    doc = copy.deepcopy(GOOD)
+    del doc["name"]
+    path = tmp_path / "hall-7.json"
+    path.write_text(json.dumps(doc))
+    assert load_layout(path).name == "hall-7"
+
+
+# -- demo warehouse ---------------------------------------------------------------------
+
+
+def test_demo_warehouse_shape() -> None:
+    demo = demo_warehouse()
+    x0, y0, x1, y1 = demo.bounds()
+    assert 50 <= x1 - x0 <= 62
+    assert 30 <= y1 - y0 <= 42
+    kinds = [s.kind for s in demo.stations.values()]
+    assert kinds.count("pick") + kinds.count("drop") + kinds.count("pickdrop") >= 12
+    assert kinds.count("parking") + kinds.count("charging") >= 200
+    assert kinds.count("charging") >= 4
+    assert demo.unreachable_stations() == ()
+    assert any(s.bidirectional for s in demo.segments.values())
+    assert any(not s.bidirectional for s in demo.segments.values())
+    # Every station sits on its own dead-end spur, a passing place.
+    for st in demo.stations.values():
+        assert len(demo.neighbours(st.point)) == 1
+        assert demo.is_passing_place(st.point)
+
+
+def test_demo_parked_vehicles_never_block_traffic() -> None:
+    """A vehicle at any station touches no lane traffic and no other station's vehicle."""
+    demo = demo_warehouse()
+    length, width = DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M
+    spots = {st.point for st in demo.stations.values()}
+    parked: dict[str, Area] = {}
+    for pid in spots:
+        (base,) = demo.neighbours(pid)
+        poly = Polyline([demo.point(base).xy, demo.point(pid).xy])
+        parked[pid] = hull_projection(poly, poly.length, poly.length, length=length, width=width)
+    radius = math.hypot(length / 2, width / 2)
+    traffic: list[Area] = []
+    for seg in demo.segments.values():
+        if seg.start in spots or seg.end in spots:
+            continue
+        poly = Polyline(demo.segment_coords(seg.id))
+        traffic.append(hull_projection(poly, 0, poly.length, length=length, width=width))
+    import shapely
+
+    lanes = {p for s in demo.segments.values() for p in (s.start, s.end)} - spots
+    # Any turn at a lane point stays within the half-diagonal circle.
+    turns = [Area(shapely.Point(demo.point(p).xy).buffer(radius)) for p in sorted(lanes)]
+    floor = Area.union_of(traffic + turns)
+    for pid, area in parked.items():
+        assert not overlaps(area, floor), pid
+    ordered = sorted(parked)
+    tree = shapely.STRtree([parked[p].geom for p in ordered])
+    for i, pid in enumerate(ordered):
+        for j in tree.query(parked[pid].geom):
+            if j != i:
+                assert not overlaps(parked[pid], parked[ordered[j]]), (pid, ordered[j])
+    # Driving into a spur never touches the vehicle parked on the next one.
+    for pid in ordered:
+        (base,) = demo.neighbours(pid)
+        poly = Polyline([demo.point(base).xy, demo.point(pid).xy])
+        entering = hull_projection(poly, 0, poly.length, length=length, width=width)
+        for j in tree.query(entering.geom):
+            if ordered[j] != pid:
+                assert not overlaps(entering, parked[ordered[j]]), (pid, ordered[j])
+
+
+def test_demo_routes_are_fast_and_deterministic() -> None:
+    a, b = demo_warehouse(), demo_warehouse()
+    ids = sorted(a.stations)
+    for s in ids[::17]:
+        for t in ids[::23]:
+            pa, pb = a.station(s).point, a.station(t).point
+            assert a.shortest_path(pa, pb) == b.shortest_path(pa, pb)
+    stand_still = hull(
+        a.route(a.station(ids[0]).point, a.station(ids[0]).point).polyline.pose_at(0),
+        length=2,
+        width=1,
+    )
+    assert stand_still.area_m2 == pytest.approx(2.0)
