@@ -1,0 +1,109 @@
+"""The asyncio runtime: drives one node machine with the loop's real clock.
+
+Every input (a frame, a timer, an API call) is followed by a drain of the machine, as in
+the simulation; the drain runs once per loop iteration (``wake`` coalesces), so updates
+made in the same instant leave as one message. The machine's next deadline is kept as
+one ``loop.call_at`` timer, moved only when the deadline moves earlier.
+"""
+
+from __future__ import annotations
+
+import asyncio
+from collections.abc import Callable
+
+from objectplaces.core.events import Output
+from objectplaces.core.messages import Message
+from objectplaces.core.node import NodeMachine
+from objectplaces.runtime.pump import Pump
+
+__all__ = ["AsyncioRunner"]
+
+
+class AsyncioRunner:
+    """Feeds one ``NodeMachine`` on the running event loop.
+
+    Args:
+        machine: the node's machine.
+        transmit: hands one output of the machine to the transport (must not block).
+        loop: the event loop (the running one by default).
+    """
+
+    def __init__(
+        self,
+        machine: NodeMachine,
+        transmit: Callable[[Output], None],
+        *,
+        loop: asyncio.AbstractEventLoop | None = None,
+    ) -> None:
+        self.machine = machine
+        self._loop = loop or asyncio.get_running_loop()
+        self.pump = Pump(machine, transmit, self._schedule)
+        self._wake: asyncio.Handle | None = None
+        self._timer: asyncio.TimerHandle | None = None
+        self._timer_at: float | None = None
+        self.closed = False
+
+    def now(self) -> float:
+        """The loop's clock, in seconds."""
+        return self._loop.time()
+
+    def wake(self) -> None:
+        """Drain the machine soon (once per loop iteration, however often called)."""
+        if self._wake is None and not self.closed:
+            self._wake = self._loop.call_soon(self._on_wake)
+
+    def deliver(self, source: str, message: Message, size: int) -> None:
+        """Hand the machine one decoded frame from ``source`` (``size`` bytes on the wire)."""
+        if self.closed:
+            return
+        self.machine.receive_message(source, message, self._loop.time(), size=size)
+        self.wake()
+
+    def peer_joined(self, peer: str) -> None:
+        """A full-dissemination peer (re)connected: it gets our properties."""
+        if not self.closed:
+            self.machine.peer_joined(peer, self._loop.time())
+            self.wake()
+
+    def send_properties_to(self, peer: str) -> None:
+        """A peer subscribed to our cell: it gets our properties."""
+        if not self.closed:
+            self.machine.now = self._loop.time()
+            self.machine.send_properties_to(peer)
+            self.wake()
+
+    def drain(self) -> None:
+        """Drain the machine now (outputs transmitted, callbacks run)."""
+        if not self.closed:
+            self.pump.drain()
+
+    def close(self) -> None:
+        """Stop driving the machine: cancel the pending drain and timer."""
+        self.closed = True
+        for handle in (self._wake, self._timer):
+            if handle is not None:
+                handle.cancel()
+        self._wake = self._timer = None
+        self._timer_at = None
+
+    def _on_wake(self) -> None:
+        self._wake = None
+        if not self.closed:
+            self.pump.drain()
+
+    def _schedule(self, deadline: float | None) -> None:
+        if deadline is None or self.closed:
+            return
+        if self._timer_at is None or deadline < self._timer_at:
+            if self._timer is not None:
+                self._timer.cancel()
+            self._timer_at = deadline
+            self._timer = self._loop.call_at(deadline, self._on_timer)
+
+    def _on_timer(self) -> None:
+        self._timer = None
+        self._timer_at = None
+        if self.closed:
+            return
+        self.machine.tick(self._loop.time())
+        self.pump.drain()
