@@ -26,7 +26,15 @@ from fastapi.staticfiles import StaticFiles
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from dashboard import introspect
-from dashboard.feed import ClientFeed, FeedHub, FleetState, SessionRecord, capture, layout_json
+from dashboard.feed import (
+    ClientFeed,
+    FeedHub,
+    FleetState,
+    PolygonCache,
+    SessionRecord,
+    capture,
+    layout_json,
+)
 from dashboard.poll import POLL_ROLE, RESPONDER_ROLE, PollResponder, poll_factory
 from dashboard.schemas import (
     ErrorOut,
@@ -83,6 +91,7 @@ class _Dashboard:
     api_sessions: dict[str, _ApiSession] = field(default_factory=dict)
     responders_on: set[str] = field(default_factory=set)
     layout: dict[str, Any] = field(default_factory=dict)
+    polygons: PolygonCache = field(default_factory=PolygonCache)
 
     def roles(self) -> dict[str, InitiatorFactory]:
         """Initiator roles startable over HTTP: the fleet's, and ``poll``."""
@@ -127,7 +136,9 @@ class _Dashboard:
 
     def capture(self) -> FleetState:
         """The fleet as the feed shows it now."""
-        return capture(self.source, sessions=self.sessions(), nodes=self.counters())
+        return capture(
+            self.source, sessions=self.sessions(), nodes=self.counters(), cache=self.polygons
+        )
 
     def sim(self) -> SimOut:
         """The clock state."""

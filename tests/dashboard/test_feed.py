@@ -14,6 +14,7 @@ from dashboard.feed import (
     ClientFeed,
     FeedHub,
     FleetState,
+    PolygonCache,
     SessionRecord,
     diff,
     layout_json,
@@ -297,3 +298,19 @@ def test_layout_json_draws_paths_and_places_stations_on_their_points() -> None:
     assert [s["bidirectional"] for s in out["segments"]] == [False, True, False]
     assert out["stations"][0] == {"id": "s1", "kind": "pick", "point": "c", "x": 10.0, "y": 4.0}
     json.dumps(out, allow_nan=False)
+
+
+def test_polygon_cache_reuses_json_and_forgets_unused_polygons() -> None:
+    cache = PolygonCache(keep=1)
+    square = ((0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0))
+    first = cache.polygon(square)
+    assert first == [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]
+    assert cache.polygon(tuple(square)) is first
+    assert cache.polygon([list(p) for p in square]) == first  # lists are not cached
+    assert len(cache) == 1
+    cache.next_generation()
+    assert cache.polygon(square) is first
+    cache.next_generation()
+    cache.next_generation()
+    assert len(cache) == 0
+    assert cache.polygon(([0.0, 0.0], [1.0, 1.0])) == [[0.0, 0.0], [1.0, 1.0]]
