@@ -6,6 +6,21 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 from dashboard.source import FleetSource
 
-__all__ = ["FleetSource"]
+if TYPE_CHECKING:
+    from dashboard.app import create_app
+
+__all__ = ["FleetSource", "create_app"]
+
+
+def __getattr__(name: str) -> Any:
+    # The web stack loads only when an app is built, so `objectplaces --help` (which
+    # imports dashboard.cli) stays quick.
+    if name == "create_app":
+        from dashboard.app import create_app
+
+        return create_app
+    raise AttributeError(f"module 'dashboard' has no attribute {name!r}")

@@ -421,7 +421,6 @@ def create_app(
 
     @app.get("/api/groups/view", response_model=GroupViewOut, responses=_ERRORS, tags=["groups"])
     def view_group(
-        node: Annotated[str, Query(description="the would-be initiator's node id")],
         definition: Annotated[
             str,
             Query(
@@ -429,8 +428,13 @@ def create_app(
                 examples=['{"type": "within", "distance": 20}'],
             ),
         ],
+        node: Annotated[
+            str | None,
+            Query(description="the would-be initiator's node id (default: the observer)"),
+        ] = None,
     ) -> GroupViewOut:
         """Which nodes a definition selects from a node's point of view, without a session."""
+        node = source.observer_id if node is None else node
         handle = dash.node(node)
         try:
             obj = json.loads(definition)

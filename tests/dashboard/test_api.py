@@ -15,6 +15,7 @@ from objectplaces import groups
 from tests.dashboard.conftest import PARKED, TOKEN, NetworkSource, TestClient, advance
 
 WITHIN_10 = {"type": "within", "distance": 10.0}
+PARKED_IDS = sorted(PARKED)
 
 
 def start_poll(client: TestClient, **overrides: Any) -> Any:
@@ -180,12 +181,13 @@ def test_group_view_without_a_session(client: TestClient) -> None:
     )
     assert r.status_code == 200
     assert r.json()["members"] == ["agv-2"]
-    wide = {
-        "type": "or",
-        "of": [WITHIN_10, {"type": "property_equals", "name": "status", "value": "idle"}],
-    }
+    idle = {"type": "property_equals", "name": "status", "value": "idle"}
+    wide = {"type": "or", "of": [WITHIN_10, idle]}
     r = client.get("/api/groups/view", params={"node": "agv-1", "definition": json.dumps(wide)})
     assert r.json()["members"] == ["agv-2", "agv-3"]
+    # Without a node, the dashboard's observer asks (it has no position of its own).
+    r = client.get("/api/groups/view", params={"definition": json.dumps(idle)})
+    assert r.json() == {"node": "dashboard", "definition": idle, "members": PARKED_IDS}
     assert client.get("/api/sessions").json() == []
 
 
@@ -196,6 +198,7 @@ def test_group_view_without_a_session(client: TestClient) -> None:
         ({"node": "agv-1", "definition": "{not json"}, 400, "not valid JSON"),
         ({"node": "agv-1", "definition": "[1, 2]"}, 422, "a group definition is a JSON object"),
         ({"node": "agv-1"}, 422, "definition: Field required"),
+        ({}, 422, "definition: Field required"),
     ],
 )
 def test_group_view_errors(
