@@ -354,15 +354,22 @@ def hull_projection(
         x, y = polyline.coords[0]
         return Area(_rect(x, y, polyline.rest_heading_rad, half_l, half_w))
     shapes: list[Any] = []
-    for i in range(polyline.piece_index(a), polyline.piece_index(b) + 1):
+    first, last = polyline.piece_index(a), polyline.piece_index(b)
+    i = first
+    while i <= last:
+        h = polyline.piece_heading(i)
+        j = i
+        # Collinear pieces (lanes split at every junction) make one straight run.
+        while j < last and polyline.piece_heading(j + 1) == h:
+            j += 1
         lo = max(a, polyline.cumulative[i])
-        hi = min(b, polyline.cumulative[i + 1])
+        hi = min(b, polyline.cumulative[j + 1])
         (px, py), (qx, qy) = polyline.point_at(lo), polyline.point_at(hi)
         # A rectangle pushed straight sweeps a rectangle: the hull stretched by the
         # distance driven, centred between the first and last position.
         half_span = (hi - lo) / 2 + half_l
-        h = polyline.piece_heading(i)
         shapes.append(_rect((px + qx) / 2, (py + qy) / 2, h, half_span, half_w))
+        i = j + 1
     shapes.extend(_turn_shapes(polyline, a, b, half_l=half_l, half_w=half_w, step=step))
     if len(shapes) == 1:
         return Area(shapes[0])

@@ -259,3 +259,12 @@ def test_area_helpers() -> None:
     assert math.isnan(Area.empty().bounds[0])
     with pytest.raises(AttributeError, match="immutable"):
         a.geom = None
+
+
+def test_collinear_pieces_make_one_rectangle() -> None:
+    p = Polyline([(0, 0), (1.25, 0), (2.5, 0), (3.75, 0), (10, 0)])
+    a = hull_projection(p, 0.5, 9, length=L, width=W)
+    assert len(a.geom.exterior.coords) == 5
+    assert a.bounds == pytest.approx((-0.5, -0.5, 10.0, 0.5))
+    naive = hull_projection_sampled(p, 0.5, 9, length=L, width=W)
+    assert a.geom.symmetric_difference(naive.geom).area < 1e-9
