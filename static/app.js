@@ -502,6 +502,46 @@ async function addTask(stationId) {
   }
 }
 
+// ---- session detail: fetched on click, refreshed while shown ----------------------------
+
+const sessionDetail = document.getElementById("session-detail");
+let selectedSession = null;
+
+async function refreshSessionDetail() {
+  if (!selectedSession) return;
+  const id = selectedSession;
+  let text;
+  try {
+    const response = await fetch(`/api/sessions/${encodeURIComponent(id)}`);
+    const data = await response.json();
+    if (response.ok) {
+      const { id: sid, role, node, participant_role: prole, members, age_s: age, definition, detail } = data;
+      text = JSON.stringify({ id: sid, role, node, participant_role: prole, members, age_s: Number(age.toFixed(2)), definition, detail }, null, 1);
+    } else {
+      text = data.detail;
+    }
+  } catch (err) {
+    text = `request failed: ${err.message}`;
+  }
+  if (selectedSession === id) {
+    sessionDetail.hidden = false;
+    setText(sessionDetail, text);
+  }
+}
+
+document.getElementById("sessions-body").addEventListener("click", (event) => {
+  const row = event.target.closest("tr[data-session-id]");
+  if (!row) return;
+  const id = row.getAttribute("data-session-id");
+  selectedSession = selectedSession === id ? null : id;
+  for (const r of row.parentElement.children) r.classList.toggle("selected", r.getAttribute("data-session-id") === selectedSession);
+  if (selectedSession) {
+    refreshSessionDetail();
+  } else {
+    sessionDetail.hidden = true;
+  }
+});
+
 // ---- pointer ------------------------------------------------------------------------------
 
 const tooltip = document.getElementById("tooltip");
@@ -743,7 +783,10 @@ function updatePanels() {
       { text: `${s.members.length}: ${s.members.join(" ")}`, cls: "members", attr: { "data-members": s.members.join(" ") } },
       { text: `${Math.max(0, state.now - s.started_at).toFixed(1)} s` },
     ],
-    (row, { s }) => row.classList.toggle("via-api", Boolean(s.via_api)),
+    (row, { s }) => {
+      row.classList.toggle("via-api", Boolean(s.via_api));
+      row.classList.toggle("selected", s.id === selectedSession);
+    },
   );
 
   const vehicles = [...state.vehicles.values()].sort((a, b) => (a.id < b.id ? -1 : a.id > b.id ? 1 : 0));
@@ -927,4 +970,5 @@ resize();
 connect();
 setInterval(updatePanels, PANEL_INTERVAL_MS);
 setInterval(sampleCharts, CHART_INTERVAL_MS);
+setInterval(refreshSessionDetail, 1000);
 requestAnimationFrame(loop);

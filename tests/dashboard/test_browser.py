@@ -122,6 +122,13 @@ def test_session_started_over_rest_shows_in_the_panel(page: Any, served: Served)
     )
     assert members.get_attribute("data-members") == "agv-2"
     assert "poll" in row.text_content()
+    row.click()
+    detail = page.locator("#session-detail")
+    page.wait_for_function(
+        "document.querySelector('#session-detail').textContent.includes('answers')",
+        timeout=5_000,
+    )
+    assert '"agv-2": "idle"' in detail.text_content()
     httpx.delete(served.url + f"/api/sessions/{sid.replace('#', '%23')}")
     row.wait_for(state="detached", timeout=5_000)
 
