@@ -17,6 +17,7 @@ from objectplaces.core.errors import (
     RemoteProtocolError,
 )
 from objectplaces.core.node import NodeConfig, ParticipationInfo, SessionInfo
+from objectplaces.mesh import start_node
 from objectplaces.roles import Initiator, InitiatorRef, Participant, ParticipantRef, TimerHandle
 
 __all__ = [
@@ -37,4 +38,5 @@ __all__ = [
     "SessionInfo",
     "TimerHandle",
     "groups",
+    "start_node",
 ]

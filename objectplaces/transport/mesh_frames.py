@@ -221,7 +221,7 @@ def _decode_gossip(frame: list[Any]) -> Gossip:
     peers = []
     for entry in frame[1]:
         if not isinstance(entry, list) or len(entry) != 3:
-            raise DecodeError(f"gossip entry must be [node, address, incarnation], got {entry!r:.80}")
+            raise DecodeError(f"gossip entry must be [node, address, incarnation]: {entry!r:.80}")
         parse_address(entry[1])
         peers.append(PeerAddress(_node(entry[0]), entry[1], _uint(entry[2], "incarnation")))
     return Gossip(tuple(peers))

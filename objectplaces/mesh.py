@@ -1,0 +1,185 @@
+"""Embed an ObjectPlaces node in an asyncio application, linked to its peers over WebSockets.
+
+```python
+node = await objectplaces.start_node(
+    "agv-3", listen="127.0.0.1:7003", join=["127.0.0.1:7001"], secret=b"..."
+)
+node.update_node_property("position", (1.0, 2.0))   # the usual RoleActivator API
+...
+await node.close()                                   # leave the mesh
+```
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import time
+from collections.abc import Sequence
+from types import TracebackType
+
+from objectplaces.activator import RoleActivator
+from objectplaces.core.errors import LocalProtocolError
+from objectplaces.core.node import NodeConfig, NodeMachine
+from objectplaces.runtime.aio import AsyncioRunner
+from objectplaces.transport.websocket import MeshOptions, PeerStats, WebSocketMesh
+from tuplespace import TupleSpace
+
+__all__ = ["MeshNode", "MeshOptions", "PeerStats", "start_node"]
+
+log = logging.getLogger("objectplaces.mesh")
+
+
+class MeshNode(RoleActivator):
+    """A node on the WebSocket mesh: the ``RoleActivator`` API plus its links.
+
+    Made by ``start_node``; ``await node.close()`` leaves the mesh.
+    """
+
+    def __init__(
+        self,
+        machine: NodeMachine,
+        *,
+        runner: AsyncioRunner,
+        mesh: WebSocketMesh,
+        space: TupleSpace,
+    ) -> None:
+        super().__init__(machine, clock=runner.now, wake=runner.wake, space=space)
+        self._runner = runner
+        self._mesh = mesh
+        self._task: asyncio.Task[None] | None = None
+        self._closed = False
+
+    @property
+    def address(self) -> str:
+        """``host:port`` this node listens on."""
+        return self._mesh.address
+
+    @property
+    def closed(self) -> bool:
+        """Whether ``close()`` was called."""
+        return self._closed
+
+    def peers(self) -> list[str]:
+        """Ids of the peers linked to this node now, sorted."""
+        return self._mesh.peers()
+
+    def peer_stats(self) -> dict[str, PeerStats]:
+        """Per-peer counters (messages, bytes in/out, drops, reconnects), by peer id."""
+        return self._mesh.peer_stats()
+
+    def transport_counters(self) -> dict[str, int]:
+        """Node-wide transport counters (refused links by reason, dropped frames ...)."""
+        return dict(sorted(self._mesh.counters.items()))
+
+    async def wait_for_peers(self, count: int) -> list[str]:
+        """Wait until at least ``count`` peers are linked (bound it with ``asyncio.timeout``)."""
+        while len(self._mesh.peers()) < count:
+            await self._mesh.links_changed()
+        return self.peers()
+
+    def _start(self) -> None:
+        self._task = asyncio.create_task(self._mesh.run(), name=f"objectplaces-node-{self.node_id}")
+        self._task.add_done_callback(self._on_done)
+        self._runner.wake()
+
+    def _on_done(self, task: asyncio.Task[None]) -> None:
+        if not task.cancelled() and task.exception() is not None:
+            log.error("node %s: mesh stopped", self.node_id, exc_info=task.exception())
+
+    async def close(self) -> None:
+        """Leave the mesh: stop our sessions, drop our roles, tell the peers, close links."""
+        if self._closed:
+            return
+        self._closed = True
+        runner = self._runner
+        self.machine.leave(runner.now())
+        runner.drain()
+        runner.close()
+        await self._mesh.close()
+        task = self._task
+        if task is not None and not task.done():
+            task.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await task
+
+    async def __aenter__(self) -> MeshNode:
+        return self
+
+    async def __aexit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        await self.close()
+
+    def __repr__(self) -> str:
+        return f"<MeshNode {self.node_id!r} at {self.address}>"
+
+
+async def start_node(
+    node_id: str,
+    *,
+    listen: str = "127.0.0.1:0",
+    join: Sequence[str] = (),
+    secret: bytes,
+    interest_radius: float | None = None,
+    property_interval: float | None = 1.0,
+    failure_timeout: float | None = None,
+    cell_size: float = 25.0,
+    retransmit_timeout: float = 0.2,
+    options: MeshOptions | None = None,
+    space: TupleSpace | None = None,
+) -> MeshNode:
+    """Start a node on the WebSocket mesh and return its ``RoleActivator``.
+
+    Args:
+        node_id: unique in the mesh.
+        listen: ``host:port`` to listen on (loopback by default; port 0 picks one).
+        join: ``host:port`` of one or more nodes already in the mesh.
+        secret: shared by every node of the mesh; proves each link, never sent.
+        interest_radius: scoped dissemination radius (None: hear every node).
+        property_interval: republish properties this often, the heartbeat (None: never).
+        failure_timeout: a node not heard this long leaves every group (None: three
+            property intervals).
+        cell_size: grid cell side for scoped dissemination and the spatial index.
+        retransmit_timeout: first retransmission delay of session channel frames.
+        options: transport limits and timings (flood limit, frame size, backoff ...).
+        space: the node's tuplespace (a new one by default).
+
+    Raises:
+        LocalProtocolError: a bad argument.
+        OSError: ``listen`` cannot be bound.
+    """
+    if interest_radius is not None and not interest_radius > 0:
+        raise LocalProtocolError(f"interest_radius must be > 0, got {interest_radius!r}")
+    if isinstance(join, str):
+        raise LocalProtocolError(f"join must be a list of addresses, got {join!r}")
+    loop = asyncio.get_running_loop()
+    options = options or MeshOptions()
+    config = NodeConfig(
+        property_interval=property_interval,
+        failure_timeout=failure_timeout,
+        interest_radius=interest_radius,
+        cell_size=cell_size,
+        retransmit_timeout=retransmit_timeout,
+        max_frame=options.max_frame,
+    )
+    space = space if space is not None else TupleSpace(clock=loop.time)
+    machine = NodeMachine(node_id, now=loop.time(), config=config, space=space)
+    mesh = WebSocketMesh(
+        node_id,
+        secret=secret,
+        listen=listen,
+        seeds=join,
+        options=options,
+        incarnation=time.time_ns(),
+    )
+    runner = AsyncioRunner(machine, mesh.transmit)
+    mesh.attach(runner)
+    await mesh.open()
+    node = MeshNode(machine, runner=runner, mesh=mesh, space=space)
+    node._start()
+    return node
