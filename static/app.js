@@ -510,6 +510,12 @@ let selectedSession = null;
 async function refreshSessionDetail() {
   if (!selectedSession) return;
   const id = selectedSession;
+  // Ask only about sessions the feed still shows: an ended one would answer 404.
+  if (!state.sessions.has(id)) {
+    selectedSession = null;
+    setText(sessionDetail, `${sessionDetail.textContent}\n(session ended)`);
+    return;
+  }
   let text;
   try {
     const response = await fetch(`/api/sessions/${encodeURIComponent(id)}`);

@@ -129,6 +129,8 @@ def test_session_started_over_rest_shows_in_the_panel(page: Any, served: Served)
         timeout=5_000,
     )
     assert '"agv-2": "idle"' in detail.text_content()
+    row.click()
+    assert page.locator("#session-detail").is_hidden()
     httpx.delete(served.url + f"/api/sessions/{sid.replace('#', '%23')}")
     row.wait_for(state="detached", timeout=5_000)
 
