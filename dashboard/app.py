@@ -92,6 +92,7 @@ class _Dashboard:
     responders_on: set[str] = field(default_factory=set)
     layout: dict[str, Any] = field(default_factory=dict)
     polygons: PolygonCache = field(default_factory=PolygonCache)
+    last_counters: dict[str, dict[str, Any]] | None = None
 
     def roles(self) -> dict[str, InitiatorFactory]:
         """Initiator roles startable over HTTP: the fleet's, and ``poll``."""
@@ -128,16 +129,27 @@ class _Dashboard:
             records[sid] = _as_api_session(records[sid], api.role)
         return records
 
-    def counters(self) -> dict[str, dict[str, Any]]:
-        """Per-node message and byte counters, by node id."""
-        return {
-            node_id: introspect.counters_of(node) for node_id, node in self.source.nodes().items()
-        }
+    def counters(self, *, fresh: bool = True) -> dict[str, dict[str, Any]]:
+        """Per-node message and byte counters, by node id.
 
-    def capture(self) -> FleetState:
+        Args:
+            fresh: read the nodes; otherwise reuse the last reading when there is one
+                (the feed sends counters only every half second anyway).
+        """
+        if fresh or self.last_counters is None:
+            self.last_counters = {
+                node_id: introspect.counters_of(node)
+                for node_id, node in self.source.nodes().items()
+            }
+        return self.last_counters
+
+    def capture(self, *, fresh_counters: bool = True) -> FleetState:
         """The fleet as the feed shows it now."""
         return capture(
-            self.source, sessions=self.sessions(), nodes=self.counters(), cache=self.polygons
+            self.source,
+            sessions=self.sessions(),
+            nodes=self.counters(fresh=fresh_counters),
+            cache=self.polygons,
         )
 
     def sim(self) -> SimOut:
@@ -145,11 +157,11 @@ class _Dashboard:
         s = self.source
         return SimOut(now=float(s.now), paused=bool(s.paused), speed=float(s.speed))
 
-    def publish(self) -> None:
+    def publish(self, *, fresh_counters: bool = True) -> None:
         """Offer the current state to every feed client and wake their senders."""
         if not len(self.hub):
             return
-        self.hub.publish(self.capture())
+        self.hub.publish(self.capture(fresh_counters=fresh_counters))
         for event in self.wakers.values():
             event.set()
 
@@ -159,6 +171,7 @@ class _Dashboard:
         last = loop.time()
         last_publish = -math.inf
         last_check = -math.inf
+        last_counters = -math.inf
         while True:
             await asyncio.sleep(self.tick_s)
             now = loop.time()
@@ -175,7 +188,10 @@ class _Dashboard:
                 self.ensure_responders()
             if now - last_publish >= 0.05:
                 last_publish = now
-                self.publish()
+                fresh = now - last_counters >= 0.5
+                if fresh:
+                    last_counters = now
+                self.publish(fresh_counters=fresh)
 
 
 def _responder_factory(node: RoleActivator) -> Callable[[], PollResponder]:

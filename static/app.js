@@ -853,12 +853,20 @@ function sampleCharts() {
   let perHour = m.tasks_per_hour;
   if (perHour == null && m.tasks_completed != null && state.now > 0) perHour = (m.tasks_completed / state.now) * 3600;
   if (perHour != null) push(charts.tasks, perHour);
-  if (m.messages != null) {
+  // Without a fleet-wide figure, count what the nodes sent (each message is counted
+  // once by its sender and once by each receiver, so halve the sum).
+  let messages = m.messages;
+  if (messages == null && state.nodes.size > 0) {
+    messages = 0;
+    for (const n of state.nodes.values()) messages += n.messages || 0;
+    messages /= 2;
+  }
+  if (messages != null) {
     if (charts.lastMessages != null && state.now > charts.lastNow) {
-      push(charts.messages, (m.messages - charts.lastMessages) / (state.now - charts.lastNow));
+      push(charts.messages, (messages - charts.lastMessages) / (state.now - charts.lastNow));
     }
     if (charts.lastNow == null || state.now !== charts.lastNow) {
-      charts.lastMessages = m.messages;
+      charts.lastMessages = messages;
       charts.lastNow = state.now;
     }
   }
