@@ -62,7 +62,8 @@ def view_of(node: RoleActivator) -> Mapping[str, Mapping[str, Any]]:
 
 
 def counters_of(node: RoleActivator, *, full: bool = False) -> dict[str, Any]:
-    """The node's traffic: ``{"messages": n, "bytes": n}`` sent plus received.
+    """The node's traffic: ``messages`` and ``bytes`` sent plus received, and ``sent``
+    (messages sent).
 
     Args:
         node: the node handle.
@@ -73,6 +74,7 @@ def counters_of(node: RoleActivator, *, full: bool = False) -> dict[str, Any]:
     out: dict[str, Any] = {
         "messages": int(stats.messages_sent + stats.messages_received),
         "bytes": int(stats.bytes_sent + stats.bytes_received),
+        "sent": int(stats.messages_sent),
     }
     if full:
         out.update(_plain(stats))

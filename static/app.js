@@ -853,13 +853,11 @@ function sampleCharts() {
   let perHour = m.tasks_per_hour;
   if (perHour == null && m.tasks_completed != null && state.now > 0) perHour = (m.tasks_completed / state.now) * 3600;
   if (perHour != null) push(charts.tasks, perHour);
-  // Without a fleet-wide figure, count what the nodes sent (each message is counted
-  // once by its sender and once by each receiver, so halve the sum).
+  // Without a fleet-wide figure, count what the nodes sent.
   let messages = m.messages;
   if (messages == null && state.nodes.size > 0) {
     messages = 0;
-    for (const n of state.nodes.values()) messages += n.messages || 0;
-    messages /= 2;
+    for (const n of state.nodes.values()) messages += n.sent || 0;
   }
   if (messages != null) {
     if (charts.lastMessages != null && state.now > charts.lastNow) {
