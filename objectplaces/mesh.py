@@ -73,6 +73,10 @@ class MeshNode(RoleActivator):
         """Node-wide transport counters (refused links by reason, dropped frames ...)."""
         return dict(sorted(self._mesh.counters.items()))
 
+    async def links_changed(self) -> None:
+        """Wait until a link to a peer comes up or goes down."""
+        await self._mesh.links_changed()
+
     async def wait_for_peers(self, count: int) -> list[str]:
         """Wait until at least ``count`` peers are linked (bound it with ``asyncio.timeout``)."""
         while len(self._mesh.peers()) < count:

@@ -50,7 +50,7 @@ __all__ = [
     "encode_gossip",
     "encode_hello",
     "encode_subscribe",
-    "handshake_mac",
+    "handshake_macs",
     "parse_address",
 ]
 
@@ -115,13 +115,22 @@ class SubscribeCells:
 TransportFrame = Hello | Auth | Gossip | SubscribeCells
 
 
-def handshake_mac(
-    secret: bytes, label: bytes, dialer: str, listener: str, nonce_d: bytes, nonce_l: bytes
-) -> bytes:
-    """The proof one side sends: HMAC-SHA256 over the direction, both ids and both nonces."""
-    parts = [label, dialer.encode(), listener.encode(), nonce_d, nonce_l]
+def _mac(secret: bytes, parts: list[bytes]) -> bytes:
     message = b"".join(len(p).to_bytes(2, "big") + p for p in parts)
     return hmac.new(secret, message, hashlib.sha256).digest()
+
+
+def handshake_macs(
+    secret: bytes, dialer: str, listener: str, nonce_d: bytes, nonce_l: bytes
+) -> tuple[bytes, bytes]:
+    """The dialer's and the listener's proofs of the secret for one handshake.
+
+    Each is an HMAC-SHA256 over a direction label, both ids and both nonces.
+    """
+    parts = [dialer.encode(), listener.encode(), nonce_d, nonce_l]
+    return _mac(secret, [b"objectplaces dialer", *parts]), _mac(
+        secret, [b"objectplaces listener", *parts]
+    )
 
 
 def _pack(frame: list[Any]) -> bytes:

@@ -41,6 +41,7 @@ from objectplaces.core.events import Broadcast, Output, Publish, Send, Subscribe
 from objectplaces.core.messages import Leave
 from objectplaces.runtime.aio import AsyncioRunner
 from objectplaces.transport.mesh_frames import (
+    NONCE_SIZE,
     Auth,
     Gossip,
     Hello,
@@ -52,7 +53,7 @@ from objectplaces.transport.mesh_frames import (
     encode_gossip,
     encode_hello,
     encode_subscribe,
-    handshake_mac,
+    handshake_macs,
     parse_address,
 )
 
@@ -62,8 +63,6 @@ log = logging.getLogger("objectplaces.mesh")
 
 Cell = tuple[int, int]
 Connection = ServerConnection | ClientConnection
-_DIALER: Final = b"objectplaces dialer"
-_LISTENER: Final = b"objectplaces listener"
 _LEAVING: Final = "leaving"
 
 
@@ -536,7 +535,7 @@ class WebSocketMesh:
     # ------------------------------------------------------------------ handshakes
 
     async def _dial_handshake(self, ws: ClientConnection, address: str) -> _Link:
-        nonce = os.urandom(16)
+        nonce = os.urandom(NONCE_SIZE)
         await ws.send(
             encode_hello(
                 challenge=False,
@@ -592,7 +591,7 @@ class WebSocketMesh:
             raise _Refused(CloseCode.PROTOCOL_ERROR, "expected a hello")
         if hello.node == self.node_id:
             raise _Refused(CloseCode.POLICY_VIOLATION, f"node id {hello.node!r} is this node's")
-        nonce = os.urandom(16)
+        nonce = os.urandom(NONCE_SIZE)
         await ws.send(
             encode_hello(
                 challenge=True,
@@ -626,11 +625,7 @@ class WebSocketMesh:
     def _macs(
         self, dialer: str, listener: str, nonce_d: bytes, nonce_l: bytes
     ) -> tuple[bytes, bytes]:
-        secret = self._secret
-        return (
-            handshake_mac(secret, _DIALER, dialer, listener, nonce_d, nonce_l),
-            handshake_mac(secret, _LISTENER, dialer, listener, nonce_d, nonce_l),
-        )
+        return handshake_macs(self._secret, dialer, listener, nonce_d, nonce_l)
 
     def _new_link(
         self, peer: str, address: str, incarnation: int, ws: Connection, dialer: str

@@ -1,0 +1,333 @@
+"""``objectplaces node``: run one ObjectPlaces node on the WebSocket mesh.
+
+Registered as a plugin of the ``objectplaces`` command (entry point group
+``objectplaces.commands``, name ``node``). The node publishes the properties it is given
+and runs until ``--run-seconds`` pass or it is told to quit. Two small built-in roles
+make a node observable from outside, for tests and demonstrations:
+
+- ``--role collector`` starts a session (group ``--group``) and prints every
+  ``in_group``, ``out_group`` and ``receive`` of its initiator;
+- ``--role echo`` registers the participant role ``echo``: it greets its initiator, sends
+  a tick every ``--tick`` seconds and echoes what it receives.
+
+Output is one JSON object per line on stdout (``{"event": ..., "t": monotonic time}``).
+With ``--control`` the node also reads JSON commands from stdin, one per line:
+``{"cmd": "move", "x": 1, "y": 2}``, ``{"cmd": "set", "name": ..., "value": ...}``,
+``{"cmd": "view"}``, ``{"cmd": "peers"}``, ``{"cmd": "stats"}``, ``{"cmd": "stop"}``,
+``{"cmd": "start"}``, ``{"cmd": "quit"}``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import contextlib
+import dataclasses
+import json
+import logging
+import os
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from objectplaces import groups
+from objectplaces.activator import Session
+from objectplaces.core.errors import LocalProtocolError
+from objectplaces.core.groups import GroupDefinition
+from objectplaces.core.ids import InitiatorRef, ParticipantRef
+from objectplaces.core.roles import Initiator, Participant
+from objectplaces.mesh import MeshNode, MeshOptions, start_node
+
+__all__ = ["SECRET_ENV", "Collector", "EchoVoter", "emit", "main", "register", "run_node"]
+
+SECRET_ENV = "OBJECTPLACES_SECRET"
+"""Environment variable holding the mesh secret when ``--secret-file`` is not given."""
+
+_MAX_LINE = 1 << 16
+
+
+def emit(event: str, **fields: Any) -> None:
+    """Print one event as a JSON line on stdout."""
+    record = {"event": event, "t": time.monotonic(), **fields}
+    sys.stdout.write(json.dumps(record, default=repr) + "\n")
+    sys.stdout.flush()
+
+
+class Collector(Initiator):
+    """An initiator that reports its group events and greets every new member."""
+
+    def in_group(self, p: ParticipantRef) -> None:
+        """Report the new member and greet it."""
+        emit("in_group", peer=p.node_id, session=p.session_id)
+        self.send(p, {"ping": p.node_id})
+
+    def out_group(self, p: ParticipantRef) -> None:
+        """Report the member that left."""
+        emit("out_group", peer=p.node_id, session=p.session_id)
+
+    def receive(self, p: ParticipantRef, message: Any) -> None:
+        """Report a message from a member."""
+        emit("receive", peer=p.node_id, message=message)
+
+
+class EchoVoter(Participant):
+    """A participant that greets its initiator, ticks, and echoes what it hears."""
+
+    tick = 0.2
+
+    def __init__(self) -> None:
+        self._ticks = 0
+
+    def in_group_of(self, initiator: InitiatorRef) -> None:
+        """Greet the initiator and start ticking."""
+        emit("in_group_of", initiator=initiator.node_id, session=initiator.session_id)
+        self.send({"hello": self.node_id})
+        self.call_later(self.tick, self._on_tick)
+
+    def out_group_of(self, initiator: InitiatorRef) -> None:
+        """Report the deactivation (the timers stop by themselves)."""
+        emit("out_group_of", initiator=initiator.node_id, session=initiator.session_id)
+
+    def receive(self, message: Any) -> None:
+        """Echo a message back to the initiator."""
+        self.send({"echo": message, "from": self.node_id})
+
+    def _on_tick(self) -> None:
+        self._ticks += 1
+        self.send({"tick": self._ticks, "from": self.node_id})
+        self.call_later(self.tick, self._on_tick)
+
+
+def _group(spec: str) -> GroupDefinition:
+    kind, _, arg = spec.partition(":")
+    if kind == "within":
+        return groups.within(float(arg or 5.0))
+    if kind == "circles":
+        return groups.circles_overlap()
+    raise argparse.ArgumentTypeError(f"unknown group {spec!r} (within:D or circles)")
+
+
+def _property(spec: str) -> tuple[str, Any]:
+    name, sep, value = spec.partition("=")
+    if not sep or not name:
+        raise argparse.ArgumentTypeError(f"property must be NAME=JSON, got {spec!r}")
+    try:
+        parsed = json.loads(value)
+    except json.JSONDecodeError:
+        parsed = value
+    if name == "position" and isinstance(parsed, list):
+        parsed = tuple(parsed)
+    return name, parsed
+
+
+def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """Add the ``node`` subcommand to the ``objectplaces`` command line."""
+    parser = subcommands.add_parser(
+        "node",
+        help="run one node on the WebSocket mesh",
+        description="Run one ObjectPlaces node on the WebSocket mesh (JSON events on stdout).",
+    )
+    parser.add_argument("--id", required=True, help="node id, unique in the mesh")
+    parser.add_argument("--listen", default="127.0.0.1:0", help="host:port to listen on")
+    parser.add_argument(
+        "--join", action="append", default=[], metavar="HOST:PORT", help="a node to join through"
+    )
+    parser.add_argument(
+        "--secret-file", type=Path, help=f"file holding the mesh secret (else env {SECRET_ENV})"
+    )
+    parser.add_argument(
+        "--property",
+        action="append",
+        type=_property,
+        default=[],
+        metavar="NAME=JSON",
+        help="a property to publish, e.g. position=[1,2]",
+    )
+    parser.add_argument("--interest-radius", type=float, help="scoped dissemination radius")
+    parser.add_argument("--property-interval", type=float, default=1.0, help="heartbeat, s")
+    parser.add_argument("--failure-timeout", type=float, help="failure timeout, s")
+    parser.add_argument("--run-seconds", type=float, default=3600.0, help="stop after this")
+    parser.add_argument("--role", choices=["none", "collector", "echo"], default="none")
+    parser.add_argument("--group", type=_group, default="within:5", help="within:D or circles")
+    parser.add_argument("--tick", type=float, default=0.2, help="echo role tick period, s")
+    parser.add_argument("--control", action="store_true", help="read JSON commands on stdin")
+    parser.add_argument("--flood-rate", type=float, help="frames/s a peer may send")
+    parser.add_argument("--flood-burst", type=float, help="frames a peer may send at once")
+    parser.add_argument("--max-frame", type=int, help="largest frame accepted, bytes")
+    parser.add_argument("--log-level", default="WARNING", help="logging level on stderr")
+    parser.set_defaults(func=run_node)
+
+
+def _secret(args: argparse.Namespace) -> bytes:
+    if args.secret_file is not None:
+        return Path(args.secret_file).read_bytes().rstrip(b"\r\n")
+    value = os.environ.get(SECRET_ENV, "")
+    if not value:
+        raise SystemExit(f"objectplaces node: give --secret-file or set {SECRET_ENV}")
+    return value.encode()
+
+
+def _options(args: argparse.Namespace) -> MeshOptions:
+    overrides: dict[str, Any] = {}
+    if args.flood_rate is not None:
+        overrides["flood_rate"] = args.flood_rate
+    if args.flood_burst is not None:
+        overrides["flood_burst"] = args.flood_burst
+    if args.max_frame is not None:
+        overrides["max_frame"] = args.max_frame
+    return MeshOptions(**overrides)
+
+
+def run_node(args: argparse.Namespace) -> int:
+    """Run the ``node`` subcommand.
+
+    Returns:
+        The exit status (0 when the node ran and left cleanly).
+    """
+    logging.basicConfig(
+        level=args.log_level.upper(), stream=sys.stderr, format="%(levelname)s %(message)s"
+    )
+    secret = _secret(args)
+    EchoVoter.tick = args.tick
+    try:
+        return asyncio.run(_run(args, secret))
+    except (LocalProtocolError, OSError) as exc:
+        print(f"objectplaces node: {exc}", file=sys.stderr)
+        return 1
+
+
+class _Controller:
+    """Carries out the commands read from stdin."""
+
+    def __init__(self, node: MeshNode, args: argparse.Namespace, stop: asyncio.Event) -> None:
+        self.node = node
+        self.args = args
+        self.stop = stop
+        self.session: Session | None = None
+
+    def start_session(self) -> None:
+        if self.session is None:
+            self.session = self.node.start_interaction(Collector(), self.args.group, "echo")
+            emit("started", session=self.session.session_id)
+
+    def handle(self, line: bytes) -> None:
+        try:
+            command = json.loads(line)
+            if not isinstance(command, dict):
+                raise TypeError("a command is a JSON object")
+            self._do(command)
+        except (ValueError, TypeError, KeyError, LocalProtocolError) as exc:
+            emit("error", error=str(exc))
+
+    def _do(self, command: dict[str, Any]) -> None:
+        node = self.node
+        match command.get("cmd"):
+            case "move":
+                node.update_node_property("position", (float(command["x"]), float(command["y"])))
+                emit("moved", position=[command["x"], command["y"]])
+            case "set":
+                name, value = command["name"], command["value"]
+                node.update_node_property(name, tuple(value) if name == "position" else value)
+                emit("set", name=name)
+            case "view":
+                emit("view", view={n: dict(p) for n, p in sorted(node.view().items())})
+            case "peers":
+                emit("peers", peers=node.peers())
+            case "stats":
+                stats = {p: dataclasses.asdict(s) for p, s in node.peer_stats().items()}
+                emit("stats", peers=stats, counters=node.transport_counters())
+            case "start":
+                self.start_session()
+            case "stop":
+                if self.session is not None:
+                    node.stop_interaction(self.session)
+                    self.session = None
+                    emit("stopped")
+            case "quit":
+                self.stop.set()
+            case other:
+                emit("error", error=f"unknown command {other!r}")
+
+
+async def _read_commands(controller: _Controller) -> None:
+    loop = asyncio.get_running_loop()
+    reader = asyncio.StreamReader(limit=_MAX_LINE)
+    try:
+        await loop.connect_read_pipe(lambda: asyncio.StreamReaderProtocol(reader), sys.stdin)
+    except (OSError, ValueError) as exc:
+        emit("error", error=f"cannot read commands: {exc}")
+        return
+    while True:
+        try:
+            line = await reader.readline()
+        except ValueError:
+            emit("error", error="command line too long")
+            continue
+        if not line:
+            return
+        if line.strip():
+            controller.handle(line)
+
+
+async def _watch_peers(node: MeshNode) -> None:
+    seen: list[str] | None = None
+    while True:
+        peers = node.peers()
+        if peers != seen:
+            seen = peers
+            emit("peers", peers=peers)
+        await node.links_changed()
+
+
+async def _run(args: argparse.Namespace, secret: bytes) -> int:
+    node = await start_node(
+        args.id,
+        listen=args.listen,
+        join=args.join,
+        secret=secret,
+        interest_radius=args.interest_radius,
+        property_interval=args.property_interval,
+        failure_timeout=args.failure_timeout,
+        options=_options(args),
+    )
+    stop = asyncio.Event()
+    controller = _Controller(node, args, stop)
+    try:
+        for name, value in args.property:
+            node.update_node_property(name, value)
+        if args.role == "echo":
+            node.set_participant_factory("echo", EchoVoter)
+        node.register_node_departure_observer(lambda peer, _: emit("departed", peer=peer))
+        emit("ready", id=node.node_id, address=node.address)
+        if args.role == "collector":
+            controller.start_session()
+        async with asyncio.TaskGroup() as tg:
+            tasks = [tg.create_task(_watch_peers(node))]
+            if args.control:
+                tasks.append(tg.create_task(_read_commands(controller)))
+            with contextlib.suppress(TimeoutError):
+                async with asyncio.timeout(args.run_seconds):
+                    await stop.wait()
+            for task in tasks:
+                task.cancel()
+    finally:
+        await node.close()
+        emit("closed")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run ``objectplaces node`` without loading the other subcommands (faster start).
+
+    Args:
+        argv: the ``node`` subcommand's arguments; ``sys.argv[1:]`` when None.
+    """
+    parser = argparse.ArgumentParser(prog="objectplaces")
+    register(parser.add_subparsers())
+    args = parser.parse_args(["node", *(sys.argv[1:] if argv is None else argv)])
+    return int(args.func(args))
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,1 @@
+"""Tests of the WebSocket mesh: real node processes, bad input, the decoders."""
