@@ -148,16 +148,15 @@ def compile_template(template: Fields) -> Template:
     """
     if type(template) is not tuple and not isinstance(template, tuple):
         raise TypeError(f"a template must be a tuple, got {template!r}")
-    if not any(map(callable, template)):
-        # All exact: cheap to analyse, and usually unique (ids, counters), so caching
-        # would only churn the cache.
-        return Template(template)
     try:
         compiled = _CACHE.get(template)
     except TypeError:  # an unhashable field: analyse afresh
         return Template(template)
     if compiled is None:
         compiled = Template(template)
+        if compiled.exact:
+            # Usually unique (ids, counters): caching would only churn the cache.
+            return compiled
         if len(_CACHE) >= _CACHE_MAX:
             _CACHE.clear()
         _CACHE[template] = compiled
