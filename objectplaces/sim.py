@@ -57,6 +57,9 @@ class _SimNode:
             self.timer_at = None
         self.machine.tick(now)
         self.pump.drain()
+        if self.timer_at is None:
+            # The drain may have found nothing to do; the timer must re-arm regardless.
+            self._schedule(self.machine.next_deadline())
 
     def wake(self) -> None:
         if not self.wake_pending and self.alive:

@@ -117,8 +117,12 @@ class CirclesOverlap(GroupDefinition):
         return float(value) if isinstance(value, int | float) else 0.0
 
     def __call__(self, initiator: Props, participant: Props) -> bool:
-        d = distance(initiator, participant, self.position)
-        return d is not None and d <= self._radius(initiator) + self._radius(participant)
+        a, b = _point(initiator, self.position), _point(participant, self.position)
+        if a is None or b is None:
+            return False
+        reach = self._radius(initiator) + self._radius(participant)
+        dx, dy = a[0] - b[0], a[1] - b[1]
+        return dx * dx + dy * dy <= reach * reach
 
     def to_json(self) -> dict[str, Any]:
         return {"type": "circles_overlap", "position": self.position, "radius": self.radius}

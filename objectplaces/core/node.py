@@ -241,6 +241,7 @@ class NodeMachine:
         self._maxima: dict[str, RunningMax] = {}
         self._published_cell: Cell | None = None
         self._subscribed: frozenset[Cell] | None = None
+        self._subscribed_bounds: tuple[int, int, int, int] | None = None
         self._factories: dict[str, ParticipantFactory] = {}
         self._sessions: dict[int, _Session] = {}
         self._session_counter = itertools.count(1)
@@ -251,6 +252,7 @@ class NodeMachine:
         self._role_timers: dict[Any, set[TimerHandle]] = {}
         self._outbox: list[Output] = []
         self._events: list[Callback] = []
+        self._timers_changed = False
         self._property_observers: list[PropertyObserver] = []
         self._departure_observers: list[DepartureObserver] = []
         self.counters: dict[str, int] = {}
@@ -279,8 +281,13 @@ class NodeMachine:
         events, self._events = self._events, []
         return events
 
+    def has_work(self) -> bool:
+        """True when a drain would find outputs, callbacks or a moved deadline."""
+        return bool(self._outbox or self._events or self._dirty) or self._timers_changed
+
     def next_deadline(self) -> float | None:
         """When ``tick`` must next be called (None: no timer pending)."""
+        self._timers_changed = False
         timers = self._timers
         while timers and self._timer_dead(timers[0][2]):
             heapq.heappop(timers)
@@ -292,6 +299,7 @@ class NodeMachine:
         timers = self._timers
         while timers and timers[0][0] <= now:
             _, _, action = heapq.heappop(timers)
+            self._timers_changed = True
             self._fire(action)
 
     def receive(self, source: str, data: bytes, now: float) -> None:
@@ -412,17 +420,18 @@ class NodeMachine:
         if not isinstance(position, tuple):
             return
         size = self.config.cell_size
-        x0, y0 = (
-            math.floor((position[0] - radius) / size),
-            math.floor((position[1] - radius) / size),
+        x, y = position
+        bounds = (
+            math.floor((x - radius) / size),
+            math.floor((y - radius) / size),
+            math.floor((x + radius) / size),
+            math.floor((y + radius) / size),
         )
-        x1, y1 = (
-            math.floor((position[0] + radius) / size),
-            math.floor((position[1] + radius) / size),
-        )
-        cells = frozenset((cx, cy) for cx in range(x0, x1 + 1) for cy in range(y0, y1 + 1))
-        if cells == self._subscribed:
+        if bounds == self._subscribed_bounds:
             return
+        self._subscribed_bounds = bounds
+        x0, y0, x1, y1 = bounds
+        cells = frozenset((cx, cy) for cx in range(x0, x1 + 1) for cy in range(y0, y1 + 1))
         self._subscribed = cells
         self._emit(Subscribe(cells))
         for node in [n for n in self._view if not self._in_scope(n)]:
@@ -446,29 +455,40 @@ class NodeMachine:
                 self._reevaluate_all(session)
 
     def _on_properties(self, source: str, update: PropertyUpdate) -> None:
-        self._heard_from(source)
+        # The hottest path of a large network: every delivered update comes through here.
+        self._heard[source] = self.now
         props = self._view.get(source)
         if props is None:
             props = self._view[source] = {}
             self._seqs[source] = {}
         seqs = self._seqs[source]
-        changed = False
+        seq = update.seq
+        changed = moved = False
+        indexes, maxima, observers = self._indexes, self._maxima, self._property_observers
         for name, value in update.values.items():
-            if update.seq > seqs.get(name, -1):
-                seqs[name] = update.seq
-                if props.get(name, _MISSING) != value or name not in props:
-                    props[name] = value
-                    changed = True
-                    self._index_property(source, name, value)
-                    self._notify_property(source, name, value)
+            if seq <= seqs.get(name, -1):
+                continue
+            seqs[name] = seq
+            if name in props and props[name] == value:
+                continue
+            props[name] = value
+            changed = True
+            if name == codec.POSITION:
+                moved = True
+            if name in indexes or name in maxima:
+                self._index_property(source, name, value)
+            if observers:
+                self._notify_property(source, name, value)
         if not changed:
             return
-        if not self._in_scope(source):
+        if moved and self._subscribed is not None and not self._in_scope(source):
             self._forget(source)
             return
-        for session in list(self._sessions.values()):
-            if not session.stopped:
-                self._evaluate(session, source)
+        sessions = self._sessions
+        if sessions:
+            for session in list(sessions.values()):
+                if not session.stopped:
+                    self._evaluate(session, source)
 
     def _index_property(self, node: str, name: str, value: Any) -> None:
         index = self._indexes.get(name)
@@ -928,6 +948,7 @@ class NodeMachine:
 
     def _push_timer(self, deadline: float, action: Any) -> None:
         heapq.heappush(self._timers, (deadline, next(self._timer_seq), action))
+        self._timers_changed = True
 
     def _timer_dead(self, action: Any) -> bool:
         if action[0] == "call":

@@ -49,7 +49,6 @@ class Pump:
         self._transmit = transmit
         self._schedule = schedule
         self._draining = False
-        self.callback_errors = 0
 
     def drain(self) -> None:
         """Transmit every pending output and run every pending callback.
@@ -57,7 +56,7 @@ class Pump:
         Callbacks may call back into the machine (a role sends in ``in_group``); their
         outputs are drained in the same pass. Re-entrant calls return at once.
         """
-        if self._draining:
+        if self._draining or not self.machine.has_work():
             return
         self._draining = True
         machine = self.machine

@@ -220,6 +220,10 @@ class MemoryNetwork:
         now = loop.now
         links = self._links
         defaults = self.defaults
+        incarnations = self._incarnations
+        # Frames over plain default links all arrive together: one event carries them all.
+        plain = not (defaults.jitter or defaults.loss or defaults.duplicate or defaults.reorder)
+        together: list[tuple[str, int]] = []
         count = 0
         for target in targets:
             count += 1
@@ -227,11 +231,14 @@ class MemoryNetwork:
                 self._dropped["partition"] += 1
                 continue
             link = links.get((source, target), defaults) if links else defaults
+            if plain and link is defaults:
+                together.append((target, incarnations.get(target, 0)))
+                continue
             if link.loss and rng.random() < link.loss:
                 self._dropped["loss"] += 1
                 continue
             copies = 2 if link.duplicate and rng.random() < link.duplicate else 1
-            incarnation = self._incarnations.get(target, 0)
+            incarnation = incarnations.get(target, 0)
             for _ in range(copies):
                 delay = link.delay
                 if link.jitter:
@@ -241,12 +248,28 @@ class MemoryNetwork:
                 loop.call_at(
                     now + delay, self._arrive, source, target, incarnation, message, size, kind
                 )
+        if together:
+            loop.call_at(
+                now + defaults.delay, self._arrive_together, source, together, message, size, kind
+            )
         tally[0] += count
         tally[1] += count * size
         by_kind[0] += count
         by_kind[1] += count * size
         self._messages += count
         self._bytes += count * size
+
+    def _arrive_together(
+        self,
+        source: str,
+        targets: list[tuple[str, int]],
+        message: Message | None,
+        size: int,
+        kind: str,
+    ) -> None:
+        arrive = self._arrive
+        for target, incarnation in targets:
+            arrive(source, target, incarnation, message, size, kind)
 
     def _arrive(
         self,

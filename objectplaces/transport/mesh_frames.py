@@ -209,8 +209,7 @@ def _decode_hello(frame: list[Any]) -> Hello:
     if len(frame) < 2 or frame[1] != PROTOCOL_VERSION:
         version = frame[1] if len(frame) >= 2 else None
         raise VersionMismatch(
-            f"protocol version {version!r:.40} not supported (this node speaks "
-            f"{PROTOCOL_VERSION})"
+            f"protocol version {version!r:.40} not supported (this node speaks {PROTOCOL_VERSION})"
         )
     if len(frame) != 6:
         raise DecodeError(f"hello has {len(frame)} fields, expected 6")

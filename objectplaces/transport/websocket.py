@@ -124,7 +124,7 @@ class PeerStats:
         address: where the peer listens.
         connected: whether a link is up now.
         links: links established so far.
-        reconnects: links established after the first.
+        reconnects: links established while no other link to the peer was up, after the first.
         messages_in: frames received.
         bytes_in: their payload bytes.
         messages_out: frames sent.
@@ -149,6 +149,7 @@ class PeerStats:
 class _Counters:
     address: str = ""
     links: int = 0
+    reconnects: int = 0
     messages_in: int = 0
     bytes_in: int = 0
     messages_out: int = 0
@@ -363,7 +364,7 @@ class WebSocketMesh:
                 c.address,
                 peer in self._links,
                 c.links,
-                max(0, c.links - 1),
+                c.reconnects,
                 c.messages_in,
                 c.bytes_in,
                 c.messages_out,
@@ -666,6 +667,8 @@ class WebSocketMesh:
         known = self._learn(peer, link.address, link.incarnation)
         known.gone = False
         known.attempts = 0
+        if current is None and link.counters.links:
+            link.counters.reconnects += 1
         link.counters.links += 1
         previous = self._linked_incarnation.get(peer)
         self._linked_incarnation[peer] = link.incarnation
