@@ -22,11 +22,11 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from rich.progress import Progress  # noqa: E402
+from rich.progress import Progress
 
-from bench.report import markdown_table, publish  # noqa: E402
-from objectplaces import Initiator, Participant, ParticipantRef, groups  # noqa: E402
-from objectplaces.sim import SimulatedNetwork  # noqa: E402
+from bench.report import markdown_table, publish
+from objectplaces import Initiator, Participant, ParticipantRef, groups
+from objectplaces.sim import SimulatedNetwork
 
 INTEREST_RADIUS = 10.0
 HULL_LENGTH = 2.5
@@ -110,8 +110,14 @@ def run(n: int, scoped: bool, seconds: float, seed: int = 1) -> Result:
     updates = n * seconds
     deliveries = after.by_kind["property"][0] - before.by_kind["property"][0]
     size = after.by_kind["property"][1] - before.by_kind["property"][1]
-    return Result(n, "scoped + indexed" if scoped else "full multicast + opaque",
-                  cpu / seconds, deliveries / updates, size / updates, Requester.answers)
+    return Result(
+        n,
+        "scoped + indexed" if scoped else "full multicast + opaque",
+        cpu / seconds,
+        deliveries / updates,
+        size / updates,
+        Requester.answers,
+    )
 
 
 def main() -> None:
@@ -119,8 +125,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", default="100,1000,10000")
     parser.add_argument("--seconds", type=float, default=5.0)
-    parser.add_argument("--full-up-to", type=int, default=1000,
-                        help="largest N also run with full multicast (it costs O(N^2))")
+    parser.add_argument(
+        "--full-up-to",
+        type=int,
+        default=1000,
+        help="largest N also run with full multicast (it costs O(N^2))",
+    )
     args = parser.parse_args()
     sizes = [int(s) for s in args.sizes.split(",")]
     plan = [(n, True) for n in sizes] + [(n, False) for n in sizes if n <= args.full_up_to]
@@ -135,17 +145,36 @@ def main() -> None:
     by_key = {(r.nodes, r.mode.startswith("scoped")): r for r in results}
     for r in sorted(results, key=lambda r: (r.nodes, r.mode)):
         full = by_key.get((r.nodes, False))
-        ratio = (f"{full.cpu_per_sim_s / r.cpu_per_sim_s:.1f}x" if full and r.mode.startswith("scoped")
-                 else "")
-        rows.append([r.nodes, r.mode, f"{r.cpu_per_sim_s:.3f}", ratio,
-                     f"{r.deliveries_per_update:.1f}", f"{r.bytes_per_update:.0f}", r.answers])
+        ratio = (
+            f"{full.cpu_per_sim_s / r.cpu_per_sim_s:.1f}x"
+            if full and r.mode.startswith("scoped")
+            else ""
+        )
+        rows.append(
+            [
+                r.nodes,
+                r.mode,
+                f"{r.cpu_per_sim_s:.3f}",
+                ratio,
+                f"{r.deliveries_per_update:.1f}",
+                f"{r.bytes_per_update:.0f}",
+                r.answers,
+            ]
+        )
     body = (
         f"{args.seconds:g} simulated seconds per configuration after warm-up; about "
         f"{NEIGHBOURS} nodes within each node's {INTEREST_RADIUS:g} m interest radius; one "
         "position update per node per second; one circles_overlap session per node.\n\n"
         + markdown_table(
-            ["N", "dissemination + definition", "CPU s per sim s", "cheaper than full",
-             "deliveries per update", "wire bytes per update", "answers received"],
+            [
+                "N",
+                "dissemination + definition",
+                "CPU s per sim s",
+                "cheaper than full",
+                "deliveries per update",
+                "wire bytes per update",
+                "answers received",
+            ],
             rows,
         )
         + "\n\nGoals: 10,000 nodes at <= 1 CPU s per simulated s with scoped + indexed; "
