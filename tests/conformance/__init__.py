@@ -1,0 +1,1 @@
+"""One scenario suite, run over the simulated network and the WebSocket mesh."""

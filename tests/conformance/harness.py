@@ -1,0 +1,107 @@
+"""Two ways to run the same scenario: the simulated network, or in-process mesh nodes.
+
+A scenario only adds nodes, calls the ``RoleActivator`` API, lets nodes leave and waits
+for conditions; it never knows which transport carries it.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from collections.abc import Callable
+from typing import Any, Protocol
+
+from objectplaces import RoleActivator
+from objectplaces.mesh import MeshNode, start_node
+from objectplaces.sim import SimulatedNetwork
+
+INTERVAL = 0.2
+FAILURE_TIMEOUT = 1.0
+
+
+class Harness(Protocol):
+    """What the scenarios need from a network."""
+
+    name: str
+
+    async def add(self, node_id: str, **kwargs: Any) -> RoleActivator:
+        """Add a node; it is linked with every other node when this returns."""
+        ...
+
+    async def leave(self, node_id: str) -> None:
+        """Let a node leave gracefully."""
+        ...
+
+    async def until(self, predicate: Callable[[], bool], within: float = 10.0) -> None:
+        """Let time pass until ``predicate()`` holds; fail after ``within`` seconds."""
+        ...
+
+    async def close(self) -> None:
+        """Stop every node."""
+        ...
+
+
+class SimHarness:
+    """The seeded simulated network, in virtual time."""
+
+    name = "sim"
+
+    def __init__(self) -> None:
+        self.net = SimulatedNetwork(
+            seed=4, delay=0.002, jitter=0.001, property_interval=INTERVAL,
+            failure_timeout=FAILURE_TIMEOUT,
+        )  # fmt: skip
+
+    async def add(self, node_id: str, **kwargs: Any) -> RoleActivator:
+        node = self.net.add_node(node_id, **kwargs)
+        self.net.run_for(0.01)
+        return node
+
+    async def leave(self, node_id: str) -> None:
+        self.net.leave(node_id)
+
+    async def until(self, predicate: Callable[[], bool], within: float = 10.0) -> None:
+        assert self.net.run_until(predicate, within), f"not within {within}s of virtual time"
+
+    async def close(self) -> None:
+        pass
+
+
+class MeshHarness:
+    """Mesh nodes in this process, linked over 127.0.0.1."""
+
+    name = "mesh"
+
+    def __init__(self) -> None:
+        self.nodes: dict[str, MeshNode] = {}
+        self.secret = b"conformance"
+
+    async def add(self, node_id: str, **kwargs: Any) -> RoleActivator:
+        seeds = [next(iter(self.nodes.values())).address] if self.nodes else []
+        node = await start_node(
+            node_id,
+            join=seeds,
+            secret=self.secret,
+            property_interval=INTERVAL,
+            failure_timeout=FAILURE_TIMEOUT,
+            **kwargs,
+        )
+        self.nodes[node_id] = node
+        async with asyncio.timeout(10):
+            for other in self.nodes.values():
+                await other.wait_for_peers(len(self.nodes) - 1)
+        return node
+
+    async def leave(self, node_id: str) -> None:
+        await self.nodes.pop(node_id).close()
+
+    async def until(self, predicate: Callable[[], bool], within: float = 10.0) -> None:
+        deadline = time.monotonic() + within
+        while not predicate():
+            assert time.monotonic() < deadline, f"not within {within}s"
+            await asyncio.sleep(0.005)
+
+    async def close(self) -> None:
+        for node in list(self.nodes.values()):
+            await node.close()
+        self.nodes.clear()

@@ -1,0 +1,100 @@
+"""Mesh links in one process: a dropped link comes back, a quick restart resynchronises."""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from collections.abc import Callable
+from typing import Any
+
+from objectplaces import Initiator, Participant, groups
+from objectplaces.mesh import MeshNode, start_node
+from objectplaces.roles import ParticipantRef
+
+SECRET = b"links"
+
+
+async def until(predicate: Callable[[], bool], within: float = 10.0) -> None:
+    deadline = time.monotonic() + within
+    while not predicate():
+        assert time.monotonic() < deadline, f"not within {within}s"
+        await asyncio.sleep(0.005)
+
+
+class Recorder(Initiator):
+    def __init__(self) -> None:
+        self.log: list[tuple[str, str]] = []
+
+    def in_group(self, p: ParticipantRef) -> None:
+        self.log.append(("in", p.node_id))
+
+    def out_group(self, p: ParticipantRef) -> None:
+        self.log.append(("out", p.node_id))
+
+    def receive(self, p: ParticipantRef, message: Any) -> None:
+        self.log.append(("rx", p.node_id))
+
+
+class Greeter(Participant):
+    def in_group_of(self, initiator: Any) -> None:
+        self.send("hello")
+
+
+async def node(node_id: str, join: list[str], **kwargs: Any) -> MeshNode:
+    return await start_node(
+        node_id, join=join, secret=SECRET, property_interval=0.2, failure_timeout=30.0, **kwargs
+    )
+
+
+async def test_a_dropped_link_is_redialed_and_the_session_carries_on() -> None:
+    a = await node("a", [])
+    b = await node("b", [a.address])
+    try:
+        b.set_participant_factory("greeter", Greeter)
+        a.update_node_property("position", (0.0, 0.0))
+        b.update_node_property("position", (1.0, 0.0))
+        recorder = Recorder()
+        a.start_interaction(recorder, groups.within(5.0), "greeter")
+        await until(lambda: ("rx", "b") in recorder.log)
+        a._mesh._links["b"].ws.transport.abort()  # the TCP connection dies under the link
+        await until(
+            lambda: a.peer_stats()["b"].reconnects == 1 == b.peer_stats()["a"].reconnects
+            and a.peers() == ["b"]
+            and b.peers() == ["a"]
+        )
+        b.update_node_property("position", (2.0, 0.0))
+        await until(lambda: a.view()["b"]["position"] == (2.0, 0.0))
+        assert recorder.log == [("in", "b"), ("rx", "b")]
+    finally:
+        await b.close()
+        await a.close()
+
+
+async def test_a_quick_restart_replaces_the_old_run_at_once() -> None:
+    a = await node("a", [])
+    b = await node("b", [a.address])
+    restarted: MeshNode | None = None
+    try:
+        b.set_participant_factory("greeter", Greeter)
+        a.update_node_property("position", (0.0, 0.0))
+        b.update_node_property("position", (1.0, 0.0))
+        for n in range(20):  # b's sequence numbers run ahead of a new run's
+            b.update_node_property("status", n)
+            await asyncio.sleep(0)
+        recorder = Recorder()
+        a.start_interaction(recorder, groups.within(5.0), "greeter")
+        await until(lambda: ("rx", "b") in recorder.log)
+        # b vanishes without leaving (its machine never says goodbye) and comes back
+        # long before the 30 s failure timeout.
+        b._runner.close()
+        await b._mesh.close()
+        restarted = await node("b", [a.address])
+        restarted.set_participant_factory("greeter", Greeter)
+        restarted.update_node_property("position", (3.0, 0.0))
+        await until(lambda: a.view().get("b", {}).get("position") == (3.0, 0.0), within=5.0)
+        await until(lambda: recorder.log.count(("rx", "b")) == 2, within=5.0)
+        assert recorder.log == [("in", "b"), ("rx", "b"), ("out", "b"), ("in", "b"), ("rx", "b")]
+    finally:
+        for each in (restarted, b, a):
+            if each is not None:
+                await each.close()
