@@ -56,7 +56,8 @@ class Voter(Participant):
 def opaque_circles_overlap(mine: Any, theirs: Any) -> bool:
     """The same predicate as ``groups.circles_overlap()``, hidden from the index."""
     (x1, y1), (x2, y2) = mine["position"], theirs["position"]
-    return math.hypot(x1 - x2, y1 - y2) <= mine["hull_length"] + theirs["hull_length"]
+    reach: float = mine["hull_length"] + theirs["hull_length"]
+    return math.hypot(x1 - x2, y1 - y2) <= reach
 
 
 @dataclass
