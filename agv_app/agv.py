@@ -1,0 +1,426 @@
+"""The AGV application component: drives one vehicle, locking area ahead of it.
+
+The component owns a :class:`~agv_app.vehicle.Vehicle` and the AGV's node. Every
+simulation step it reads how far its locks reach *from the tuplespace* (the requester
+role writes them there), lets the vehicle drive up to that point, requests the next
+stretch before it runs out of locked area, and releases what it has driven over. It
+publishes ``position``, ``hull_length`` (distance to the furthest point of its locked
+and requested projections, plus a small margin for rounding), ``status``, ``task`` and
+``last_done`` whenever these change, which happens at least every ``t_update`` while
+it moves; the middleware's periodic republication is the heartbeat.
+
+It plays the voter (:mod:`agv_app.collision`) and bidder (:mod:`agv_app.tasks`) roles,
+keeps stale-node records of failed AGVs, and carries out tasks: to the pick station,
+dwell, to the drop station, dwell, home to its own parking spot.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from agv_app.collision import (
+    AGV_KIND,
+    LockBook,
+    LockEntry,
+    MessageTally,
+    RequestEntry,
+    Requester,
+    StaleRecord,
+    Voter,
+    broadcast_group,
+    collision_group,
+)
+from agv_app.deadlock import StopPlan, clearance_for
+from agv_app.geometry import Area, Polyline, Pose, hull_length, hull_projection, projection_ahead
+from agv_app.layout import Layout
+from agv_app.tasks import Bidder, TaskSpec
+from agv_app.vehicle import Vehicle, VehicleSpec
+from objectplaces import RoleActivator
+from objectplaces.groups import GroupDefinition
+
+__all__ = ["AgvConfig", "AgvController"]
+
+_LEAD_M = 0.01  # a short piece in the old heading, so the first turn is swept and locked
+
+
+@dataclass(frozen=True, slots=True)
+class AgvConfig:
+    """Tunables of the AGV component (seconds and metres).
+
+    Attributes:
+        t_update: property update interval; the safe time is ``2 * t_update``.
+        advance_m: how far beyond the current lock end a request reaches at least.
+        dwell: time spent at a pick or drop station.
+        retry: wait before asking again after a withdrawn request.
+        hull_margin_m: added to the published hull length (rounding, wire margin).
+        broadcast: vote with every AGV instead of the collision group.
+    """
+
+    t_update: float = 1.0
+    advance_m: float = 5.0
+    dwell: float = 5.0
+    retry: float = 1.0
+    hull_margin_m: float = 0.05
+    broadcast: bool = False
+
+
+class AgvController:
+    """One AGV: vehicle, route, locks, task.
+
+    Args:
+        node: the AGV's node.
+        layout: the floor plan.
+        spec: vehicle size and limits.
+        home: point id of its parking spot (where it rests).
+        start: point id where it stands at first (default: ``home``); it drives home.
+        heading_rad: its heading where it starts.
+        config: tunables.
+        tally: counts protocol messages.
+        on_task_done: called with the task id when a task is finished.
+        on_lock_wait: called with the seconds a granted request waited.
+    """
+
+    def __init__(
+        self,
+        node: RoleActivator,
+        layout: Layout,
+        spec: VehicleSpec,
+        home: str,
+        *,
+        start: str | None = None,
+        heading_rad: float = 0.0,
+        config: AgvConfig | None = None,
+        tally: MessageTally | None = None,
+        on_task_done: Callable[[str], None] | None = None,
+        on_lock_wait: Callable[[float], None] | None = None,
+    ) -> None:
+        self.layout = layout
+        self.spec = spec
+        self.home = home
+        self.config = config or AgvConfig()
+        self.tally = tally
+        self._on_task_done = on_task_done
+        self._on_lock_wait = on_lock_wait
+        self.definition: GroupDefinition = (
+            broadcast_group() if self.config.broadcast else collision_group()
+        )
+        self.clearance_m = clearance_for(spec.length_m, spec.width_m)
+        self.point = home if start is None else start
+        p = layout.point(self.point)
+        self.vehicle = Vehicle.parked(spec, Pose(p.x, p.y, heading_rad))
+        self.failed = False
+        self.task: TaskSpec | None = None
+        self.pending_task: TaskSpec | None = None
+        self.phase = "home"
+        """``home``, ``to_home``, ``to_pick``, ``at_pick``, ``to_drop`` or ``at_drop``."""
+        self.last_done: str | None = None
+        self._plan: StopPlan | None = None
+        self._dest: str | None = None
+        self._dwell_until = 0.0
+        self._key = 0
+        self._requester: Requester | None = None
+        self._retry_at = 0.0
+        self._next_release = 0.0
+        self._released_at_s = 0.0
+        self._waiting_since: float | None = None
+        self.node = node
+        self.attach(node)
+
+    # -- node -------------------------------------------------------------------------
+
+    @property
+    def node_id(self) -> str:
+        """The AGV's (and its node's) id."""
+        return self.node.node_id
+
+    @property
+    def book(self) -> LockBook:
+        """The collision bookkeeping in the node's tuplespace."""
+        return LockBook(self.node.space)
+
+    def attach(self, node: RoleActivator) -> None:
+        """Bind to ``node`` (at start, or after a restart): roles, observers, first lock.
+
+        The AGV stands where it is and locks its own hull without asking: nobody else
+        may lock into it (it is inside its last published circle, or, after a failure,
+        inside the stale record the others keep of it).
+        """
+        self.node = node
+        self.failed = False
+        self._requester = None
+        book = self.book
+        book.clear()
+        self._key += 1
+        book.set_locks(LockEntry(self._key, self.vehicle.s, self.vehicle.hull()))
+        node.set_participant_factory(
+            "voter",
+            lambda: Voter(self._group_view, recheck=self.config.t_update / 2, tally=self.tally),
+        )
+        node.set_participant_factory("bidder", lambda: Bidder(self, tally=self.tally))
+        node.register_node_departure_observer(self._departed)
+        node.register_node_property_observer(self._property)
+        node.update_node_property("kind", AGV_KIND)
+        node.update_node_property("task", None)
+        node.update_node_property("last_done", self.last_done)
+        self.publish()
+
+    def _group_view(self) -> frozenset[str]:
+        return self.node.view_group(self.definition)
+
+    def _departed(self, node_id: str, last: Mapping[str, Any]) -> None:
+        if last.get("kind") != AGV_KIND:
+            return
+        pos, radius = last.get("position"), last.get("hull_length")
+        if isinstance(pos, tuple | list) and isinstance(radius, int | float):
+            self.book.add_stale(StaleRecord(node_id, float(pos[0]), float(pos[1]), float(radius)))
+
+    def _property(self, node_id: str, name: str, value: Any) -> None:
+        if node_id != self.node_id and name == "hull_length":
+            self.book.drop_stale(node_id)
+
+    def fail(self) -> None:
+        """The node crashed: the vehicle stops where it stands and does nothing more."""
+        self.failed = True
+        self.vehicle = Vehicle(self.spec, self.vehicle.route, s=self.vehicle.s)
+        self._requester = None
+
+    def restart(self, node: RoleActivator) -> None:
+        """Come back on a fresh node where the vehicle stands: forget the task (its
+        station has returned it), finish the stretch it was on, then drive home."""
+        self.task = None
+        self.pending_task = None
+        self.phase = "to_home" if self._dest is not None else "lost"
+        self._requester = None
+        self._retry_at = 0.0
+        self.attach(node)
+        self._released_at_s = self.vehicle.s
+
+    # -- properties -------------------------------------------------------------------
+
+    @property
+    def status(self) -> str:
+        """``idle`` (no task) or ``busy``: the property task assignment selects on."""
+        return "busy" if self.task is not None or self.pending_task is not None else "idle"
+
+    def display_status(self) -> str:
+        """A finer state for the dashboard: idle, driving, waiting, loading or failed."""
+        if self.failed:
+            return "failed"
+        if self.phase in ("at_pick", "at_drop"):
+            return "loading"
+        if self._dest is not None and self.vehicle.speed == 0.0:
+            return "waiting"
+        if self._dest is not None:
+            return "driving"
+        return "idle"
+
+    def areas(self) -> tuple[list[Area], Area | None]:
+        """Locked projections and the requested one, from the tuplespace."""
+        book = self.book
+        request = book.request()
+        return [e.area for e in book.locks()], None if request is None else request.area
+
+    def current_hull_length(self) -> float:
+        """Distance to the furthest point of locked and requested area, plus the margin."""
+        locks, request = self.areas()
+        shapes = locks if request is None else [*locks, request]
+        pose = self.vehicle.pose()
+        return hull_length((pose.x, pose.y), shapes) + self.config.hull_margin_m
+
+    def publish(self) -> None:
+        """Publish position, hull length and status now."""
+        if self.failed:
+            return
+        pose = self.vehicle.pose()
+        node = self.node
+        node.update_node_property("position", (pose.x, pose.y))
+        # Rounded up to whole millimetres, so the wire's rounding never shrinks it.
+        node.update_node_property(
+            "hull_length", math.ceil(self.current_hull_length() * 1000) / 1000
+        )
+        if node.properties.get("status") != self.status:
+            node.update_node_property("status", self.status)
+
+    # -- tasks (TaskAgent) --------------------------------------------------------------
+
+    def bid_for(self, task: TaskSpec) -> float | None:
+        """Route distance to the pick station, or None if busy or failed."""
+        if self.failed or self.status != "idle":
+            return None
+        pick = self.layout.station(task.pick).point
+        start = self._dest if self._dest is not None else self.point
+        remaining = self.vehicle.remaining() if self._dest is not None else 0.0
+        distance = self.layout.distance(start, pick)
+        return None if math.isinf(distance) else remaining + distance
+
+    def take(self, task: TaskSpec) -> None:
+        """Accept an awarded task: go to its pick station as soon as the AGV is at rest."""
+        self.pending_task = task
+        self.node.update_node_property("task", task.id)
+        self.publish()
+
+    # -- driving ------------------------------------------------------------------------
+
+    def _route_to(self, dest: str | None) -> None:
+        """Start driving to point ``dest`` (None: stay), from the point we rest on."""
+        self._dest = dest
+        self._waiting_since = None
+        if dest is None or dest == self.point:
+            self._plan = None
+            self._dest = None
+            return
+        route = self.layout.route(self.point, dest)
+        heading = self.vehicle.pose().heading_rad
+        x0, y0 = route.polyline.start
+        lead = (x0 - _LEAD_M * math.cos(heading), y0 - _LEAD_M * math.sin(heading))
+        self.vehicle.new_route(Polyline([lead, *route.polyline.coords]), s=_LEAD_M)
+        plan = StopPlan.for_route(self.layout, route, clearance_m=self.clearance_m)
+        self._plan = StopPlan(
+            self.vehicle.route.length, tuple((lo + _LEAD_M, hi + _LEAD_M) for lo, hi in plan.zones)
+        )
+        self._key += 1
+        self.book.set_locks(LockEntry(self._key, self.vehicle.s, self.vehicle.hull()))
+        self._released_at_s = self.vehicle.s
+
+    def step(self, dt: float) -> None:
+        """Advance the AGV by ``dt`` seconds of simulated time."""
+        if self.failed:
+            return
+        now = self.node.now()
+        vehicle = self.vehicle
+        if self._dest is not None:
+            limit = self.book.lock_end(default=vehicle.s)
+            moved = vehicle.step(dt, limit)
+            if moved > 0.0:
+                self._waiting_since = None
+            elif self._waiting_since is None:
+                self._waiting_since = now
+            self._request_ahead(now)
+            if now >= self._next_release:
+                self._next_release = now + self.config.t_update
+                if self._requester is not None:
+                    self._requester.check()
+                if vehicle.s > self._released_at_s + 1e-6:
+                    self._release()
+            if vehicle.speed == 0.0 and vehicle.remaining() < 1e-6:
+                self._release()
+                self._arrived(now)
+        else:
+            self._waiting_since = None
+            self._idle(now)
+
+    def stalled_for(self, now: float) -> float:
+        """Seconds the AGV has wanted to move without moving (0 if moving or resting)."""
+        return 0.0 if self._waiting_since is None else now - self._waiting_since
+
+    def _request_ahead(self, now: float) -> None:
+        if self._requester is not None or self._plan is None or now < self._retry_at:
+            return
+        vehicle, spec, book = self.vehicle, self.spec, self.book
+        lock_end = book.lock_end(default=vehicle.s)
+        if lock_end >= self._plan.length - 1e-9:
+            return
+        safe_time = 2 * self.config.t_update
+        need = spec.braking_distance(spec.max_speed_m_s) + spec.max_speed_m_s * (safe_time + 0.5)
+        if lock_end - vehicle.s > need:
+            return
+        end = self._plan.next_stop(lock_end, self.config.advance_m)
+        area = hull_projection(
+            vehicle.route, lock_end, end, length=spec.length_m, width=spec.width_m
+        )
+        if book.hits_stale(area):
+            self._retry_at = now + self.config.retry
+            return
+        self._key += 1
+        entry = RequestEntry(self._key, end, area, book.next_priority(now, self.node_id))
+        book.add_request(entry)
+        self.publish()
+        requester = Requester(
+            entry,
+            safe_time=safe_time,
+            group_view=self._group_view,
+            on_done=lambda outcome: self._request_done(requester, outcome),
+            tally=self.tally,
+        )
+        self._requester = requester
+        self.node.start_interaction(requester, self.definition, "voter")
+
+    def _request_done(self, requester: Requester, outcome: str) -> None:
+        if self._requester is not requester:
+            return
+        self._requester = None
+        now = self.node.now()
+        if outcome == "locked":
+            if self._on_lock_wait is not None:
+                self._on_lock_wait(now - requester.entry.priority[0])
+        else:
+            self._retry_at = now + self.config.retry
+            self.publish()
+
+    def _release(self) -> None:
+        vehicle, spec, book = self.vehicle, self.spec, self.book
+        lock_end = book.lock_end(default=vehicle.s)
+        area = projection_ahead(
+            vehicle.route, vehicle.s, lock_end, length=spec.length_m, width=spec.width_m
+        )
+        self._key += 1
+        book.set_locks(LockEntry(self._key, lock_end, area))
+        self._released_at_s = vehicle.s
+        # Shrinking is optional for safety (the old circle still covers what is left);
+        # publish it when it is worth the message: fewer AGVs in our next groups.
+        published = self.node.properties.get("hull_length")
+        if not isinstance(published, float) or self.current_hull_length() < published - 2.0:
+            self.publish()
+
+    def _arrived(self, now: float) -> None:
+        assert self._dest is not None
+        self.point = self._dest
+        self._dest = None
+        self._plan = None
+        if self.phase == "to_pick":
+            self.phase = "at_pick"
+            self._dwell_until = now + self.config.dwell
+        elif self.phase == "to_drop":
+            self.phase = "at_drop"
+            self._dwell_until = now + self.config.dwell
+        else:
+            self.phase = "home"
+        self.publish()
+
+    def _idle(self, now: float) -> None:
+        if self.phase == "home" and self.point == self.home and self.pending_task is None:
+            return
+        if self.phase in ("at_pick", "at_drop") and now < self._dwell_until:
+            return
+        if self.phase == "at_pick" and self.task is not None:
+            self.phase = "to_drop"
+            self._route_to(self.layout.station(self.task.drop).point)
+        elif self.phase == "at_drop" and self.task is not None:
+            done = self.task.id
+            self.task = None
+            self.last_done = done
+            self.node.update_node_property("last_done", done)
+            self.node.update_node_property("task", None)
+            if self._on_task_done is not None:
+                self._on_task_done(done)
+            self._go_home()
+        elif self.pending_task is not None:
+            self.task, self.pending_task = self.pending_task, None
+            self.phase = "to_pick"
+            self._route_to(self.layout.station(self.task.pick).point)
+        elif self.phase != "home" or self.point != self.home:
+            self._go_home()
+        if self._dest is None and self.phase in ("to_pick", "to_drop"):
+            # Already standing there.
+            self.phase = "at_pick" if self.phase == "to_pick" else "at_drop"
+            self._dwell_until = now + self.config.dwell
+        self.publish()
+
+    def _go_home(self) -> None:
+        self.phase = "to_home"
+        self._route_to(self.home)
+        if self._dest is None:
+            self.phase = "home"

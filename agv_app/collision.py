@@ -1,0 +1,465 @@
+"""Collision avoidance: the paper's mutual exclusion over hull projections.
+
+Roles on ObjectPlaces (DESIGN.md, "The AGV application"):
+
+* :class:`Requester` (initiator) asks every member of its collision group
+  (``circles_overlap``) to allow a hull projection with a totally ordered priority
+  ``(request start time, node id)``; members that join late get the request too;
+  members that leave no longer count. It locks only when every current member
+  allowed, every node its own view puts in the group is such a member (an activation
+  still on its way counts as a missing vote), and the safe time ``2 * t_update`` has
+  passed since the session started. Then it writes the lock to the tuplespace and
+  stops the session.
+* :class:`Voter` (participant) allows iff the request overlaps none of its AGV's
+  requested or locked projections, or only requested ones of lower priority, and the
+  requester is in the voter's own group (``view_group``). Otherwise it defers and
+  re-evaluates whenever its AGV's area shrinks (tuplespace notify) and every
+  ``recheck`` seconds (its view of the requester may catch up).
+
+Priorities must be fresh: a voter that allowed a request may later request only
+with a lower priority, or it could win a conflict with a request it already allowed.
+The request start time alone does not ensure that when both start in the same
+instant, so a node's priority time is also later than every priority it has allowed
+(:meth:`LockBook.next_priority`). A retry is a new request with a new priority.
+
+One addition keeps requests from waiting on each other in a circle: a voter that
+defers because of one of its *locks* says so, and the requester withdraws (stops the
+session and drops its request) and retries later with a fresh priority. A request
+blocked by a lock can only proceed once that lock's owner moves, and the owner may
+need area the blocked request holds as "requested" with a higher priority; withdrawing
+frees it. A pending request is thus only ever held up by requests of higher priority,
+and the highest one in any cluster is held up by nothing.
+
+Bookkeeping lives in the node's tuplespace (:class:`LockBook`), which the driving
+component, the requester and every voter on the node share:
+
+* ``("lock", key, end_s, area)``: a locked projection (``end_s`` is the arc length of
+  the route the lock reaches);
+* ``("request", key, end_s, area, priority)``: the pending request;
+* ``("stale", node_id, x, y, radius)``: the last known circle of a failed AGV, which
+  nobody may lock into;
+* ``("allowed", time)``: the latest priority time this node's voters allowed.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from agv_app.geometry import Area, coords_to_polygon, overlaps, polygon_to_coords
+from objectplaces import Initiator, Participant, ParticipantRef, groups
+from objectplaces.core.codec import encode_value
+from objectplaces.groups import GroupDefinition
+from tuplespace import ANY, NotifyHandle, TupleSpace
+
+__all__ = [
+    "AGV_KIND",
+    "LockBook",
+    "LockEntry",
+    "MessageTally",
+    "Priority",
+    "RequestEntry",
+    "Requester",
+    "StaleRecord",
+    "Voter",
+    "broadcast_group",
+    "collision_group",
+    "decide_vote",
+    "request_coords",
+    "stale_area",
+]
+
+AGV_KIND = "agv"
+"""Value of the ``kind`` property every AGV publishes (stations publish others)."""
+
+Priority = tuple[float, str]
+"""``(request start time, node id)``: smaller is higher; ties impossible across nodes."""
+
+MessageTally = Callable[[str, int], None]
+"""Counts one protocol message of a type and its encoded size in bytes."""
+
+
+def collision_group() -> GroupDefinition:
+    """The collision-avoidance group: AGVs whose hull projection circles overlap.
+
+    ``circles_overlap()`` restricted to AGVs, so stations (which have a position but
+    no voter role) are not invited to decline every session.
+    """
+    return groups.circles_overlap() & groups.property_equals("kind", AGV_KIND)
+
+
+def broadcast_group() -> GroupDefinition:
+    """Every AGV, wherever it is: the comparison mode without groups."""
+    return groups.property_equals("kind", AGV_KIND)
+
+
+@dataclass(frozen=True, slots=True)
+class LockEntry:
+    """A locked hull projection reaching arc length ``end_s`` of the route."""
+
+    key: int
+    end_s: float
+    area: Area
+
+
+@dataclass(frozen=True, slots=True)
+class RequestEntry:
+    """The pending request of this node's AGV."""
+
+    key: int
+    end_s: float
+    area: Area
+    priority: Priority
+
+
+@dataclass(frozen=True, slots=True)
+class StaleRecord:
+    """What a failed AGV may still cover: its last published circle."""
+
+    node_id: str
+    x: float
+    y: float
+    radius: float
+
+
+def stale_area(record: StaleRecord) -> Area:
+    """The circle of a stale record as an area (polygon drawn outside the circle)."""
+    import shapely
+
+    # 64 segments drawn from a radius grown by 1/cos(pi/64) circumscribe the circle.
+    r = record.radius / 0.9988 + 0.01
+    return Area(shapely.Point(record.x, record.y).buffer(r, quad_segs=16))
+
+
+class LockBook:
+    """Typed access to the collision tuples of one node's tuplespace.
+
+    Args:
+        space: the node's tuplespace.
+    """
+
+    __slots__ = ("space",)
+
+    def __init__(self, space: TupleSpace) -> None:
+        self.space = space
+
+    def locks(self) -> list[LockEntry]:
+        """Locked projections, oldest first."""
+        return [LockEntry(t[1], t[2], t[3]) for t in self.space.rd_all(("lock", ANY, ANY, ANY))]
+
+    def request(self) -> RequestEntry | None:
+        """The pending request, if any."""
+        t = self.space.rdp(("request", ANY, ANY, ANY, ANY))
+        return None if t is None else RequestEntry(t[1], t[2], t[3], t[4])
+
+    def lock_end(self, default: float = 0.0) -> float:
+        """The furthest arc length any lock reaches (``default`` without locks)."""
+        return max((e.end_s for e in self.locks()), default=default)
+
+    def add_request(self, entry: RequestEntry) -> None:
+        """Record the pending request (there is at most one)."""
+        self.space.out(("request", entry.key, entry.end_s, entry.area, entry.priority))
+
+    def grant(self, key: int) -> LockEntry | None:
+        """Turn the request ``key`` into a lock (written before the request is taken)."""
+        t = self.space.rdp(("request", key, ANY, ANY, ANY))
+        if t is None:
+            return None
+        entry = LockEntry(key, t[2], t[3])
+        self.space.out(("lock", key, entry.end_s, entry.area))
+        self.space.inp(("request", key, ANY, ANY, ANY))
+        return entry
+
+    def withdraw(self, key: int) -> bool:
+        """Drop the request ``key``; False if it was not pending."""
+        return self.space.inp(("request", key, ANY, ANY, ANY)) is not None
+
+    def set_locks(self, entry: LockEntry) -> None:
+        """Replace every lock by ``entry`` (the release: new lock written first)."""
+        old = self.space.rd_all(("lock", ANY, ANY, ANY))
+        self.space.out(("lock", entry.key, entry.end_s, entry.area))
+        for t in old:
+            self.space.inp(t)
+
+    def clear(self) -> None:
+        """Drop every lock and request (the node restarts from nothing)."""
+        self.space.in_all(("lock", ANY, ANY, ANY))
+        self.space.in_all(("request", ANY, ANY, ANY, ANY))
+
+    def note_allowed(self, priority: Priority) -> None:
+        """Remember that this node allowed a request of ``priority``."""
+        t = self.space.rdp(("allowed", ANY))
+        if t is None or t[1] < priority[0]:
+            self.space.out(("allowed", priority[0]))
+            if t is not None:
+                self.space.inp(t)
+
+    def next_priority(self, now: float, node_id: str) -> Priority:
+        """A priority for a new request: lower than any this node has allowed."""
+        t = self.space.rdp(("allowed", ANY))
+        if t is None or t[1] < now:
+            return (now, node_id)
+        return (float(t[1]) + 1e-6, node_id)
+
+    def stale(self) -> list[StaleRecord]:
+        """Stale-node records, oldest first."""
+        return [
+            StaleRecord(t[1], t[2], t[3], t[4])
+            for t in self.space.rd_all(("stale", ANY, ANY, ANY, ANY))
+        ]
+
+    def add_stale(self, record: StaleRecord) -> None:
+        """Record a failed AGV's circle (replacing an older record of the same node)."""
+        self.drop_stale(record.node_id)
+        self.space.out(("stale", record.node_id, record.x, record.y, record.radius))
+
+    def drop_stale(self, node_id: str) -> bool:
+        """Forget the record of ``node_id`` (it came back); False if there was none."""
+        return bool(self.space.in_all(("stale", node_id, ANY, ANY, ANY)))
+
+    def hits_stale(self, area: Area) -> bool:
+        """True if ``area`` overlaps the circle of any stale record."""
+        return any(overlaps(area, stale_area(r), tolerance_m2=0.0) for r in self.stale())
+
+
+def decide_vote(
+    request: Area,
+    priority: Priority,
+    requester: str,
+    book: LockBook,
+    group: frozenset[str],
+) -> str:
+    """The voter's rule: ``"allow"``, or why not: ``"group"``, ``"lock"`` or ``"priority"``.
+
+    Args:
+        request: the requested projection (as received).
+        priority: the requester's priority.
+        requester: the requester's node id.
+        book: the voter node's bookkeeping.
+        group: the voter's own collision group, from its view.
+    """
+    if requester not in group:
+        return "group"
+    for lock in book.locks():
+        if overlaps(request, lock.area):
+            return "lock"
+    own = book.request()
+    if own is not None and overlaps(request, own.area) and not priority < own.priority:
+        return "priority"
+    return "allow"
+
+
+def request_coords(area: Area, *, grow_m: float = 0.1, tolerance_m: float = 0.08) -> Any:
+    """Wire form of a requested projection: grown by ``grow_m``, then simplified.
+
+    Simplifying by less than it was grown keeps the original inside, so a voter never
+    under-estimates the request; far fewer vertices travel (turn arcs are smooth).
+    """
+    grown = area.geom.buffer(grow_m, join_style="mitre").simplify(tolerance_m)
+    return polygon_to_coords(Area(grown), margin_m=0.0)
+
+
+def _tally_send(tally: MessageTally | None, kind: str, message: Any) -> None:
+    if tally is not None:
+        tally(kind, len(encode_value(message)))
+
+
+class Requester(Initiator):
+    """Asks the collision group to allow one hull projection, then locks it.
+
+    Args:
+        entry: the request, already recorded in the node's :class:`LockBook`.
+        safe_time: seconds to wait at least before locking (``2 * t_update``).
+        group_view: the node's current view of the collision group (``view_group``).
+        on_done: called once with ``"locked"`` or ``"withdrawn"``.
+        tally: counts the messages sent.
+    """
+
+    def __init__(
+        self,
+        entry: RequestEntry,
+        *,
+        safe_time: float,
+        group_view: Callable[[], frozenset[str]],
+        on_done: Callable[[str], None],
+        tally: MessageTally | None = None,
+    ) -> None:
+        self.entry = entry
+        self.safe_time = safe_time
+        self._group_view = group_view
+        self._on_done = on_done
+        self._tally = tally
+        self._votes: dict[str, bool] = {}
+        self._message: dict[str, Any] = {
+            "t": "req",
+            "k": entry.key,
+            "p": [entry.priority[0], entry.priority[1]],
+            "a": request_coords(entry.area),
+        }
+        self._started_at: float | None = None
+        self.done = ""
+        """``""`` while pending, then ``"locked"`` or ``"withdrawn"``."""
+
+    @property
+    def votes(self) -> Mapping[str, bool]:
+        """Current members by node id, and whether each allowed."""
+        return self._votes
+
+    def started(self) -> None:
+        """Remember the start time and check again once the safe time has passed."""
+        self._started_at = self.now()
+        self.call_later(self.safe_time, self._check)
+
+    def in_group(self, participant: ParticipantRef) -> None:
+        """A new member (late joiners too) gets the request; the lock waits for its vote."""
+        self._votes[participant.node_id] = False
+        self.send(participant, self._message)
+        _tally_send(self._tally, "request", self._message)
+
+    def out_group(self, participant: ParticipantRef) -> None:
+        """A member left: its vote no longer counts.
+
+        The check runs after the events of this instant, so that a departure's stale
+        record is written before the requester decides.
+        """
+        self._votes.pop(participant.node_id, None)
+        self.call_later(0.0, self._check)
+
+    def receive(self, participant: ParticipantRef, message: Any) -> None:
+        """A vote: ``allow`` counts; a deferral because of a lock withdraws the request."""
+        if not isinstance(message, dict) or self.done:
+            return
+        if message.get("t") == "allow":
+            self._votes[participant.node_id] = True
+            self._check()
+        elif message.get("t") == "defer" and message.get("why") == "lock":
+            self._finish("withdrawn")
+
+    def check(self) -> None:
+        """Re-check whether the lock can be taken (the driver calls it periodically)."""
+        self._check()
+
+    def _check(self) -> None:
+        if self.done or self._started_at is None:
+            return
+        book = LockBook(self.space)
+        if book.hits_stale(self.entry.area):
+            self._finish("withdrawn")
+            return
+        if self._started_at is None or self.now() - self._started_at < self.safe_time - 1e-9:
+            return
+        if not all(self._votes.values()):
+            return
+        if not self._group_view() <= self._votes.keys():
+            return  # someone in our view has not joined (or answered) yet
+        self._finish("locked")
+
+    def _finish(self, outcome: str) -> None:
+        self.done = outcome
+        book = LockBook(self.space)
+        if outcome == "locked":
+            book.grant(self.entry.key)
+        else:
+            book.withdraw(self.entry.key)
+        self.stop()
+        self._on_done(outcome)
+
+
+class Voter(Participant):
+    """Votes on other AGVs' requests for this node's AGV.
+
+    Args:
+        group_view: the node's current view of the collision group (``view_group``).
+        recheck: seconds between re-evaluations of a deferred request.
+        tally: counts the messages sent.
+    """
+
+    def __init__(
+        self,
+        group_view: Callable[[], frozenset[str]],
+        *,
+        recheck: float = 0.5,
+        tally: MessageTally | None = None,
+    ) -> None:
+        self._group_view = group_view
+        self._recheck = recheck
+        self._tally = tally
+        self._area: Area | None = None
+        self._priority: Priority = (0.0, "")
+        self._said = ""
+        self._watches: list[NotifyHandle] = []
+        self._active = False
+
+    @property
+    def verdict(self) -> str:
+        """What this voter last said: ``""`` (nothing yet), ``"allow"`` or a reason."""
+        return self._said
+
+    def in_group_of(self, initiator: Any) -> None:
+        """Start watching this node's locks and request for releases."""
+        self._active = True
+
+    def out_group_of(self, initiator: Any) -> None:
+        """The session ended or this node left the group: stop watching."""
+        self._active = False
+        self._unwatch()
+
+    def _unwatch(self) -> None:
+        for handle in self._watches:
+            handle.cancel()
+        self._watches = []
+
+    def receive(self, message: Any) -> None:
+        """The request: evaluate it at once."""
+        if not isinstance(message, dict) or message.get("t") != "req" or self._area is not None:
+            return
+        try:
+            self._area = coords_to_polygon(message["a"])
+            p = message["p"]
+            self._priority = (float(p[0]), str(p[1]))
+        except (KeyError, IndexError, TypeError, ValueError):
+            return
+        self._evaluate()
+
+    def _on_space(self, kind: str, tup: tuple[Any, ...]) -> None:
+        if self._active and self._said != "allow":
+            # Not from inside the tuplespace operation: the AGV may be mid-update.
+            self.call_later(0.0, self._evaluate)
+
+    def _evaluate(self) -> None:
+        if not self._active or self._area is None or self._said == "allow":
+            return
+        book = LockBook(self.space)
+        verdict = decide_vote(
+            self._area, self._priority, self.initiator.node_id, book, self._group_view()
+        )
+        if verdict == "allow":
+            self._unwatch()
+            self._said = "allow"
+            book.note_allowed(self._priority)
+            message: dict[str, Any] = {"t": "allow"}
+            self.send(message)
+            _tally_send(self._tally, "vote", message)
+            return
+        if not self._watches:
+            space: TupleSpace = self.space
+            # Our area only shrinks when a lock or our request is taken out.
+            self._watches = [
+                space.notify(("lock", ANY, ANY, ANY), self._on_space, on="in"),
+                space.notify(("request", ANY, ANY, ANY, ANY), self._on_space, on="in"),
+            ]
+            self._schedule_recheck()
+        if verdict != self._said:
+            self._said = verdict
+            message = {"t": "defer", "why": verdict}
+            self.send(message)
+            _tally_send(self._tally, "vote", message)
+
+    def _schedule_recheck(self) -> None:
+        def again() -> None:
+            if self._active and self._said != "allow":
+                self._evaluate()
+                self._schedule_recheck()
+
+        self.call_later(self._recheck, again)

@@ -1,0 +1,135 @@
+"""A station: a fixed node where transport tasks appear and are auctioned one at a time.
+
+The station publishes its position (and ``kind = "station"``), queues the tasks that
+appear at it, and runs a :class:`~agv_app.tasks.TaskAnnouncer` for the oldest. It
+remembers which AGV won each task until that AGV publishes the task as done
+(``last_done``); if the winner's node fails first, the task goes back to the front of
+the queue (never lost). Without a bid for ``widen_after`` seconds the auction restarts
+with twice the range, and finally with no range limit.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from collections.abc import Callable, Mapping
+from typing import Any
+
+from agv_app.collision import MessageTally
+from agv_app.geometry import XY
+from agv_app.tasks import TaskAnnouncer, TaskSpec, bidder_group
+from objectplaces import RoleActivator, Session
+
+__all__ = ["STATION_KIND", "Station"]
+
+STATION_KIND = "station"
+"""Value of the ``kind`` property stations publish."""
+
+
+class Station:
+    """The task-assignment component of one station node.
+
+    Args:
+        node: the station's node.
+        station_id: the layout's station id.
+        position: where it stands.
+        range_m: first auction range.
+        window: bidding window, seconds.
+        widen_after: seconds without a bid before the range doubles.
+        on_assigned: called with ``(task, agv)`` on every award.
+        tally: counts protocol messages.
+    """
+
+    def __init__(
+        self,
+        node: RoleActivator,
+        station_id: str,
+        position: XY,
+        *,
+        range_m: float = 30.0,
+        window: float = 1.5,
+        widen_after: float = 10.0,
+        on_assigned: Callable[[TaskSpec, str], None] | None = None,
+        tally: MessageTally | None = None,
+    ) -> None:
+        self.node = node
+        self.station_id = station_id
+        self.position = position
+        self.range_m = range_m
+        self.window = window
+        self.widen_after = widen_after
+        self._on_assigned = on_assigned
+        self._tally = tally
+        self.queue: deque[TaskSpec] = deque()
+        self.assigned: dict[str, tuple[TaskSpec, str]] = {}
+        """Tasks awarded and not yet seen done: task id -> (task, winner)."""
+        self.returned = 0
+        """Tasks put back because their AGV failed."""
+        self._session: Session | None = None
+        self._announcer: TaskAnnouncer | None = None
+        self._range: float | None = range_m
+        self._generation = 0
+        node.update_node_property("kind", STATION_KIND)
+        node.update_node_property("position", position)
+        node.register_node_departure_observer(self._departed)
+        node.register_node_property_observer(self._property)
+
+    @property
+    def current(self) -> TaskSpec | None:
+        """The task being auctioned, if any."""
+        return None if self._announcer is None else self._announcer.task
+
+    def add_task(self, task: TaskSpec) -> None:
+        """Queue a task that appeared here; its auction starts when it is first in line."""
+        self.queue.append(task)
+        self._next()
+
+    def _next(self) -> None:
+        if self._session is not None or not self.queue:
+            return
+        self._range = self.range_m
+        self._start(self.queue[0])
+
+    def _start(self, task: TaskSpec) -> None:
+        announcer = TaskAnnouncer(
+            task, window=self.window, on_awarded=self._awarded, tally=self._tally
+        )
+        self._announcer = announcer
+        self._session = self.node.start_interaction(announcer, bidder_group(self._range), "bidder")
+        self._generation += 1
+        generation = self._generation
+        self.node.call_later(self.widen_after, lambda: self._maybe_widen(generation))
+
+    def _maybe_widen(self, generation: int) -> None:
+        announcer, session = self._announcer, self._session
+        if generation != self._generation or announcer is None or session is None:
+            return
+        if announcer.winner is not None or announcer.bids:
+            return
+        self.node.stop_interaction(session)
+        self._range = None if self._range is None or self._range > 200 else self._range * 2
+        self._start(announcer.task)
+
+    def _awarded(self, task: TaskSpec, agv: str) -> None:
+        self.assigned[task.id] = (task, agv)
+        if self.queue and self.queue[0].id == task.id:
+            self.queue.popleft()
+        self._session = None
+        self._announcer = None
+        if self._on_assigned is not None:
+            self._on_assigned(task, agv)
+        self.node.call_later(0.0, self._next)
+
+    def _property(self, node_id: str, name: str, value: Any) -> None:
+        if name == "last_done" and isinstance(value, str):
+            entry = self.assigned.get(value)
+            if entry is not None and entry[1] == node_id:
+                del self.assigned[value]
+
+    def _departed(self, node_id: str, last: Mapping[str, Any]) -> None:
+        done = last.get("last_done")
+        for task_id, (task, agv) in sorted(self.assigned.items()):
+            if agv == node_id and done != task_id:
+                del self.assigned[task_id]
+                self.returned += 1
+                self.queue.appendleft(task)
+        self._next()
