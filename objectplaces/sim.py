@@ -176,8 +176,14 @@ class SimulatedNetwork:
         space = space if space is not None else TupleSpace(clock=self._now)
         machine = NodeMachine(node_id, now=self.now, config=config, space=space)
         node = _SimNode(self, machine, space)
+        restarted = self._network.attached_before(node_id)
         self._nodes[node_id] = node
         self._network.attach(node_id, node.deliver, node.sync)
+        if restarted:
+            for other in self._nodes.values():
+                if other is not node:
+                    other.machine.peer_restarted(node_id, self.now)
+                    other.wake()
         node.wake()
         return node.activator
 

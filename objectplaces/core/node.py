@@ -338,6 +338,14 @@ class NodeMachine:
             case Leave():
                 self._depart(source, reason="left")
 
+    def peer_restarted(self, peer: str, now: float) -> None:
+        """``peer`` is back as a new run: forget the old run's groups, sequence numbers
+        and closed channels, so the new run's properties and sessions count at once."""
+        self.now = now
+        self._depart(peer, reason="restarted")
+        for key in [k for k in self._tombstones if k[0] == peer]:
+            del self._tombstones[key]
+
     def peer_joined(self, peer: str, now: float) -> None:
         """A peer (re)connected: send it our properties so its view is complete at once."""
         self.now = now

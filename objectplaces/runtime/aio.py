@@ -59,6 +59,12 @@ class AsyncioRunner:
         self.machine.receive_message(source, message, self._loop.time(), size=size)
         self.wake()
 
+    def peer_restarted(self, peer: str) -> None:
+        """``peer`` reconnected as a new run of itself: its old run is gone."""
+        if not self.closed:
+            self.machine.peer_restarted(peer, self._loop.time())
+            self.wake()
+
     def peer_joined(self, peer: str) -> None:
         """A full-dissemination peer (re)connected: it gets our properties."""
         if not self.closed:

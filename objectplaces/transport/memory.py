@@ -142,6 +142,10 @@ class MemoryNetwork:
         if cell is not None:
             self._publishers_in[cell].pop(node, None)
 
+    def attached_before(self, node: str) -> bool:
+        """True when ``node`` has been on this network at some time (live or not)."""
+        return node in self._incarnations
+
     def __contains__(self, node: object) -> bool:
         return node in self._nodes
 

@@ -38,7 +38,6 @@ from websockets.exceptions import ConnectionClosed, InvalidHandshake, InvalidURI
 from objectplaces.core import codec
 from objectplaces.core.errors import DecodeError, LocalProtocolError
 from objectplaces.core.events import Broadcast, Output, Publish, Send, Subscribe
-from objectplaces.core.messages import Leave
 from objectplaces.runtime.aio import AsyncioRunner
 from objectplaces.transport.mesh_frames import (
     NONCE_SIZE,
@@ -676,8 +675,7 @@ class WebSocketMesh:
         assert runner is not None
         if previous is not None and previous != link.incarnation:
             # The peer restarted: its earlier run is gone, with its sessions and roles.
-            # Told as a Leave, so the machine also forgets that run's sequence numbers.
-            runner.deliver(peer, Leave(), 0)
+            runner.peer_restarted(peer)
         self._drop_subscription(peer)
         if self._subscribed:
             self._enqueue(link, encode_subscribe(self._own_subscription))

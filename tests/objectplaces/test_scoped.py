@@ -28,7 +28,7 @@ def scenario(
     nodes = {n: net.add_node(n, interest_radius=interest_radius) for n in names}
     for n, node in nodes.items():
         node.set_participant_factory("voter", lambda: RecordingParticipant(log))
-        place(node, *pos[n], radius[n])
+        place(node, pos[n][0], pos[n][1], radius[n])
     net.run_for(0.5)
     roles = {n: RecordingInitiator() for n in names[::5]}
     for n, role in roles.items():

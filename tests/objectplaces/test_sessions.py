@@ -328,3 +328,27 @@ def test_same_seed_same_run() -> None:
         return role.log, net.stats().bytes
 
     assert run() == run()
+
+
+def test_a_restarted_node_counts_at_once_with_its_properties_and_sessions() -> None:
+    net = SimulatedNetwork(seed=22, property_interval=0.5, failure_timeout=30.0)
+    log: list[Event] = []
+    n = fleet(net, "ab", log)
+    place(n["b"], 1, 0)
+    net.run_for(1.0)
+    old = RecordingInitiator()
+    n["b"].start_interaction(old, groups.within(5), "voter")
+    net.run_for(1.0)
+    assert old.membership() == [("in", "a")]
+    net.remove_node("b")  # crash, then come back long before the failure timeout
+    net.run_for(1.0)
+    b = net.add_node("b")
+    place(b, 2, 0, 1.0)
+    net.run_for(0.1)
+    assert n["a"].view()["b"]["position"] == (2.0, 0.0)  # new sequence numbers count
+    assert ("a", "out_group_of", "b") in log  # the old run's session is gone
+    new = RecordingInitiator()
+    session = b.start_interaction(new, groups.within(5), "voter")
+    assert session.session_id == "b#1"  # the same number as the old run's session
+    net.run_for(0.2)
+    assert new.membership() == [("in", "a")]
