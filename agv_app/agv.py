@@ -62,7 +62,7 @@ class AgvConfig:
     t_update: float = 1.0
     advance_m: float = 5.0
     dwell: float = 5.0
-    retry: float = 1.0
+    retry: float = 0.2
     hull_margin_m: float = 0.05
     broadcast: bool = False
 
@@ -126,6 +126,7 @@ class AgvController:
         self._next_release = 0.0
         self._released_at_s = 0.0
         self._waiting_since: float | None = None
+        self._first_try: tuple[float, float] | None = None
         self.node = node
         self.attach(node)
 
@@ -157,7 +158,12 @@ class AgvController:
         book.set_locks(LockEntry(self._key, self.vehicle.s, self.vehicle.hull()))
         node.set_participant_factory(
             "voter",
-            lambda: Voter(self._group_view, recheck=self.config.t_update / 2, tally=self.tally),
+            lambda: Voter(
+                self._group_view,
+                view=self.node.view,
+                recheck=self.config.t_update / 2,
+                tally=self.tally,
+            ),
         )
         node.set_participant_factory("bidder", lambda: Bidder(self, tally=self.tally))
         node.register_node_departure_observer(self._departed)
@@ -268,12 +274,18 @@ class AgvController:
         """Start driving to point ``dest`` (None: stay), from the point we rest on."""
         self._dest = dest
         self._waiting_since = None
+        self._first_try = None
         if dest is None or dest == self.point:
             self._plan = None
             self._dest = None
             return
         route = self.layout.route(self.point, dest)
         heading = self.vehicle.pose().heading_rad
+        ahead = route.polyline.piece_heading(0)
+        if abs(math.remainder(ahead - heading, math.tau)) > math.pi / 2:
+            # The hull is symmetric: facing backwards is the same rectangle, so the
+            # vehicle drives off the other way instead of turning on the spot.
+            heading += math.pi
         x0, y0 = route.polyline.start
         lead = (x0 - _LEAD_M * math.cos(heading), y0 - _LEAD_M * math.sin(heading))
         self.vehicle.new_route(Polyline([lead, *route.polyline.coords]), s=_LEAD_M)
@@ -335,7 +347,10 @@ class AgvController:
             self._retry_at = now + self.config.retry
             return
         self._key += 1
-        entry = RequestEntry(self._key, end, area, book.next_priority(now, self.node_id))
+        if self._first_try is None or self._first_try[0] != lock_end:
+            self._first_try = (lock_end, now)
+        priority = book.next_priority(self._first_try[1], self.node_id, area)
+        entry = RequestEntry(self._key, end, area, priority)
         book.add_request(entry)
         self.publish()
         requester = Requester(

@@ -16,15 +16,17 @@ Roles on ObjectPlaces (DESIGN.md, "The AGV application"):
   re-evaluates whenever its AGV's area shrinks (tuplespace notify) and every
   ``recheck`` seconds (its view of the requester may catch up).
 
-Priorities must be fresh: a voter that allowed a request may later request only
-with a lower priority, or it could win a conflict with a request it already allowed.
-The request start time alone does not ensure that when both start in the same
-instant, so a node's priority time is also later than every priority it has allowed
-(:meth:`LockBook.next_priority`). A retry is a new request with a new priority.
+A voter that allowed a request must not later win a conflict with it: its own
+requests that overlap a request it allowed (still pending: the voter is still in its
+session) get a lower priority than that one (:meth:`LockBook.next_priority`). Within
+that rule an AGV keeps the priority of its first attempt at a stretch across retries,
+so the one that has waited longest goes first (no starvation at a busy two-way lane).
 
 One addition keeps requests from waiting on each other in a circle: a voter that
-defers because of one of its *locks* says so, and the requester withdraws (stops the
-session and drops its request) and retries later with a fresh priority. A request
+defers because of one of its *locks* says so, and a requester still held up by a lock
+after ``patience`` seconds withdraws (stops the session and drops its request) and
+retries later with a fresh priority. (Most locks are released within that time as
+their owners drive on; keeping the request meanwhile keeps its place in line.) A request
 blocked by a lock can only proceed once that lock's owner moves, and the owner may
 need area the blocked request holds as "requested" with a higher priority; withdrawing
 frees it. A pending request is thus only ever held up by requests of higher priority,
@@ -38,7 +40,8 @@ component, the requester and every voter on the node share:
 * ``("request", key, end_s, area, priority)``: the pending request;
 * ``("stale", node_id, x, y, radius)``: the last known circle of a failed AGV, which
   nobody may lock into;
-* ``("allowed", time)``: the latest priority time this node's voters allowed.
+* ``("allowed", session, area, priority)``: a request this node's voter allowed
+  (leased: kept ``keep_allowed`` seconds).
 """
 
 from __future__ import annotations
@@ -47,7 +50,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from agv_app.geometry import Area, coords_to_polygon, overlaps, polygon_to_coords
+from agv_app.geometry import Area, coords_to_polygon, hull_length, overlaps, polygon_to_coords
 from objectplaces import Initiator, Participant, ParticipantRef, groups
 from objectplaces.core.codec import encode_value
 from objectplaces.groups import GroupDefinition
@@ -187,20 +190,28 @@ class LockBook:
         self.space.in_all(("lock", ANY, ANY, ANY))
         self.space.in_all(("request", ANY, ANY, ANY, ANY))
 
-    def note_allowed(self, priority: Priority) -> None:
-        """Remember that this node allowed a request of ``priority``."""
-        t = self.space.rdp(("allowed", ANY))
-        if t is None or t[1] < priority[0]:
-            self.space.out(("allowed", priority[0]))
-            if t is not None:
-                self.space.inp(t)
+    def note_allowed(self, session_id: str, area: Area, priority: Priority, *, keep: float) -> None:
+        """Remember for ``keep`` seconds that this node allowed a request.
 
-    def next_priority(self, now: float, node_id: str) -> Priority:
-        """A priority for a new request: lower than any this node has allowed."""
-        t = self.space.rdp(("allowed", ANY))
-        if t is None or t[1] < now:
-            return (now, node_id)
-        return (float(t[1]) + 1e-6, node_id)
+        Not forgotten when the voter leaves the session: the request may still be
+        pending (our vote merely stopped counting), and remembering too long only
+        lowers our own priority, which is always safe.
+        """
+        self.space.in_all(("allowed", session_id, ANY, ANY))
+        self.space.out(("allowed", session_id, area, priority), lease=keep)
+
+    def next_priority(self, wanted: float, node_id: str, area: Area) -> Priority:
+        """A priority for a new request over ``area``, at time ``wanted`` if it may.
+
+        It is lower than that of every pending request this node allowed that overlaps
+        ``area``.
+        """
+        mine: Priority = (wanted, node_id)
+        for t in self.space.rd_all(("allowed", ANY, ANY, ANY)):
+            theirs: Priority = t[3]
+            if mine <= theirs and overlaps(area, t[2]):
+                mine = (theirs[0] + 1e-6, node_id)
+        return mine
 
     def stale(self) -> list[StaleRecord]:
         """Stale-node records, oldest first."""
@@ -229,8 +240,16 @@ def decide_vote(
     requester: str,
     book: LockBook,
     group: frozenset[str],
+    circle: tuple[float, float, float] | None = None,
 ) -> str:
     """The voter's rule: ``"allow"``, or why not: ``"group"``, ``"lock"`` or ``"priority"``.
+
+    The group condition makes sure the voter's view already holds the requester's
+    new circle, so that any later request of the voter over the requested area
+    includes the requester. It holds when the requester is in the voter's group, or
+    when the requester's circle as the voter sees it covers the request (then the
+    voter's own circle need not reach it: a voter that just withdrew a request can
+    still allow others).
 
     Args:
         request: the requested projection (as received).
@@ -238,8 +257,9 @@ def decide_vote(
         requester: the requester's node id.
         book: the voter node's bookkeeping.
         group: the voter's own collision group, from its view.
+        circle: the requester's ``(x, y, hull_length)`` in the voter's view.
     """
-    if requester not in group:
+    if requester not in group and not _covers(circle, request):
         return "group"
     for lock in book.locks():
         if overlaps(request, lock.area):
@@ -250,7 +270,10 @@ def decide_vote(
     return "allow"
 
 
-def request_coords(area: Area, *, grow_m: float = 0.1, tolerance_m: float = 0.08) -> Any:
+_WIRE_GROWTH_M = 0.1
+
+
+def request_coords(area: Area, *, grow_m: float = _WIRE_GROWTH_M, tolerance_m: float = 0.08) -> Any:
     """Wire form of a requested projection: grown by ``grow_m``, then simplified.
 
     Simplifying by less than it was grown keeps the original inside, so a voter never
@@ -258,6 +281,15 @@ def request_coords(area: Area, *, grow_m: float = 0.1, tolerance_m: float = 0.08
     """
     grown = area.geom.buffer(grow_m, join_style="mitre").simplify(tolerance_m)
     return polygon_to_coords(Area(grown), margin_m=0.0)
+
+
+def _covers(circle: tuple[float, float, float] | None, area: Area) -> bool:
+    if circle is None:
+        return False
+    x, y, r = circle
+    # The area arrived grown for the wire (request_coords); the requester's real area,
+    # the one its circle covers, lies that much inside it.
+    return hull_length((x, y), [area]) <= r + _WIRE_GROWTH_M + 0.05
 
 
 def _tally_send(tally: MessageTally | None, kind: str, message: Any) -> None:
@@ -273,6 +305,7 @@ class Requester(Initiator):
         safe_time: seconds to wait at least before locking (``2 * t_update``).
         group_view: the node's current view of the collision group (``view_group``).
         on_done: called once with ``"locked"`` or ``"withdrawn"``.
+        patience: seconds a voter's lock may hold the request up before it withdraws.
         tally: counts the messages sent.
     """
 
@@ -281,6 +314,7 @@ class Requester(Initiator):
         entry: RequestEntry,
         *,
         safe_time: float,
+        patience: float = 4.0,
         group_view: Callable[[], frozenset[str]],
         on_done: Callable[[str], None],
         tally: MessageTally | None = None,
@@ -290,7 +324,9 @@ class Requester(Initiator):
         self._group_view = group_view
         self._on_done = on_done
         self._tally = tally
+        self.patience = patience
         self._votes: dict[str, bool] = {}
+        self._blocked: dict[str, float] = {}
         self._message: dict[str, Any] = {
             "t": "req",
             "k": entry.key,
@@ -324,17 +360,24 @@ class Requester(Initiator):
         record is written before the requester decides.
         """
         self._votes.pop(participant.node_id, None)
+        self._blocked.pop(participant.node_id, None)
         self.call_later(0.0, self._check)
 
     def receive(self, participant: ParticipantRef, message: Any) -> None:
         """A vote: ``allow`` counts; a deferral because of a lock withdraws the request."""
         if not isinstance(message, dict) or self.done:
             return
+        node = participant.node_id
         if message.get("t") == "allow":
-            self._votes[participant.node_id] = True
+            self._votes[node] = True
+            self._blocked.pop(node, None)
             self._check()
-        elif message.get("t") == "defer" and message.get("why") == "lock":
-            self._finish("withdrawn")
+        elif message.get("t") == "defer":
+            if message.get("why") != "lock":
+                self._blocked.pop(node, None)
+            elif node not in self._blocked:
+                self._blocked[node] = self.now()
+                self.call_later(self.patience, self._check)
 
     def check(self) -> None:
         """Re-check whether the lock can be taken (the driver calls it periodically)."""
@@ -344,10 +387,13 @@ class Requester(Initiator):
         if self.done or self._started_at is None:
             return
         book = LockBook(self.space)
-        if book.hits_stale(self.entry.area):
+        now = self.now()
+        if book.hits_stale(self.entry.area) or any(
+            now - since >= self.patience - 1e-9 for since in self._blocked.values()
+        ):
             self._finish("withdrawn")
             return
-        if self._started_at is None or self.now() - self._started_at < self.safe_time - 1e-9:
+        if now - self._started_at < self.safe_time - 1e-9:
             return
         if not all(self._votes.values()):
             return
@@ -371,7 +417,9 @@ class Voter(Participant):
 
     Args:
         group_view: the node's current view of the collision group (``view_group``).
+        view: the node's view of the others' properties (``RoleActivator.view``).
         recheck: seconds between re-evaluations of a deferred request.
+        keep_allowed: seconds an allowed request lowers this node's own priorities.
         tally: counts the messages sent.
     """
 
@@ -379,10 +427,14 @@ class Voter(Participant):
         self,
         group_view: Callable[[], frozenset[str]],
         *,
+        view: Callable[[], Mapping[str, Mapping[str, Any]]] | None = None,
         recheck: float = 0.5,
+        keep_allowed: float = 30.0,
         tally: MessageTally | None = None,
     ) -> None:
         self._group_view = group_view
+        self._view = view
+        self._keep = keep_allowed
         self._recheck = recheck
         self._tally = tally
         self._area: Area | None = None
@@ -422,6 +474,13 @@ class Voter(Participant):
             return
         self._evaluate()
 
+    def _circle_of(self, node_id: str) -> tuple[float, float, float] | None:
+        props = {} if self._view is None else self._view().get(node_id, {})
+        pos, radius = props.get("position"), props.get("hull_length")
+        if isinstance(pos, tuple | list) and len(pos) == 2 and isinstance(radius, int | float):
+            return (float(pos[0]), float(pos[1]), float(radius))
+        return None
+
     def _on_space(self, kind: str, tup: tuple[Any, ...]) -> None:
         if self._active and self._said != "allow":
             # Not from inside the tuplespace operation: the AGV may be mid-update.
@@ -431,13 +490,19 @@ class Voter(Participant):
         if not self._active or self._area is None or self._said == "allow":
             return
         book = LockBook(self.space)
+        requester = self.initiator.node_id
         verdict = decide_vote(
-            self._area, self._priority, self.initiator.node_id, book, self._group_view()
+            self._area,
+            self._priority,
+            requester,
+            book,
+            self._group_view(),
+            self._circle_of(requester),
         )
         if verdict == "allow":
             self._unwatch()
             self._said = "allow"
-            book.note_allowed(self._priority)
+            book.note_allowed(self.session_id, self._area, self._priority, keep=self._keep)
             message: dict[str, Any] = {"t": "allow"}
             self.send(message)
             _tally_send(self._tally, "vote", message)

@@ -48,7 +48,7 @@ class FleetConfig:
         reorder: probability a frame is held back (reordering).
         duplicate: probability a frame is duplicated.
         broadcast: vote with every AGV instead of the collision group.
-        task_interval: mean seconds between new tasks (None: ``120 / agvs``).
+        task_interval: mean seconds between new tasks (None: ``1200 / agvs``).
         task_until: no new tasks after this time (None: never).
         deadlock_after: an AGV stalled this long counts as a deadlock.
         station_range: first auction range of the stations.
@@ -220,7 +220,7 @@ class Fleet:
         return math.atan2(p.y - q.y, p.x - q.x)
 
     def _draw_interval(self) -> float:
-        mean = self.config.task_interval or 300.0 / max(self.config.agvs, 1)
+        mean = self.config.task_interval or 1200.0 / max(self.config.agvs, 1)
         return self.net.now + self.rng.expovariate(1.0 / mean)
 
     # -- tasks ----------------------------------------------------------------------------
