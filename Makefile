@@ -15,7 +15,7 @@ $(STAMP): pyproject.toml
 	@touch $@
 
 demo: $(STAMP)
-	$(BIN)/objectplaces --help
+	$(BIN)/objectplaces demo
 
 chromium:
 	@scripts/ensure-chromium.sh
