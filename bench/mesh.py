@@ -340,9 +340,7 @@ async def measure_mesh(size: int) -> dict[str, Any]:
 
 def position_frame() -> bytes:
     """A typical position update: metres with millimetre precision, a hull length."""
-    return codec.encode(
-        PropertyUpdate(12_345, {"position": (42.137, 17.5), "hull_length": 3.2})
-    )
+    return codec.encode(PropertyUpdate(12_345, {"position": (42.137, 17.5), "hull_length": 3.2}))
 
 
 def ws_bytes(payload: bytes, *, mask: bool) -> int:

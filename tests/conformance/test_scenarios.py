@@ -152,9 +152,7 @@ async def test_stop_deactivates_every_participant_and_leaves_no_state(net: Harne
     live = ("sessions", "members", "closing_channels", "participations", "role_timers")
 
     def clean() -> bool:
-        return all(
-            all(node.machine.state_counts()[k] == 0 for k in live) for node in [a, *others]
-        )
+        return all(all(node.machine.state_counts()[k] == 0 for k in live) for node in [a, *others])
 
     await net.until(lambda: clean() and all(t.log[-1].startswith("out") for t in tickers))
     assert len(tickers) == 3

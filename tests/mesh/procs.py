@@ -174,9 +174,7 @@ class Cluster:
 
     def start(self, node_id: str, *args: str, secret_file: Path | None = None) -> NodeProcess:
         """Start one node process."""
-        node = NodeProcess(
-            node_id, secret_file or self.secret_file, list(args), self.run_seconds
-        )
+        node = NodeProcess(node_id, secret_file or self.secret_file, list(args), self.run_seconds)
         self.nodes.append(node)
         return node
 

@@ -40,6 +40,7 @@ def cluster(tmp_path: Path):
 
 async def closed_with(ws, send: list[bytes | str]) -> tuple[int, str]:
     """Send frames, then wait for the node to close the link; returns (code, reason)."""
+
     async def talk() -> None:
         async with asyncio.timeout(15):
             for frame in send:

@@ -58,9 +58,11 @@ async def test_a_dropped_link_is_redialed_and_the_session_carries_on() -> None:
         await until(lambda: ("rx", "b") in recorder.log)
         a._mesh._links["b"].ws.transport.abort()  # the TCP connection dies under the link
         await until(
-            lambda: a.peer_stats()["b"].reconnects == 1 == b.peer_stats()["a"].reconnects
-            and a.peers() == ["b"]
-            and b.peers() == ["a"]
+            lambda: (
+                a.peer_stats()["b"].reconnects == 1 == b.peer_stats()["a"].reconnects
+                and a.peers() == ["b"]
+                and b.peers() == ["a"]
+            )
         )
         b.update_node_property("position", (2.0, 0.0))
         await until(lambda: a.view()["b"]["position"] == (2.0, 0.0))
