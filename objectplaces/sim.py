@@ -39,8 +39,8 @@ class _SimNode:
         self.activator = RoleActivator(machine, clock=net._now, wake=self.wake, space=space)
         self._node_id = node_id
 
-    def _transmit(self, output: Output) -> None:
-        self.net._network.transmit(self._node_id, output)
+    def _transmit(self, output: Output) -> int:
+        return self.net._network.transmit(self._node_id, output)
 
     def _schedule(self, deadline: float | None) -> None:
         if deadline is None or not self.alive:

@@ -1069,10 +1069,12 @@ class NodeMachine:
 
     def _emit(self, output: Output) -> None:
         self._outbox.append(output)
-        if not isinstance(output, Subscribe):
-            tally = self.sent_by_kind.setdefault(output.kind, [0, 0])
-            tally[0] += 1
-            tally[1] += len(output.data)
+
+    def record_sent(self, kind: str, frames: int, size: int) -> None:
+        """Count ``frames`` frames of ``size`` bytes each that the transport put on the wire."""
+        tally = self.sent_by_kind.setdefault(kind, [0, 0])
+        tally[0] += frames
+        tally[1] += frames * size
 
     def _count(self, name: str) -> None:
         self.counters[name] = self.counters.get(name, 0) + 1

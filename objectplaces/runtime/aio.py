@@ -31,7 +31,7 @@ class AsyncioRunner:
     def __init__(
         self,
         machine: NodeMachine,
-        transmit: Callable[[Output], None],
+        transmit: Callable[[Output], int],
         *,
         loop: asyncio.AbstractEventLoop | None = None,
     ) -> None:

@@ -9,7 +9,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 
-from objectplaces.core.events import Callback, Output
+from objectplaces.core.events import Callback, Output, Subscribe
 from objectplaces.core.node import NodeMachine
 
 __all__ = ["Pump", "run_callback"]
@@ -35,14 +35,14 @@ class Pump:
 
     Args:
         machine: the node machine.
-        transmit: hands one output to the transport.
+        transmit: hands one output to the transport; returns how many frames it sent.
         schedule: told the machine's next deadline after each drain (None: no timer).
     """
 
     def __init__(
         self,
         machine: NodeMachine,
-        transmit: Callable[[Output], None],
+        transmit: Callable[[Output], int],
         schedule: Callable[[float | None], None],
     ) -> None:
         self.machine = machine
@@ -67,7 +67,9 @@ class Pump:
                 if not outputs and not events:
                     break
                 for output in outputs:
-                    self._transmit(output)
+                    frames = self._transmit(output)
+                    if not isinstance(output, Subscribe):
+                        machine.record_sent(output.kind, frames, len(output.data))
                 for event in events:
                     run_callback(event, machine.node_id)
         finally:

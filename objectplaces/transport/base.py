@@ -23,6 +23,6 @@ def cell_key(cell: tuple[int, int], node: str = "*") -> str:
 class Endpoint(Protocol):
     """One node's attachment to a transport."""
 
-    def transmit(self, output: Output) -> None:
-        """Carry one output of the node's machine."""
+    def transmit(self, output: Output) -> int:
+        """Carry one output of the node's machine; return how many frames went out."""
         ...

@@ -187,13 +187,13 @@ class MemoryNetwork:
 
     # -- transmission -----------------------------------------------------------------
 
-    def transmit(self, source: str, output: Output) -> None:
-        """Carry one output of ``source``'s machine."""
+    def transmit(self, source: str, output: Output) -> int:
+        """Carry one output of ``source``'s machine; return how many frames went out."""
         match output:
             case Send(target, data, kind):
-                self._send(source, (target,), data, kind)
+                return self._send(source, (target,), data, kind)
             case Broadcast(data, kind):
-                self._send(source, [n for n in self._nodes if n != source], data, kind)
+                return self._send(source, [n for n in self._nodes if n != source], data, kind)
             case Publish(cells, data, kind):
                 self._last_published(source, cells[0])
                 targets: dict[str, None] = dict(self._wildcard)
@@ -202,11 +202,12 @@ class MemoryNetwork:
                     if subs:
                         targets.update(subs)
                 targets.pop(source, None)
-                self._send(source, targets, data, kind)
+                return self._send(source, targets, data, kind)
             case Subscribe(cells):
                 self._subscribe(source, cells)
+                return 0
 
-    def _send(self, source: str, targets: Iterable[str], data: bytes, kind: str) -> None:
+    def _send(self, source: str, targets: Iterable[str], data: bytes, kind: str) -> int:
         try:
             message = codec.decode(data)
         except DecodeError:
@@ -262,6 +263,7 @@ class MemoryNetwork:
         by_kind[1] += count * size
         self._messages += count
         self._bytes += count * size
+        return count
 
     def _arrive_together(
         self,

@@ -378,8 +378,12 @@ class WebSocketMesh:
 
     # ------------------------------------------------------------------ outputs
 
-    def transmit(self, output: Output) -> None:
-        """Carry one output of the machine (never blocks; a full queue drops the frame)."""
+    def transmit(self, output: Output) -> int:
+        """Carry one output of the machine (never blocks; a full queue drops the frame).
+
+        Returns:
+            How many frames were queued for the wire.
+        """
         match output:
             case Send(target, data, _):
                 link = self._links.get(target)
@@ -388,11 +392,10 @@ class WebSocketMesh:
                     counters = self._peer_counters.get(target)
                     if counters is not None:
                         counters.drops += 1
-                else:
-                    self._enqueue(link, data)
+                    return 0
+                return self._enqueue(link, data)
             case Broadcast(data, _):
-                for link in self._links.values():
-                    self._enqueue(link, data)
+                return sum(self._enqueue(link, data) for link in list(self._links.values()))
             case Publish(cells, data, _):
                 self._published_cell = cells[0]
                 targets = dict(self._wildcard)
@@ -400,23 +403,28 @@ class WebSocketMesh:
                     subs = self._cell_subs.get(cell)
                     if subs:
                         targets.update(subs)
+                sent = 0
                 for peer in targets:
                     link = self._links.get(peer)
                     if link is not None:
-                        self._enqueue(link, data)
+                        sent += self._enqueue(link, data)
+                return sent
             case Subscribe(cells):
                 self._own_subscription = cells
                 self._subscribed = True
                 frame = encode_subscribe(cells)
                 for link in self._links.values():
                     self._enqueue(link, frame)
+                return 0
 
-    def _enqueue(self, link: _Link, data: bytes) -> None:
+    def _enqueue(self, link: _Link, data: bytes) -> int:
         try:
             link.queue.put_nowait(data)
         except asyncio.QueueFull:
             link.counters.drops += 1
             self._count("dropped_queue_full")
+            return 0
+        return 1
 
     # ------------------------------------------------------------------ dialing
 

@@ -1,0 +1,100 @@
+"""The simulated network itself: partitions, crashes, statistics, argument checks."""
+
+from __future__ import annotations
+
+import pytest
+
+from objectplaces import LocalProtocolError, groups
+from objectplaces.sim import SimulatedNetwork
+
+from .recording import Event, RecordingInitiator, RecordingParticipant, place
+
+
+def test_a_partition_splits_groups_and_healing_restores_them() -> None:
+    net = SimulatedNetwork(seed=31, delay=0.01, property_interval=0.5)
+    log: list[Event] = []
+    a, b = net.add_node("a"), net.add_node("b")
+    b.set_participant_factory("voter", lambda: RecordingParticipant(log))
+    place(a, 0, 0)
+    place(b, 1, 0)
+    net.run_for(1.0)
+    role = RecordingInitiator()
+    a.start_interaction(role, groups.within(5), "voter")
+    net.run_for(0.5)
+    net.partition({"a"}, {"b"})
+    net.run_for(2.5)  # failure timeout (1.5 s) plus a liveness check
+    assert role.membership() == [("in", "b"), ("out", "b")]
+    assert ("b", "out_group_of", "a") in log
+    assert net.stats().dropped["partition"] > 0
+    net.heal()
+    net.run_for(1.5)  # b's next republication reaches a again
+    assert role.membership() == [("in", "b"), ("out", "b"), ("in", "b")]
+
+
+def test_unnamed_nodes_form_one_more_partition_group() -> None:
+    net = SimulatedNetwork(seed=32)
+    a, b, c = (net.add_node(n) for n in "abc")
+    net.partition({"a"})
+    b.update_node_property("status", "up")
+    net.run_for(0.1)
+    assert "b" in c.view()
+    assert "b" not in a.view()
+    with pytest.raises(LocalProtocolError, match="two partition groups"):
+        net.partition({"a"}, {"a", "b"})
+
+
+def test_stats_count_frames_and_bytes_per_node_and_kind() -> None:
+    net = SimulatedNetwork(seed=33)
+    a, b, _c = (net.add_node(n) for n in "abc")
+    net.run_for(0.1)  # start-up: subscriptions and their syncs
+    place(a, 0, 0)
+    net.run_for(0.1)
+    stats = net.stats()
+    # one coalesced update, one frame to each of the two peers
+    assert stats.per_node["a"].sent["property"][0] == 2
+    assert stats.per_node["b"].received["property"][0] == 1
+    assert stats.per_node["c"].received_bytes == stats.per_node["a"].sent_bytes // 2
+    assert stats.by_kind["property"] == (2, stats.per_node["a"].sent_bytes)
+    assert stats.delivered == 2
+    assert a.stats().messages_sent == 2
+    assert b.stats().messages_received == 1
+
+
+def test_crashed_node_receives_nothing_more_and_ids_are_checked() -> None:
+    net = SimulatedNetwork(seed=34, delay=0.05)
+    a, _ = net.add_node("a"), net.add_node("b")
+    a.update_node_property("status", "x")
+    net.run_for(0.01)  # the frame is in flight
+    net.remove_node("b")
+    net.run_for(0.1)
+    assert net.stats().dropped["dead"] == 1
+    with pytest.raises(LocalProtocolError, match="unknown node"):
+        net.remove_node("b")
+    with pytest.raises(LocalProtocolError, match="unknown node"):
+        net.node("b")
+    with pytest.raises(LocalProtocolError, match="probability"):
+        SimulatedNetwork(loss=1.5)
+    with pytest.raises(LocalProtocolError, match="interest_radius"):
+        net.add_node("c", interest_radius=0)
+
+
+def test_run_until_stops_at_the_first_event_that_satisfies_the_predicate() -> None:
+    net = SimulatedNetwork(seed=35, delay=0.25)
+    a, b = net.add_node("a"), net.add_node("b")
+    a.update_node_property("status", "x")
+    assert net.run_until(lambda: "a" in b.view(), timeout=5.0)
+    assert net.now == pytest.approx(0.25)
+    assert not net.run_until(lambda: False, timeout=1.0)
+    assert net.now == pytest.approx(1.25)
+
+
+def test_graceful_leave_tells_peers_at_once() -> None:
+    net = SimulatedNetwork(seed=36)
+    a, b = net.add_node("a"), net.add_node("b")
+    gone: list[str] = []
+    a.register_node_departure_observer(lambda node, last: gone.append(node))
+    b.update_node_property("status", "x")
+    net.run_for(0.1)
+    net.leave("b")
+    net.run_for(0.1)
+    assert gone == ["b"]
