@@ -40,6 +40,7 @@ from agv_app.tasks import Bidder, TaskSpec
 from agv_app.vehicle import Vehicle, VehicleSpec
 from objectplaces import RoleActivator
 from objectplaces.groups import GroupDefinition
+from tuplespace import ANY
 
 __all__ = ["AgvConfig", "AgvController"]
 
@@ -81,6 +82,8 @@ class AgvController:
         tally: counts protocol messages.
         on_task_done: called with the task id when a task is finished.
         on_lock_wait: called with the seconds a granted request waited.
+        relocate: asked for another parking point when the idle AGV stands in someone's
+            way (None: stay).
     """
 
     def __init__(
@@ -96,6 +99,7 @@ class AgvController:
         tally: MessageTally | None = None,
         on_task_done: Callable[[str], None] | None = None,
         on_lock_wait: Callable[[float], None] | None = None,
+        relocate: Callable[[AgvController], str | None] | None = None,
     ) -> None:
         self.layout = layout
         self.spec = spec
@@ -104,6 +108,7 @@ class AgvController:
         self.tally = tally
         self._on_task_done = on_task_done
         self._on_lock_wait = on_lock_wait
+        self._relocate = relocate
         self.definition: GroupDefinition = (
             broadcast_group() if self.config.broadcast else collision_group()
         )
@@ -406,8 +411,15 @@ class AgvController:
         self.publish()
 
     def _idle(self, now: float) -> None:
-        if self.phase == "home" and self.point == self.home and self.pending_task is None:
-            return
+        resting = self.phase == "home" and self.point == self.home
+        if resting and self.pending_task is None:
+            in_the_way = self.node.space.in_all(("in_the_way", ANY))
+            if not in_the_way or self._relocate is None:
+                return
+            home = self._relocate(self)
+            if home is None or home == self.home:
+                return
+            self.home = home
         if self.phase in ("at_pick", "at_drop") and now < self._dwell_until:
             return
         if self.phase == "at_pick" and self.task is not None:

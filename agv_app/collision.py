@@ -40,6 +40,8 @@ component, the requester and every voter on the node share:
 * ``("request", key, end_s, area, priority)``: the pending request;
 * ``("stale", node_id, x, y, radius)``: the last known circle of a failed AGV, which
   nobody may lock into;
+* ``("in_the_way", requester)``: a voter deferred a request because of a lock
+  (leased), so an idle AGV knows to move off;
 * ``("allowed", session, area, priority)``: a request this node's voter allowed
   (leased: kept ``keep_allowed`` seconds).
 """
@@ -515,6 +517,9 @@ class Voter(Participant):
                 space.notify(("request", ANY, ANY, ANY, ANY), self._on_space, on="in"),
             ]
             self._schedule_recheck()
+        if verdict == "lock":
+            # Tell our AGV that it stands in someone's way (an idle one moves off).
+            self.space.out(("in_the_way", requester), lease=self._recheck * 2)
         if verdict != self._said:
             self._said = verdict
             message = {"t": "defer", "why": verdict}

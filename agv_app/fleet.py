@@ -155,6 +155,10 @@ class Fleet:
         self.stations: dict[str, Station] = {}
         self._failed: set[str] = set()
         home_points = list(homes) if homes is not None else self._pick_homes(cfg.agvs)
+        self._rest_pool = home_points + (
+            [] if homes is not None else self._rest_points(home_points, max(4, cfg.agvs // 4))
+        )
+        self._resting: dict[str, str] = {}  # rest point -> AGV that owns it
         width = max(2, len(str(cfg.agvs)))
         for i, home in enumerate(home_points):
             agv_id = f"agv-{i + 1:0{width}d}"
@@ -174,7 +178,9 @@ class Fleet:
                 tally=self.metrics_raw.tally,
                 on_task_done=self._task_done,
                 on_lock_wait=self.metrics_raw.lock_waits.append,
+                relocate=self._relocate,
             )
+            self._resting[home] = agv_id
         for sid in self.layout.usable_stations():
             st = self.layout.station(sid)
             if st.kind not in ("pick", "pickdrop"):
@@ -207,9 +213,48 @@ class Fleet:
                 if st.id in layout.usable_stations() and st.point not in points:
                     points.append(st.point)
         if len(points) < n:
-            raise ValueError(f"layout {layout.name!r} has {len(points)} parking spots for {n} AGVs")
+            points += self._rest_points(points, n - len(points))
+        if len(points) < n:
+            raise ValueError(f"layout {layout.name!r} has room to park {len(points)} AGVs, not {n}")
         # Spread the fleet over the spots rather than packing one corner.
         return [points[(k * len(points)) // n] for k in range(n)]
+
+    def _rest_points(self, taken: list[str], n: int) -> list[str]:
+        """Up to ``n`` more points to park on, at least a hull diagonal from each other
+        and from stations, for layouts without enough parking spots (openTCS demos):
+        dead ends first, then points on lanes."""
+        layout = self.layout
+        usable = {layout.station(s).point for s in layout.usable_stations()}
+        reach = layout.distances_from(min(usable)) if usable else {}
+        gap = math.hypot(self.spec.length_m, self.spec.width_m) + 0.5
+        chosen: list[str] = []
+        occupied = [layout.point(p) for p in sorted({*taken, *usable})]
+        candidates = sorted(
+            (p for p in layout.points if p in reach and p not in usable and p not in taken),
+            key=lambda p: (len(layout.neighbours(p)) > 1, p),
+        )
+        for pid in candidates:
+            p = layout.point(pid)
+            if all(math.hypot(p.x - q.x, p.y - q.y) >= gap for q in occupied):
+                chosen.append(pid)
+                occupied.append(p)
+                if len(chosen) == n:
+                    break
+        return chosen
+
+    def _relocate(self, agv: AgvController) -> str | None:
+        """A free parking point for an idle AGV that stands in the way (nearest ahead).
+
+        Parking points are the fleet's to hand out, like a warehouse's parking plan.
+        """
+        dist = self.layout.distances_from(agv.point)
+        free = [p for p in self._rest_pool if p not in self._resting and p in dist]
+        if not free:
+            return None
+        best = min(free, key=lambda p: (dist[p], p))
+        self._resting.pop(agv.home, None)
+        self._resting[best] = agv.node_id
+        return best
 
     def _home_heading(self, point: str) -> float:
         p = self.layout.point(point)

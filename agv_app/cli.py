@@ -1,0 +1,99 @@
+"""``objectplaces sim``: run a fleet headless in virtual time and report its figures.
+
+Registered as a plugin of the ``objectplaces`` command (entry point group
+``objectplaces.commands``, name ``sim``, value ``agv_app.cli:register``). Exit status 1
+when any safety figure (collisions, lock overlaps, deadlocks) is not zero.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+from agv_app.fleet import Fleet, FleetConfig
+from agv_app.layout import LayoutError
+from agv_app.layout_json import load_any
+
+__all__ = ["SAFETY_KEYS", "register", "run_sim"]
+
+SAFETY_KEYS = ("collisions", "lock_overlaps", "deadlocks")
+"""Figures that must all be zero for a run to pass."""
+
+
+def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """Add the ``sim`` subcommand to the ``objectplaces`` command line."""
+    p = subcommands.add_parser(
+        "sim",
+        help="simulate an AGV fleet headless and report its metrics",
+        description=(
+            "Run a fleet of AGVs on the simulated network in virtual time, check safety "
+            "at every step, and print (and optionally write) the metrics."
+        ),
+    )
+    p.add_argument("--agvs", type=int, default=20, help="number of AGVs")
+    p.add_argument("--minutes", type=float, default=60.0, help="simulated minutes")
+    p.add_argument("--seed", type=int, default=1, help="random seed")
+    p.add_argument("--layout", help="layout file (.json or openTCS .xml); default: demo")
+    p.add_argument("--delay", type=float, default=5.0, help="one-way network delay, ms")
+    p.add_argument("--loss", type=float, default=0.0, help="frame loss probability")
+    p.add_argument(
+        "--broadcast", action="store_true", help="vote with every AGV (no collision groups)"
+    )
+    p.add_argument("--task-interval", type=float, help="mean seconds between new tasks")
+    p.add_argument("--json", dest="json_path", help="write the metrics to this JSON file")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=run_sim)
+
+
+def run_sim(args: argparse.Namespace) -> int:
+    """Run ``objectplaces sim``.
+
+    Returns:
+        0 if every safety figure is zero, 1 if not, 2 on bad arguments or layout.
+    """
+    if args.agvs < 1 or args.minutes <= 0 or not 0.0 <= args.loss < 1.0 or args.delay < 0:
+        print("objectplaces sim: need --agvs >= 1, --minutes > 0, 0 <= --loss < 1", file=sys.stderr)
+        return 2
+    try:
+        layout = load_any(args.layout) if args.layout else None
+        config = FleetConfig(
+            agvs=args.agvs,
+            seed=args.seed,
+            delay=args.delay / 1000,
+            jitter=args.delay / 2000,
+            loss=args.loss,
+            broadcast=args.broadcast,
+            task_interval=args.task_interval,
+        )
+        fleet = Fleet(layout, config)
+    except (LayoutError, ValueError, OSError) as exc:
+        print(f"objectplaces sim: {exc}", file=sys.stderr)
+        return 2
+    seconds = args.minutes * 60
+    started = time.perf_counter()
+    if args.quiet:
+        fleet.run(seconds)
+    else:
+        from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+        with Progress(
+            TextColumn("[bold]sim[/] {task.description}"),
+            BarColumn(),
+            TextColumn("{task.completed:.0f}/{task.total:.0f} s"),
+            TimeElapsedColumn(),
+            transient=True,
+        ) as progress:
+            bar = progress.add_task(f"{args.agvs} AGVs", total=seconds)
+            fleet.run(seconds, lambda now: progress.update(bar, completed=now))
+    figures = fleet.summary(time.perf_counter() - started)
+    width = max(len(k) for k in figures)
+    for key, value in figures.items():
+        print(f"{key:<{width}}  {value}")
+    for violation in fleet.monitor.violations:
+        print(f"VIOLATION {violation}", file=sys.stderr)
+    if args.json_path:
+        Path(args.json_path).write_text(json.dumps(figures, indent=2, sort_keys=True) + "\n")
+    return 1 if any(figures[k] for k in SAFETY_KEYS) else 0

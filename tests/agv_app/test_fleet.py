@@ -1,0 +1,91 @@
+"""Whole-fleet runs: seeded, in virtual time, with the safety monitor on every step."""
+
+from __future__ import annotations
+
+import os
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from agv_app.demo_layout import demo_warehouse
+from agv_app.fleet import Fleet, FleetConfig, demo_source
+
+SEED = int(os.environ.get("OP_SEED", "1"))
+
+
+@pytest.mark.slow
+def test_twenty_agvs_thirty_minutes_safe_and_every_task_done() -> None:
+    print(f"OP_SEED={SEED}")
+    cfg = FleetConfig(agvs=20, seed=SEED, task_interval=60.0, task_until=1200.0)
+    fleet = Fleet(demo_warehouse(), cfg)
+    fleet.run(1800.0)
+    figures = fleet.summary()
+    assert figures["collisions"] == 0
+    assert figures["lock_overlaps"] == 0
+    assert figures["deadlocks"] == 0
+    assert figures["double_assignments"] == 0
+    assert figures["tasks_created"] >= 15
+    assert fleet.open_tasks == []
+    assert figures["tasks_completed"] == figures["tasks_created"]
+
+
+_LAYOUT = demo_warehouse()
+_SPOTS = [s.point for s in _LAYOUT.stations_of_kind("parking")]
+
+
+@settings(
+    max_examples=8,
+    deadline=None,
+    derandomize=True,
+    suppress_health_check=[HealthCheck.too_slow],
+)
+@given(
+    picks=st.lists(st.sampled_from(_SPOTS), min_size=8, max_size=8, unique=True),
+    seed=st.integers(0, 1000),
+    loss=st.sampled_from([0.0, 0.05]),
+)
+def test_random_starts_never_collide(picks: list[str], seed: int, loss: float) -> None:
+    starts, homes = picks[:4], picks[4:]
+    cfg = FleetConfig(agvs=4, seed=seed, loss=loss, fail_on_violation=True, task_interval=20.0)
+    fleet = Fleet(_LAYOUT, cfg, homes=homes, starts=starts)
+    fleet.run(150.0)
+    assert fleet.monitor.collisions == fleet.monitor.lock_overlaps == 0
+
+
+def test_demo_source_is_a_fleet_source_and_steps_in_fixed_increments() -> None:
+    fleet = demo_source(agvs=3, seed=2)
+    ids = set(fleet.nodes())
+    assert {"agv-01", "agv-02", "agv-03", fleet.observer_id} <= ids
+    assert any(i.startswith("st:") for i in ids)
+    assert "position" not in fleet.nodes()[fleet.observer_id].properties
+    fleet.advance(0.25)
+    assert fleet.now == pytest.approx(0.2)
+    fleet.advance(0.05)
+    assert fleet.now == pytest.approx(0.3)
+    task = fleet.create_task("dock-in-1")
+    assert task in fleet.open_tasks
+    with pytest.raises(KeyError):
+        fleet.create_task("nowhere")
+    with pytest.raises(ValueError, match="not a pick station"):
+        fleet.create_task("park-S0350n")
+    views = fleet.vehicles()
+    assert [v.id for v in views] == ["agv-01", "agv-02", "agv-03"]
+    assert len(views[0].hull) == 4
+    assert views[0].locked
+    assert fleet.metrics()["tasks_created"] == 1
+    fleet.set_speed(4.0)
+    assert fleet.speed == 4.0
+    with pytest.raises(ValueError, match="positive"):
+        fleet.set_speed(0)
+    fleet.pause()
+    assert fleet.paused
+    fleet.resume()
+    assert not fleet.paused
+    assert fleet.initiator_roles() == {}
+
+
+def test_the_dashboard_protocol_is_satisfied() -> None:
+    from dashboard.source import FleetSource
+
+    assert isinstance(demo_source(agvs=2, seed=1), FleetSource)

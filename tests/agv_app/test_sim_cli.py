@@ -1,0 +1,74 @@
+"""``objectplaces sim``: figures, JSON keys and exit status."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from agv_app import fleet as fleet_module
+from objectplaces.cli import main
+
+KEYS = {
+    "collisions",
+    "lock_overlaps",
+    "deadlocks",
+    "tasks_created",
+    "tasks_completed",
+    "messages",
+    "bytes",
+    "bytes_per_agv_per_s",
+    "sim_seconds",
+    "wall_seconds",
+    "tasks_per_hour",
+    "task_time_mean",
+    "task_time_p95",
+    "idle_share",
+    "waiting_share",
+    "lock_wait_mean",
+}
+
+
+def test_sim_writes_the_metrics_and_exits_zero(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "m.json"
+    code = main(["sim", "--agvs", "3", "--minutes", "1", "--seed", "2", "--json", str(out)])
+    assert code == 0
+    figures = json.loads(out.read_text())
+    assert figures.keys() >= KEYS
+    assert figures["sim_seconds"] == pytest.approx(60.0)
+    assert figures["collisions"] == figures["lock_overlaps"] == figures["deadlocks"] == 0
+    assert "bytes_per_agv_per_s" in capsys.readouterr().out
+
+
+def test_broadcast_and_an_opentcs_layout(tmp_path: Path) -> None:
+    layout = Path(__file__).resolve().parents[3] / "shared/data/opentcs/Demo-01.xml"
+    if not layout.exists():
+        pytest.skip("openTCS demo model not available")
+    code = main(["sim", "--agvs", "4", "--minutes", "1", "--layout", str(layout), "--quiet"])
+    assert code == 0
+    code = main(["sim", "--agvs", "3", "--minutes", "0.5", "--broadcast", "--quiet"])
+    assert code == 0
+
+
+def test_exit_status_is_one_when_a_safety_figure_is_not_zero(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    real = fleet_module.Fleet.summary
+
+    def broken(self: fleet_module.Fleet, wall_seconds: float = 0.0) -> dict[str, float]:
+        figures = real(self, wall_seconds)
+        figures["collisions"] = 1
+        return figures
+
+    monkeypatch.setattr(fleet_module.Fleet, "summary", broken)
+    assert main(["sim", "--agvs", "2", "--minutes", "0.2", "--quiet"]) == 1
+
+
+def test_bad_arguments_and_a_bad_layout_exit_two(tmp_path: Path) -> None:
+    assert main(["sim", "--agvs", "0", "--quiet"]) == 2
+    bad = tmp_path / "bad.json"
+    bad.write_text("{")
+    assert main(["sim", "--layout", str(bad), "--quiet"]) == 2

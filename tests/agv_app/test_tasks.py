@@ -1,0 +1,101 @@
+"""Task assignment: best bid wins, late joiners bid, never twice, returned on failure."""
+
+from __future__ import annotations
+
+from agv_app.station import Station
+from agv_app.tasks import Bidder, TaskSpec
+from objectplaces import RoleActivator
+from objectplaces.sim import SimulatedNetwork
+
+
+class Agent:
+    """A fake AGV: bids a fixed cost while idle; publishes what the fleet's AGV does."""
+
+    def __init__(self, node: RoleActivator, x: float, cost: float) -> None:
+        self.node = node
+        self.cost = cost
+        self.taken: list[TaskSpec] = []
+        node.update_node_property("kind", "agv")
+        node.update_node_property("status", "idle")
+        node.update_node_property("position", (x, 0.0))
+        node.set_participant_factory("bidder", lambda: Bidder(self))
+
+    def bid_for(self, task: TaskSpec) -> float | None:
+        return None if self.taken else self.cost
+
+    def take(self, task: TaskSpec) -> None:
+        self.taken.append(task)
+        self.node.update_node_property("status", "busy")
+        self.node.update_node_property("task", task.id)
+
+    def finish(self) -> None:
+        self.node.update_node_property("last_done", self.taken[-1].id)
+        self.node.update_node_property("status", "idle")
+
+
+def setup(seed: int = 1, **kw: float) -> tuple[SimulatedNetwork, Station, list[TaskSpec]]:
+    net = SimulatedNetwork(seed=seed, property_interval=0.5, **kw)
+    awarded: list[TaskSpec] = []
+    station = Station(
+        net.add_node("st"),
+        "st",
+        (0.0, 0.0),
+        range_m=20.0,
+        on_assigned=lambda t, a: awarded.append(t),
+    )
+    return net, station, awarded
+
+
+def test_best_bid_wins_and_the_task_is_given_once() -> None:
+    net, station, awarded = setup()
+    far = Agent(net.add_node("far"), 15.0, 15.0)
+    near = Agent(net.add_node("near"), 5.0, 5.0)
+    out = Agent(net.add_node("out"), 50.0, 1.0)  # out of range: never asked
+    net.run_for(0.5)
+    station.add_task(TaskSpec("t1", "st", "x"))
+    net.run_for(5.0)
+    assert [t.id for t in near.taken] == ["t1"]
+    assert far.taken == out.taken == []
+    assert awarded == [TaskSpec("t1", "st", "x")]
+    assert station.assigned == {"t1": (TaskSpec("t1", "st", "x"), "near")}
+    near.finish()
+    net.run_for(1.0)
+    assert station.assigned == {}
+
+
+def test_an_agv_that_enters_range_during_the_session_may_bid() -> None:
+    net, station, _ = setup()
+    station.add_task(TaskSpec("t1", "st", "x"))
+    late = Agent(net.add_node("late"), 40.0, 3.0)
+    net.run_for(3.0)
+    assert late.taken == []
+    late.node.update_node_property("position", (10.0, 0.0))
+    net.run_for(3.0)
+    assert [t.id for t in late.taken] == ["t1"]
+
+
+def test_tasks_queue_and_each_goes_to_one_agv_under_loss() -> None:
+    net, station, awarded = setup(seed=5, loss=0.1, delay=0.02, jitter=0.01)
+    agents = [Agent(net.add_node(f"a{i}"), float(i), float(i)) for i in range(4)]
+    for k in range(3):
+        station.add_task(TaskSpec(f"t{k}", "st", "x"))
+    net.run_for(30.0)
+    taken = [t.id for a in agents for t in a.taken]
+    assert sorted(taken) == ["t0", "t1", "t2"]
+    assert all(len(a.taken) <= 1 for a in agents)
+    assert len(awarded) == 3
+
+
+def test_a_task_whose_agv_fails_is_returned_and_given_again() -> None:
+    net, station, awarded = setup()
+    first = Agent(net.add_node("first"), 1.0, 1.0)
+    net.run_for(0.5)
+    station.add_task(TaskSpec("t1", "st", "x"))
+    net.run_for(4.0)
+    assert [t.id for t in first.taken] == ["t1"]
+    net.remove_node("first")
+    second = Agent(net.add_node("second"), 2.0, 2.0)
+    net.run_for(6.0)
+    assert station.returned == 1
+    assert [t.id for t in second.taken] == ["t1"]
+    assert [t.id for t in awarded] == ["t1", "t1"]
