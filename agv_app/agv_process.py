@@ -1,0 +1,308 @@
+"""One AGV as its own process on the WebSocket mesh.
+
+```
+python -m agv_app.agv_process --id agv-03 --listen 127.0.0.1:0 --join 127.0.0.1:7000 \\
+    --secret-file /tmp/secret --home P0350n --seed 3 [--run-seconds 600]
+```
+
+The process starts a mesh node, builds an :class:`~agv_app.agv.AgvController` on the
+demo warehouse and steps it in real time (fixed ``--dt``). Besides what the controller
+publishes (position, hull length, status, task, last done), it publishes what an
+observer needs to draw the vehicle, each only when it changes: ``heading`` (radians),
+``state`` (the dashboard's finer status), ``size`` (``[length, width]``) and ``locked``
+and ``requested`` (its projections in the compact form of
+:func:`~agv_app.geometry.polygon_to_coords`).
+
+It stops by itself, always through a graceful ``node.close()``: when ``--run-seconds``
+pass, when its stdin (a pipe from its parent) closes, when its parent process dies, or
+on SIGTERM or SIGINT. Output is one JSON object per line on stdout (``ready``,
+``stopping``, ``closed``); errors go to stderr.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import contextlib
+import json
+import math
+import os
+import random
+import signal
+import stat
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from agv_app.agv import AgvConfig, AgvController
+from agv_app.demo_layout import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
+from agv_app.geometry import Area, polygon_to_coords
+from agv_app.layout import Layout
+from agv_app.vehicle import VehicleSpec
+from objectplaces.core.errors import LocalProtocolError
+from objectplaces.mesh import MeshNode, start_node
+
+__all__ = ["DisplayPublisher", "home_heading", "main", "parse_args", "run"]
+
+_PARENT_CHECK_S = 1.0
+_MAX_LAG_S = 1.0
+
+
+def _emit(event: str, **fields: Any) -> None:
+    """Print one event as a JSON line on stdout."""
+    record = {"event": event, "t": time.monotonic(), **fields}
+    sys.stdout.write(json.dumps(record, default=repr) + "\n")
+    sys.stdout.flush()
+
+
+def home_heading(layout: Layout, point: str) -> float:
+    """The heading of a vehicle parked at ``point``: along the way into it.
+
+    The simulated fleet parks its vehicles the same way, so both look alike.
+    """
+    p = layout.point(point)
+    preds = [q for q in layout.neighbours(point) if point in layout.successors(q)]
+    if not preds:
+        return 0.0
+    q = layout.point(preds[0])
+    return math.atan2(p.y - q.y, p.x - q.x)
+
+
+def _area_coords(areas: list[Area]) -> list[list[list[float]]]:
+    # Display and monitoring only: no safety margin, the observer never votes with it.
+    return polygon_to_coords(Area.union_of(areas), margin_m=0.0)
+
+
+class DisplayPublisher:
+    """Publishes what an observer needs to draw one AGV, each property only on change.
+
+    Args:
+        agv: the AGV component (its node publishes).
+        min_move_m: re-publish the position when the vehicle moved at least this far.
+    """
+
+    def __init__(self, agv: AgvController, *, min_move_m: float = 0.01) -> None:
+        self.agv = agv
+        self.min_move_m = min_move_m
+        self._last: dict[str, Any] = {}
+        self._pose: tuple[float, float, float] | None = None
+        agv.node.update_node_property("size", [agv.spec.length_m, agv.spec.width_m])
+
+    def _set(self, name: str, value: Any) -> None:
+        if self._last.get(name, self) != value:
+            self._last[name] = value
+            self.agv.node.update_node_property(name, value)
+
+    def publish(self) -> None:
+        """Publish the pose (through the AGV, with its hull length), state and projections."""
+        agv = self.agv
+        if agv.failed:
+            return
+        pose = agv.vehicle.pose()
+        heading = round(math.remainder(pose.heading_rad, math.tau), 3)
+        last = self._pose
+        if (
+            last is None
+            or math.hypot(pose.x - last[0], pose.y - last[1]) >= self.min_move_m
+            or heading != last[2]
+        ):
+            self._pose = (pose.x, pose.y, heading)
+            agv.publish()
+            self._set("heading", heading)
+        self._set("state", agv.display_status())
+        locks, request = agv.areas()
+        self._set("locked", _area_coords(locks))
+        self._set("requested", _area_coords([] if request is None else [request]))
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """Parse the command line (``sys.argv[1:]`` when ``argv`` is None)."""
+    parser = argparse.ArgumentParser(
+        prog="python -m agv_app.agv_process",
+        description="Run one AGV of the demo warehouse as a node on the WebSocket mesh.",
+    )
+    parser.add_argument("--id", required=True, help="node id of the AGV, unique in the mesh")
+    parser.add_argument("--listen", default="127.0.0.1:0", help="host:port to listen on")
+    parser.add_argument(
+        "--join", action="append", default=[], metavar="HOST:PORT", help="a node to join through"
+    )
+    parser.add_argument(
+        "--secret-file", type=Path, required=True, help="file holding the mesh secret"
+    )
+    parser.add_argument("--home", required=True, help="layout point of the AGV's parking spot")
+    parser.add_argument("--seed", type=int, default=1, help="seeds the start-up stagger")
+    parser.add_argument("--run-seconds", type=float, default=86_400.0, help="stop after this")
+    parser.add_argument("--dt", type=float, default=0.1, help="control step, s")
+    parser.add_argument("--t-update", type=float, default=1.0, help="property interval, s")
+    parser.add_argument("--publish-interval", type=float, default=0.2, help="pose updates, s")
+    parser.add_argument(
+        "--expect-peers", type=int, default=0, help="wait for this many linked peers first"
+    )
+    parser.add_argument(
+        "--settle-timeout", type=float, default=20.0, help="longest wait for those peers, s"
+    )
+    parser.add_argument("--dwell", type=float, default=5.0, help="seconds at a station")
+    args = parser.parse_args(argv)
+    for name in ("dt", "t_update", "publish_interval", "run_seconds"):
+        if not getattr(args, name) > 0:
+            parser.error(f"--{name.replace('_', '-')} must be > 0, got {getattr(args, name)!r}")
+    return args
+
+
+async def _watch_stdin(stop: asyncio.Event) -> None:
+    """Set ``stop`` when stdin, a pipe from the parent, reaches end of file."""
+    try:
+        if not stat.S_ISFIFO(os.fstat(sys.stdin.fileno()).st_mode):
+            return  # a terminal or /dev/null: nobody holds it open for us
+    except (OSError, ValueError):
+        return
+    loop = asyncio.get_running_loop()
+    reader = asyncio.StreamReader(limit=1 << 16)
+    try:
+        transport, _ = await loop.connect_read_pipe(
+            lambda: asyncio.StreamReaderProtocol(reader), sys.stdin
+        )
+    except (OSError, ValueError):
+        return
+    try:
+        while True:
+            try:
+                line = await reader.readline()
+            except ValueError:
+                continue  # a line too long: ignored, nothing is read from stdin
+            if not line:
+                stop.set()
+                return
+    finally:
+        transport.close()
+
+
+async def _watch_parent(stop: asyncio.Event, parent: int) -> None:
+    """Set ``stop`` when the parent process is gone (we were re-parented)."""
+    while True:
+        await asyncio.sleep(_PARENT_CHECK_S)
+        if os.getppid() != parent:
+            stop.set()
+            return
+
+
+async def _settle(node: MeshNode, args: argparse.Namespace) -> None:
+    """Wait (bounded) until the expected peers are linked and have been heard.
+
+    Moving earlier is safe (the requester waits the safe time for late members), but
+    an AGV that has not yet heard its neighbours would ask fewer of them than it should.
+    """
+    if args.expect_peers > 0:
+        with contextlib.suppress(TimeoutError):
+            async with asyncio.timeout(args.settle_timeout):
+                await node.wait_for_peers(args.expect_peers)
+    await asyncio.sleep(args.t_update)
+
+
+async def _drive(agv: AgvController, display: DisplayPublisher, args: argparse.Namespace) -> None:
+    """Step the AGV every ``dt`` of real time, for ever."""
+    loop = asyncio.get_running_loop()
+    dt = args.dt
+    # Processes started together would otherwise step (and publish) in lockstep.
+    await asyncio.sleep(random.Random(args.seed).uniform(0.0, dt))
+    next_step = loop.time()
+    next_publish = next_step
+    while True:
+        agv.step(dt)
+        now = loop.time()
+        if now >= next_publish:
+            next_publish = now + args.publish_interval
+            display.publish()
+        next_step += dt
+        if now - next_step > _MAX_LAG_S:
+            # Fallen far behind (a stalled machine): carry on from now, no burst of steps.
+            next_step = now
+        await asyncio.sleep(max(0.0, next_step - loop.time()))
+
+
+async def run(args: argparse.Namespace, secret: bytes) -> int:
+    """Run one AGV process until one of its stop conditions.
+
+    Args:
+        args: the parsed command line.
+        secret: the mesh secret.
+
+    Returns:
+        The exit status (0 after a graceful stop).
+    """
+    layout = demo_warehouse()
+    if args.home not in layout.points:
+        print(f"agv_process: unknown home point {args.home!r}", file=sys.stderr)
+        return 2
+    parent = os.getppid()
+    loop = asyncio.get_running_loop()
+    stop = asyncio.Event()
+    for signum in (signal.SIGTERM, signal.SIGINT):
+        loop.add_signal_handler(signum, stop.set)
+    node = await start_node(
+        args.id,
+        listen=args.listen,
+        join=args.join,
+        secret=secret,
+        property_interval=args.t_update,
+        failure_timeout=3 * args.t_update,
+    )
+    try:
+        agv = AgvController(
+            node,
+            layout,
+            VehicleSpec(DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M),
+            args.home,
+            heading_rad=home_heading(layout, args.home),
+            config=AgvConfig(t_update=args.t_update, dwell=args.dwell),
+        )
+        display = DisplayPublisher(agv)
+        display.publish()
+        _emit("ready", id=node.node_id, address=node.address, home=args.home)
+
+        async def drive() -> None:
+            await _settle(node, args)
+            _emit("driving", peers=node.peers())
+            await _drive(agv, display, args)
+
+        async with asyncio.TaskGroup() as tg:
+            tasks = [
+                tg.create_task(drive()),
+                tg.create_task(_watch_stdin(stop)),
+                tg.create_task(_watch_parent(stop, parent)),
+            ]
+            with contextlib.suppress(TimeoutError):
+                async with asyncio.timeout(args.run_seconds):
+                    await stop.wait()
+            _emit("stopping")
+            for task in tasks:
+                task.cancel()
+    finally:
+        for signum in (signal.SIGTERM, signal.SIGINT):
+            loop.remove_signal_handler(signum)
+        await node.close()
+        _emit("closed")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the AGV process.
+
+    Args:
+        argv: the arguments; ``sys.argv[1:]`` when None.
+
+    Returns:
+        The exit status.
+    """
+    args = parse_args(argv)
+    try:
+        secret = Path(args.secret_file).read_bytes().rstrip(b"\r\n")
+        return asyncio.run(run(args, secret))
+    except (LocalProtocolError, OSError) as exc:
+        print(f"agv_process {args.id}: {exc}", file=sys.stderr)
+        return 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
