@@ -14,7 +14,7 @@ import math
 import random
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from agv_app.agv import AgvConfig, AgvController
 from agv_app.demo_layout import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
@@ -28,9 +28,14 @@ from agv_app.vehicle import VehicleSpec
 from objectplaces import Initiator, RoleActivator
 from objectplaces.sim import SimulatedNetwork
 
+if TYPE_CHECKING:
+    from agv_app.mesh_fleet import MeshFleet
+
 __all__ = ["Fleet", "FleetConfig", "VehicleState", "demo_source"]
 
 OBSERVER_ID = "observer"
+MESH_DEMO_TASK_INTERVAL_S = 90.0
+"""Mean seconds between tasks for one AGV process of the mesh demo (divided by N)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -499,19 +504,29 @@ def demo_source(
     agvs: int | None = None,
     seed: int | None = None,
     processes: int = 0,
-) -> Fleet:
+) -> Fleet | MeshFleet:
     """The fleet ``objectplaces demo`` shows: the demo warehouse, tasks arriving for ever.
 
     Accepts the parsed ``demo`` arguments or the keywords ``agvs``, ``seed`` and
-    ``processes`` (only 0, the simulated network, is offered here).
+    ``processes``: 0 simulates ``agvs`` AGVs on one network in this process; more runs
+    that many AGV processes on the WebSocket mesh (a :class:`~agv_app.mesh_fleet.MeshFleet`,
+    which the caller must ``await start()`` and ``await stop()``).
 
     Raises:
-        ValueError: ``processes`` is not 0.
+        ValueError: ``processes`` is negative or more than the layout can park.
     """
     if args is not None:
         agvs = getattr(args, "agvs", agvs)
         seed = getattr(args, "seed", seed)
         processes = getattr(args, "processes", processes) or 0
+    if processes < 0:
+        raise ValueError(f"processes must be 0 or more, got {processes!r}")
     if processes:
-        raise ValueError("this fleet runs on the simulated network only (processes=0)")
+        from agv_app.mesh_fleet import MeshFleet  # spawns processes: only when asked for
+
+        return MeshFleet(
+            agvs=processes,
+            seed=1 if seed is None else seed,
+            task_interval=MESH_DEMO_TASK_INTERVAL_S / processes,
+        )
     return Fleet(demo_warehouse(), FleetConfig(agvs=agvs or 12, seed=1 if seed is None else seed))
