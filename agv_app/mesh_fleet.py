@@ -234,6 +234,10 @@ class MeshFleet:
         """Process ids of the AGV processes spawned (running or not)."""
         return [c.proc.pid for c in self._children]
 
+    def exit_codes(self) -> dict[str, int | None]:
+        """Each AGV process's exit status, by AGV id (None: still running)."""
+        return {c.agv_id: c.proc.poll() for c in self._children}
+
     async def start(self) -> None:
         """Start the observer and station nodes and spawn the AGV processes.
 
