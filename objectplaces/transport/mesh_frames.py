@@ -10,6 +10,7 @@ frame from a middleware frame. Layouts::
     35  [35, mac]                                          welcome (listener proves it)
     36  [36, [[node, address, incarnation], ...]]          gossip: peers the sender has
     37  [37, [cx, cy, cx, cy, ...] | None]                 the sender's cell subscription
+    38  [38, [frame, frame, ...]]                          frames queued together, sent as one
 
 Authentication is a challenge/response over both nonces: each side sends a fresh random
 nonce and proves the shared secret with an HMAC-SHA256 over both nonces and both ids,
@@ -31,6 +32,7 @@ from objectplaces.core.errors import DecodeError
 
 __all__ = [
     "AUTH",
+    "BATCH",
     "CHALLENGE",
     "GOSSIP",
     "HELLO",
@@ -39,6 +41,7 @@ __all__ = [
     "SUBSCRIBE",
     "WELCOME",
     "Auth",
+    "Batch",
     "Gossip",
     "Hello",
     "PeerAddress",
@@ -47,6 +50,7 @@ __all__ = [
     "VersionMismatch",
     "decode_transport",
     "encode_auth",
+    "encode_batch",
     "encode_gossip",
     "encode_hello",
     "encode_subscribe",
@@ -56,8 +60,8 @@ __all__ = [
 
 PROTOCOL_VERSION: Final = 1
 NONCE_SIZE: Final = 16
-HELLO, CHALLENGE, AUTH, WELCOME, GOSSIP, SUBSCRIBE = range(
-    codec.FIRST_TRANSPORT_TYPE, codec.FIRST_TRANSPORT_TYPE + 6
+HELLO, CHALLENGE, AUTH, WELCOME, GOSSIP, SUBSCRIBE, BATCH = range(
+    codec.FIRST_TRANSPORT_TYPE, codec.FIRST_TRANSPORT_TYPE + 7
 )
 _MAX_ID: Final = 256
 _MAX_GOSSIP: Final = 4096
@@ -112,7 +116,14 @@ class SubscribeCells:
     cells: frozenset[Cell] | None
 
 
-TransportFrame = Hello | Auth | Gossip | SubscribeCells
+@dataclass(frozen=True, slots=True)
+class Batch:
+    """Several frames that were queued together, carried in one WebSocket message."""
+
+    frames: tuple[bytes, ...]
+
+
+TransportFrame = Hello | Auth | Gossip | SubscribeCells | Batch
 
 
 def _mac(secret: bytes, parts: list[bytes]) -> bytes:
@@ -161,6 +172,11 @@ def encode_subscribe(cells: frozenset[Cell] | None) -> bytes:
     if cells is not None:
         flat = [n for cell in sorted(cells) for n in cell]
     return _pack([SUBSCRIBE, flat])
+
+
+def encode_batch(frames: list[bytes]) -> bytes:
+    """Wrap frames queued for one peer so they travel as one WebSocket message."""
+    return _pack([BATCH, frames])
 
 
 def parse_address(address: Any) -> tuple[str, int]:
@@ -275,5 +291,12 @@ def decode_transport(data: bytes, *, max_size: int = codec.DEFAULT_MAX_FRAME) ->
             return _decode_gossip(frame)
         case 37:
             return _decode_subscribe(frame)
+        case 38:
+            inner = frame[1] if len(frame) == 2 else None
+            if not isinstance(inner, list) or not inner:
+                raise DecodeError("a batch carries a non-empty list of frames")
+            if not all(isinstance(f, bytes) for f in inner):
+                raise DecodeError("every frame in a batch is a byte string")
+            return Batch(tuple(inner))
         case code:
             raise DecodeError(f"unknown mesh frame type {code!r}")

@@ -40,8 +40,10 @@ from objectplaces.core.errors import DecodeError, LocalProtocolError
 from objectplaces.core.events import Broadcast, Output, Publish, Send, Subscribe
 from objectplaces.runtime.aio import AsyncioRunner
 from objectplaces.transport.mesh_frames import (
+    BATCH,
     NONCE_SIZE,
     Auth,
+    Batch,
     Gossip,
     Hello,
     PeerAddress,
@@ -49,6 +51,7 @@ from objectplaces.transport.mesh_frames import (
     VersionMismatch,
     decode_transport,
     encode_auth,
+    encode_batch,
     encode_gossip,
     encode_hello,
     encode_subscribe,
@@ -63,6 +66,8 @@ log = logging.getLogger("objectplaces.mesh")
 Cell = tuple[int, int]
 Connection = ServerConnection | ClientConnection
 _LEAVING: Final = "leaving"
+_BATCH_BYTES: Final = 64 * 1024
+_BATCH_FRAMES: Final = 512
 
 
 class CloseCode:
@@ -742,15 +747,29 @@ class WebSocketMesh:
 
     async def _write(self, link: _Link) -> None:
         queue, ws, counters = link.queue, link.ws, link.counters
+        budget = min(_BATCH_BYTES, self.options.max_frame // 2)
         try:
             while True:
-                data = await queue.get()
-                if data is None:
+                first = await queue.get()
+                frames: list[bytes] = []
+                size = 0
+                item = first
+                # Whatever queued up while we waited travels as one message: a send per
+                # frame costs far more than the frame itself.
+                while item is not None:
+                    frames.append(item)
+                    size += len(item)
+                    if size >= budget or len(frames) >= _BATCH_FRAMES or queue.empty():
+                        break
+                    item = queue.get_nowait()
+                if frames:
+                    data = frames[0] if len(frames) == 1 else encode_batch(frames)
+                    await ws.send(data)
+                    counters.messages_out += len(frames)
+                    counters.bytes_out += len(data)
+                if item is None:
                     await ws.close(CloseCode.GOING_AWAY, _LEAVING)
                     return
-                await ws.send(data)
-                counters.messages_out += 1
-                counters.bytes_out += len(data)
         except ConnectionClosed:
             return
 
@@ -777,13 +796,33 @@ class WebSocketMesh:
         return "connection lost"
 
     def _on_frame(self, link: _Link, data: str | bytes) -> tuple[int, str] | None:
-        """Handle one frame; returns (close code, reason) when the link must close."""
+        """Handle one WebSocket message; returns (close code, reason) when the link must close."""
+        if not isinstance(data, bytes):
+            link.counters.messages_in += 1
+            return CloseCode.UNSUPPORTED_DATA, "text frames are not accepted"
+        link.counters.bytes_in += len(data)
+        if len(data) > self.options.max_frame:
+            link.counters.messages_in += 1
+            return CloseCode.MESSAGE_TOO_BIG, (
+                f"frame of {len(data)} bytes over {self.options.max_frame}"
+            )
+        try:
+            batched = codec.frame_type(data) == BATCH
+            frames = decode_transport(data).frames if batched else (data,)  # type: ignore[union-attr]
+        except DecodeError as exc:
+            link.counters.messages_in += 1
+            return CloseCode.PROTOCOL_ERROR, f"malformed frame: {exc}"
+        for frame in frames:
+            refusal = self._on_one_frame(link, frame, nested=batched)
+            if refusal is not None:
+                return refusal
+        return None
+
+    def _on_one_frame(self, link: _Link, data: bytes, *, nested: bool) -> tuple[int, str] | None:
+        """Handle one frame (on its own or out of a batch)."""
         counters = link.counters
         counters.messages_in += 1
-        if not isinstance(data, bytes):
-            return CloseCode.UNSUPPORTED_DATA, "text frames are not accepted"
         size = len(data)
-        counters.bytes_in += size
         if not link.bucket.take(self._now()):
             return CloseCode.POLICY_VIOLATION, (
                 f"flood: over {self.options.flood_rate:g} frames/s "
@@ -805,6 +844,8 @@ class WebSocketMesh:
                 self._on_gossip(peers)
             case SubscribeCells(cells):
                 self._on_subscribe(link.peer, cells)
+            case Batch() if nested:
+                return CloseCode.PROTOCOL_ERROR, "a batch inside a batch"
             case _:
                 return CloseCode.PROTOCOL_ERROR, "handshake frame on an open link"
         return None

@@ -17,7 +17,7 @@ from websockets.exceptions import ConnectionClosed
 
 from objectplaces.core import codec
 from objectplaces.core.messages import PropertyUpdate
-from objectplaces.transport.mesh_frames import HELLO
+from objectplaces.transport.mesh_frames import HELLO, encode_batch
 from tests.mesh.procs import Cluster, NodeProcess
 from tests.mesh.rawpeer import authenticate, open_raw
 
@@ -113,6 +113,12 @@ async def test_abuse_is_refused_and_the_node_keeps_serving(
         ([msgpack.packb([codec.FIRST_TRANSPORT_TYPE + 20])], 1002, "unknown"),
         (["a text frame"], 1003, "text"),
         ([os.urandom(MAX_FRAME + 1)], 1009, ""),
+        (
+            [encode_batch([encode_batch([codec.encode(PropertyUpdate(1, {}))])])],
+            1002,
+            "batch inside",
+        ),
+        ([encode_batch([b"\x93\xc1\xc1"])], 1002, "malformed"),
         ([codec.encode(PropertyUpdate(n + 1, {"spam": n})) for n in range(2000)], 1008, "flood"),
     ]
     for frames, expected_code, expected_reason in cases:
@@ -121,6 +127,26 @@ async def test_abuse_is_refused_and_the_node_keeps_serving(
         code, reason = await closed_with(ws, frames)
         assert code == expected_code, (code, reason)
         assert expected_reason in reason
+
+    # Frames queued together travel as one batch: each is handled as if sent alone.
+    ws = await open_raw(address)
+    await authenticate(ws, secret, node="batcher")
+    moves = [codec.encode(PropertyUpdate(n, {"position": (float(n), 0.0)})) for n in (1, 2, 3)]
+    await ws.send(encode_batch(moves))
+
+    def saw_batch() -> None:
+        deadline = time.monotonic() + 15
+        while True:
+            mark = len(a.events)
+            a.send(cmd="view")
+            view = a.wait_event("view", since=mark)["view"]
+            if view.get("batcher", {}).get("position") == [3.0, 0.0]:
+                return
+            assert time.monotonic() < deadline, f"batch not applied: {view}"
+            time.sleep(0.02)  # poll, not an assertion
+
+    await asyncio.to_thread(saw_batch)
+    await ws.close()
 
     # The node kept running, kept its honest link, and still follows b.
     await follows(a, b, 3.0)
