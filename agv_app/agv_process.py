@@ -279,10 +279,13 @@ async def run(args: argparse.Namespace, secret: bytes) -> int:
             for task in tasks:
                 task.cancel()
     finally:
-        for signum in (signal.SIGTERM, signal.SIGINT):
-            loop.remove_signal_handler(signum)
         await node.close()
         _emit("closed")
+        for signum in (signal.SIGTERM, signal.SIGINT):
+            loop.remove_signal_handler(signum)
+            # Already on the way out: a late SIGTERM (the parent sends one after closing
+            # our stdin) must not turn a clean exit into death by signal.
+            signal.signal(signum, signal.SIG_IGN)
     return 0
 
 
