@@ -1,0 +1,151 @@
+"""MeshFleet: every AGV its own process on the WebSocket mesh, seen by an observer node.
+
+Real processes on 127.0.0.1; every wait is bounded, and every child must be reaped.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import math
+import stat
+import time
+import warnings
+from pathlib import Path
+
+import pytest
+from starlette.exceptions import StarletteDeprecationWarning
+
+from agv_app.mesh_fleet import OBSERVER_ID, MeshFleet
+from dashboard.app import create_app
+
+with warnings.catch_warnings():
+    warnings.simplefilter("ignore", StarletteDeprecationWarning)
+    from starlette.testclient import TestClient
+
+pytestmark = [pytest.mark.processes, pytest.mark.timeout(90)]
+
+AGVS = ["agv-01", "agv-02", "agv-03"]
+PICK = "pick-A3-1"
+
+
+def _alive(pid: int) -> bool:
+    return Path(f"/proc/{pid}").exists()
+
+
+def _cmdline(pid: int) -> bytes:
+    return Path(f"/proc/{pid}/cmdline").read_bytes()
+
+
+def _secret_file(pid: int) -> Path:
+    args = _cmdline(pid).split(b"\0")
+    return Path(args[args.index(b"--secret-file") + 1].decode())
+
+
+async def test_agv_processes_take_a_task_and_are_reaped() -> None:
+    fleet = MeshFleet(agvs=3, seed=2, task_interval=None, run_seconds=80.0)
+    await fleet.start()
+    pids = fleet.pids()
+    try:
+        assert len(pids) == 3
+        secret = _secret_file(pids[0])
+        assert stat.S_IMODE(secret.stat().st_mode) == 0o600
+        assert secret.read_bytes() not in _cmdline(pids[0])
+        try:
+            async with asyncio.timeout(40):
+                await fleet.wait_ready()
+        except TimeoutError:
+            pytest.fail(f"unheard: {fleet.missing()}; logs: {fleet.child_logs()}")
+        vehicles = {v.id: v for v in fleet.vehicles()}
+        assert sorted(vehicles) == AGVS
+        for v in vehicles.values():
+            assert math.isfinite(v.x)
+            assert math.isfinite(v.y)
+            assert len(v.hull) == 4
+            assert v.hull_length > 0
+            assert v.status == "idle"
+            assert v.task_id is None
+            assert v.locked, f"{v.id} holds its own hull from the start"
+        assert set(fleet.nodes()) == {OBSERVER_ID, *(f"st:{s}" for s in fleet.stations)}
+
+        task = fleet.create_task(PICK)
+        taken = None
+        async with asyncio.timeout(30):
+            while taken is None:
+                fleet.advance(0.1)
+                taken = next(
+                    (v for v in fleet.vehicles() if v.task_id == task and v.status != "idle"),
+                    None,
+                )
+                await asyncio.sleep(0.1)
+        assert fleet.assignment(task) == taken.id
+        start = (taken.x, taken.y)
+        async with asyncio.timeout(20):
+            while True:
+                now = next(v for v in fleet.vehicles() if v.id == taken.id)
+                if math.dist(start, (now.x, now.y)) > 1.0:
+                    break
+                await asyncio.sleep(0.1)
+        fleet.check()
+        metrics = fleet.metrics()
+        assert metrics["tasks_created"] == 1
+        assert metrics["agvs_seen"] == 3
+        assert metrics["messages"] > 0
+        assert metrics["bytes"] > 0
+        assert metrics["collisions"] == 0
+        assert metrics["lock_overlaps"] == 0
+        assert metrics["deadlocks"] == 0
+    finally:
+        await fleet.stop()
+    assert not any(_alive(pid) for pid in pids)
+    assert fleet.exit_codes() == dict.fromkeys(AGVS, 0), "each left the mesh gracefully"
+    assert not secret.exists()
+
+
+async def test_speed_is_real_time_and_pause_only_stops_new_tasks() -> None:
+    fleet = MeshFleet(agvs=1, seed=1)
+    with pytest.raises(ValueError, match=r"speed is always 1\.0"):
+        fleet.set_speed(2.0)
+    fleet.set_speed(1.0)
+    fleet.pause()
+    assert fleet.paused
+    fleet.resume()
+    assert not fleet.paused
+    with pytest.raises(ValueError, match="not running"):
+        fleet.create_task(PICK)
+    with pytest.raises(KeyError):
+        fleet.create_task("no-such-station")
+    await fleet.stop()
+    assert fleet.pids() == []
+
+
+def test_dashboard_shows_the_agv_processes() -> None:
+    fleet = MeshFleet(agvs=3, seed=5, task_interval=None, run_seconds=80.0)
+    with TestClient(create_app(fleet)) as client:
+        if not fleet.started:
+            # The optional start/stop hooks of the app's lifespan are what run the fleet.
+            pytest.xfail("dashboard.app's lifespan does not await source.start() yet")
+        pids = fleet.pids()
+        assert len(pids) == 3
+        deadline = time.monotonic() + 40
+        locks: list[dict[str, object]] = []
+        while time.monotonic() < deadline:
+            locks = client.get("/api/locks").json()
+            if len(locks) == 3:
+                break
+            time.sleep(0.2)
+        assert [lock["vehicle"] for lock in locks] == AGVS, fleet.child_logs()
+        assert all(lock["locked"] for lock in locks)
+
+        nodes = client.get("/api/nodes").json()
+        assert OBSERVER_ID in [n["id"] for n in nodes]
+        observer = client.get(f"/api/nodes/{OBSERVER_ID}").json()
+        assert set(AGVS) <= set(observer["view"])
+        assert observer["view"]["agv-01"]["kind"] == "agv"
+
+        metrics = client.get("/api/metrics").json()
+        assert metrics["collisions"] == 0
+        reply = client.post("/api/sim/speed", json={"factor": 2.0})
+        assert reply.status_code in (400, 409, 422), reply.text
+        assert "1.0" in reply.text
+    assert not any(_alive(pid) for pid in pids)
+    assert not any(code is None for code in fleet.exit_codes().values())
