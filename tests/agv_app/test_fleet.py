@@ -15,6 +15,7 @@ SEED = int(os.environ.get("OP_SEED", "1"))
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(900)  # about 45 CPU seconds; generous for a loaded CI machine
 def test_twenty_agvs_thirty_minutes_safe_and_every_task_done() -> None:
     print(f"OP_SEED={SEED}")
     cfg = FleetConfig(agvs=20, seed=SEED, task_interval=60.0, task_until=1200.0)

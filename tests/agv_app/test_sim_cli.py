@@ -44,9 +44,7 @@ def test_sim_writes_the_metrics_and_exits_zero(
 
 
 def test_broadcast_and_an_opentcs_layout(tmp_path: Path) -> None:
-    layout = Path(__file__).resolve().parents[3] / "shared/data/opentcs/Demo-01.xml"
-    if not layout.exists():
-        pytest.skip("openTCS demo model not available")
+    layout = Path(__file__).resolve().parents[2] / "agv_app/data/opentcs/Demo-01.xml"
     code = main(["sim", "--agvs", "4", "--minutes", "1", "--layout", str(layout), "--quiet"])
     assert code == 0
     code = main(["sim", "--agvs", "3", "--minutes", "0.5", "--broadcast", "--quiet"])
