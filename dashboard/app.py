@@ -117,6 +117,18 @@ class _Dashboard:
             node.set_participant_factory(RESPONDER_ROLE, _responder_factory(node))
             self.responders_on.add(node_id)
 
+    def fixed_positions(self) -> dict[str, list[float]]:
+        """Where the nodes that are not vehicles stand (stations), for session lines."""
+        vehicles = {v.id for v in self.source.vehicles()}
+        out: dict[str, list[float]] = {}
+        for node_id, node in sorted(self.source.nodes().items()):
+            pos = node.properties.get("position")
+            if node_id in vehicles or not isinstance(pos, tuple | list) or len(pos) != 2:
+                continue
+            if all(isinstance(c, int | float) and math.isfinite(c) for c in pos):
+                out[node_id] = [float(pos[0]), float(pos[1])]
+        return out
+
     def sessions(self) -> dict[str, SessionRecord]:
         """Every live session on every node, by id; forgets API sessions that ended."""
         records: dict[str, SessionRecord] = {}
@@ -551,7 +563,7 @@ def create_app(
         """A snapshot, then deltas at most 20 times a second (docs/dashboard.md)."""
         await websocket.accept()
         loop = asyncio.get_running_loop()
-        feed = ClientFeed(dash.layout)
+        feed = ClientFeed(dict(dash.layout, nodes=dash.fixed_positions()))
         wake = asyncio.Event()
         handle = dash.hub.add(feed)
         dash.wakers[handle] = wake

@@ -79,7 +79,10 @@ def build_source(args: argparse.Namespace) -> FleetSource:
     make: Callable[..., FleetSource] | None = getattr(fleet, "demo_source", None)
     if make is None:
         raise SystemExit("objectplaces demo: agv_app.fleet offers no demo_source()")
-    return make(agvs=args.agvs, seed=args.seed, processes=args.processes)
+    try:
+        return make(agvs=args.agvs, seed=args.seed, processes=args.processes)
+    except ValueError as exc:
+        raise SystemExit(f"objectplaces demo: {exc}") from exc
 
 
 def serve(

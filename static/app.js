@@ -10,6 +10,11 @@ const CHART_INTERVAL_MS = 1000;
 const CHART_SAMPLES = 120;
 const MAX_SESSION_ROWS = 150;
 const LABEL_LIMIT = 80;
+// Shown at once; every other metric goes under "all metrics".
+const KEY_METRICS = [
+  "tasks_created", "tasks_completed", "tasks_per_hour", "messages", "bytes",
+  "collisions", "lock_overlaps", "deadlocks",
+];
 const STATION_HIT_PX = 12;
 
 const COLORS = {
@@ -227,6 +232,8 @@ function nodePosition(id, t) {
     const [dx, dy] = drawnOffset(v, t);
     return [v.x + dx, v.y + dy];
   }
+  const fixed = state.layout.nodes && state.layout.nodes[id];
+  if (fixed) return fixed;
   const st = state.stationsById.get(id);
   return st ? [st.x, st.y] : null;
 }
@@ -750,6 +757,7 @@ const el = {
   locks: document.getElementById("locks-body"),
   nodes: document.getElementById("nodes-body"),
   metrics: document.getElementById("metrics-list"),
+  metricsMore: document.getElementById("metrics-more"),
   pause: document.getElementById("btn-pause"),
   resume: document.getElementById("btn-resume"),
 };
@@ -824,7 +832,7 @@ function updatePanels() {
       const dd = document.createElement("dd");
       dt.textContent = k.replaceAll("_", " ");
       dd.setAttribute("data-metric", k);
-      el.metrics.append(dt, dd);
+      (KEY_METRICS.includes(k) ? el.metrics : el.metricsMore).append(dt, dd);
       row = dd;
       metricRows.set(k, dd);
     }
