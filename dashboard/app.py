@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import asyncio
 import hmac
+import inspect
 import json
 import logging
 import math
@@ -280,12 +281,20 @@ def create_app(
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
-        async with asyncio.TaskGroup() as tasks:
-            runner = tasks.create_task(dash.run())
-            try:
-                yield
-            finally:
-                runner.cancel()
+        # A fleet of separate processes starts and stops with the app (optional hooks).
+        start, stop = getattr(source, "start", None), getattr(source, "stop", None)
+        if inspect.iscoroutinefunction(start):
+            await start()
+        try:
+            async with asyncio.TaskGroup() as tasks:
+                runner = tasks.create_task(dash.run())
+                try:
+                    yield
+                finally:
+                    runner.cancel()
+        finally:
+            if inspect.iscoroutinefunction(stop):
+                await stop()
 
     app = FastAPI(
         title="ObjectPlaces dashboard",

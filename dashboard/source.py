@@ -8,6 +8,11 @@ Threading: the dashboard drives the fleet from one asyncio task (``advance``) an
 everything else from request handlers on the same event loop, so nothing here is called
 concurrently and an implementation needs no locks. No member may block.
 
+Optional hooks: a fleet that needs the event loop to start (one whose AGVs run as
+separate processes on the WebSocket mesh) may define ``async def start()`` and
+``async def stop()``; the app awaits ``start()`` before it first advances the fleet and
+``stop()`` when it shuts down.
+
 Geometry travels as plain numbers: a point is ``(x, y)`` in metres, world y pointing up;
 a polygon is a sequence of ``(x, y)`` vertices, not closed (first vertex not repeated).
 Give projections as tuples of tuples where you can: the dashboard then converts each

@@ -121,9 +121,7 @@ async def test_speed_is_real_time_and_pause_only_stops_new_tasks() -> None:
 def test_dashboard_shows_the_agv_processes() -> None:
     fleet = MeshFleet(agvs=3, seed=5, task_interval=None, run_seconds=80.0)
     with TestClient(create_app(fleet)) as client:
-        if not fleet.started:
-            # The optional start/stop hooks of the app's lifespan are what run the fleet.
-            pytest.xfail("dashboard.app's lifespan does not await source.start() yet")
+        assert fleet.started  # the app's lifespan ran the optional start hook
         pids = fleet.pids()
         assert len(pids) == 3
         deadline = time.monotonic() + 40
@@ -143,7 +141,7 @@ def test_dashboard_shows_the_agv_processes() -> None:
         assert observer["view"]["agv-01"]["kind"] == "agv"
 
         metrics = client.get("/api/metrics").json()
-        assert metrics["collisions"] == 0
+        assert metrics["metrics"]["collisions"] == 0
         reply = client.post("/api/sim/speed", json={"factor": 2.0})
         assert reply.status_code in (400, 409, 422), reply.text
         assert "1.0" in reply.text
