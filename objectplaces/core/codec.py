@@ -50,6 +50,7 @@ __all__ = [
     "frame_type",
     "message_kind",
     "normalise_property",
+    "unpack_frame",
 ]
 
 DEFAULT_MAX_FRAME: Final = 1 << 20
@@ -228,11 +229,12 @@ def _decode_ack(frame: list[Any]) -> ChannelAck:
     )
 
 
-def decode(data: bytes, *, max_size: int = DEFAULT_MAX_FRAME) -> Message:
-    """Decode one frame into a message.
+def unpack_frame(data: bytes, *, max_size: int = DEFAULT_MAX_FRAME) -> list[Any]:
+    """Parse a frame's msgpack array; every decoder (the core's, the mesh's) starts here.
 
     Raises:
-        DecodeError: the frame is oversized, malformed, or of an unknown type.
+        DecodeError: the frame is oversized, not msgpack, uses an extension type, or is
+            not an array starting with an integer type code.
     """
     if len(data) > max_size:
         raise DecodeError(f"frame of {len(data)} bytes exceeds the limit of {max_size}")
@@ -244,6 +246,16 @@ def decode(data: bytes, *, max_size: int = DEFAULT_MAX_FRAME) -> Message:
         raise DecodeError(f"malformed frame: {exc}") from exc
     if not isinstance(frame, list) or not frame or not isinstance(frame[0], int):
         raise DecodeError(f"a frame is an array starting with a type code, got {frame!r:.80}")
+    return frame
+
+
+def decode(data: bytes, *, max_size: int = DEFAULT_MAX_FRAME) -> Message:
+    """Decode one frame into a message.
+
+    Raises:
+        DecodeError: the frame is oversized, malformed, or of an unknown type.
+    """
+    frame = unpack_frame(data, max_size=max_size)
     match frame[0]:
         case 1:
             if len(frame) != 3:

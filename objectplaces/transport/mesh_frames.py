@@ -217,10 +217,6 @@ def _bytes(value: Any, what: str, size: int | None = None) -> bytes:
     raise DecodeError(f"{what} must be {size or 'some'} bytes, got {value!r:.80}")
 
 
-def _reject_ext(code: int, data: bytes) -> Any:
-    raise DecodeError(f"msgpack extension type {code} is not allowed")
-
-
 def _decode_hello(frame: list[Any]) -> Hello:
     if len(frame) < 2 or frame[1] != PROTOCOL_VERSION:
         version = frame[1] if len(frame) >= 2 else None
@@ -270,16 +266,7 @@ def decode_transport(data: bytes, *, max_size: int = codec.DEFAULT_MAX_FRAME) ->
         VersionMismatch: a hello of another protocol version.
         DecodeError: the frame is oversized, malformed, or not a mesh frame.
     """
-    if len(data) > max_size:
-        raise DecodeError(f"frame of {len(data)} bytes exceeds the limit of {max_size}")
-    try:
-        frame = msgpack.unpackb(data, raw=False, strict_map_key=False, ext_hook=_reject_ext)
-    except DecodeError:
-        raise
-    except Exception as exc:  # msgpack raises several unrelated types on bad input
-        raise DecodeError(f"malformed frame: {exc}") from exc
-    if not isinstance(frame, list) or not frame or not isinstance(frame[0], int):
-        raise DecodeError(f"a frame is an array starting with a type code, got {frame!r:.80}")
+    frame = codec.unpack_frame(data, max_size=max_size)
     match frame[0]:
         case 32 | 33:
             return _decode_hello(frame)
