@@ -1,0 +1,79 @@
+"""The page over the real AGV fleet, in real headless chromium: AGVs move between two
+screenshots, and a task added by clicking a station is picked up by an AGV."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from agv_app.fleet import demo_source
+from tests.dashboard.test_browser import CHROMIUM, CHROMIUM_ARGS, Served
+
+pytestmark = [
+    pytest.mark.browser,
+    pytest.mark.skipif(not CHROMIUM.exists(), reason="needs /usr/bin/chromium (make chromium)"),
+]
+
+
+@pytest.fixture
+def fleet_page(tmp_path: Path) -> Iterator[tuple[Any, Any]]:
+    fleet = demo_source(agvs=6, seed=3)
+    fleet.set_speed(8.0)  # eight simulated seconds per wall second: visible motion soon
+    sync_api = pytest.importorskip("playwright.sync_api")
+    with Served(fleet) as served, sync_api.sync_playwright() as pw:  # type: ignore[arg-type]
+        browser = pw.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
+        page = browser.new_page(viewport={"width": 1400, "height": 900})
+        problems: list[str] = []
+        page.on("console", lambda m: problems.append(m.text) if m.type == "error" else None)
+        page.on("pageerror", lambda e: problems.append(str(e)))
+        page.goto(served.url + "/")
+        page.wait_for_function("window.__dashboard && window.__dashboard.ready", timeout=10_000)
+        yield page, fleet
+        browser.close()
+        assert problems == [], problems
+
+
+def wait_for(predicate: Any, timeout: float, what: str) -> Any:
+    deadline = time.monotonic() + timeout
+    while True:
+        value = predicate()
+        if value:
+            return value
+        assert time.monotonic() < deadline, f"not within {timeout} s: {what}"
+        time.sleep(0.1)  # polling a live page, not an assertion
+
+
+def test_agvs_move_between_two_screenshots(fleet_page: tuple[Any, Any], tmp_path: Path) -> None:
+    page, _ = fleet_page
+    before = page.evaluate("window.__dashboard.vehicles()")
+    assert len(before) == 6
+    first, second = tmp_path / "fleet-1.png", tmp_path / "fleet-2.png"
+    page.screenshot(path=str(first))
+
+    def moved() -> bool:
+        now = page.evaluate("window.__dashboard.vehicles()")
+        return any(now[v][:2] != before[v][:2] for v in before)
+
+    wait_for(moved, 30.0, "an AGV moves")
+    page.screenshot(path=str(second))
+    assert first.read_bytes() != second.read_bytes()
+
+
+def test_a_task_added_by_clicking_a_station_is_picked_up(fleet_page: tuple[Any, Any]) -> None:
+    page, _ = fleet_page
+    pos = page.evaluate("window.__dashboard.stationScreenPosition('pick-A1-1')")
+    page.mouse.click(pos["x"], pos["y"])
+    page.wait_for_function("window.__dashboard.lastTask !== null", timeout=5_000)
+    task = page.evaluate("window.__dashboard.lastTask")
+    assert task["station"] == "pick-A1-1"
+
+    def carried_by() -> str | None:
+        vehicles = page.evaluate("window.__dashboard.vehicles()")
+        return next((v for v, (_, _, _, t) in vehicles.items() if t == task["id"]), None)
+
+    agv = wait_for(carried_by, 45.0, f"an AGV takes {task['id']}")
+    assert agv.startswith("agv")
