@@ -13,13 +13,41 @@ import sys
 import time
 from pathlib import Path
 
-from agv_app.fleet import Fleet, FleetConfig
-from agv_app.layout import LayoutError
+from agv_app.fleet import Fleet, FleetConfig, parking_capacity
+from agv_app.layout import Layout, LayoutError
 from agv_app.layout_json import load_any
 
-__all__ = ["SAFETY_KEYS", "register", "run_sim"]
+__all__ = ["DEFAULT_AGVS", "SAFETY_KEYS", "fleet_size", "register", "run_sim"]
 
 SAFETY_KEYS = ("collisions", "lock_overlaps", "deadlocks")
+DEFAULT_AGVS = 20
+
+
+def fleet_size(layout: Layout | None, asked: int | None) -> int:
+    """The number of AGVs to run: what was asked, within the layout's parking places.
+
+    Raises:
+        ValueError: more AGVs were asked for than the layout has parking places.
+    """
+    capacity = parking_capacity(layout) if layout is not None else 0
+    if asked is None:
+        size = min(DEFAULT_AGVS, capacity) if capacity else DEFAULT_AGVS
+        if size < DEFAULT_AGVS and layout is not None:
+            print(
+                f"objectplaces sim: layout {layout.name!r} has {capacity} parking places; "
+                f"running {size} AGVs",
+                file=sys.stderr,
+            )
+        return size
+    if layout is not None and capacity and asked > capacity:
+        raise ValueError(
+            f"layout {layout.name!r} has {capacity} parking places, too few for {asked} AGVs: "
+            f"the others would rest on its lanes and block them; use --agvs {capacity} or "
+            "fewer, or add parking stations"
+        )
+    return asked
+
+
 """Figures that must all be zero for a run to pass."""
 
 
@@ -33,7 +61,12 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
             "at every step, and print (and optionally write) the metrics."
         ),
     )
-    p.add_argument("--agvs", type=int, default=20, help="number of AGVs")
+    p.add_argument(
+        "--agvs",
+        type=int,
+        help=f"number of AGVs (default: {DEFAULT_AGVS}, or fewer if the layout has fewer "
+        "parking places)",
+    )
     p.add_argument("--minutes", type=float, default=60.0, help="simulated minutes")
     p.add_argument("--seed", type=int, default=1, help="random seed")
     p.add_argument("--layout", help="layout file (.json or openTCS .xml); default: demo")
@@ -54,11 +87,13 @@ def run_sim(args: argparse.Namespace) -> int:
     Returns:
         0 if every safety figure is zero, 1 if not, 2 on bad arguments or layout.
     """
-    if args.agvs < 1 or args.minutes <= 0 or not 0.0 <= args.loss < 1.0 or args.delay < 0:
+    bad_agvs = args.agvs is not None and args.agvs < 1
+    if bad_agvs or args.minutes <= 0 or not 0.0 <= args.loss < 1.0 or args.delay < 0:
         print("objectplaces sim: need --agvs >= 1, --minutes > 0, 0 <= --loss < 1", file=sys.stderr)
         return 2
     try:
         layout = load_any(args.layout) if args.layout else None
+        args.agvs = fleet_size(layout, args.agvs)
         config = FleetConfig(
             agvs=args.agvs,
             seed=args.seed,

@@ -31,7 +31,7 @@ from objectplaces.sim import SimulatedNetwork
 if TYPE_CHECKING:
     from agv_app.mesh_fleet import MeshFleet
 
-__all__ = ["Fleet", "FleetConfig", "VehicleState", "demo_source"]
+__all__ = ["Fleet", "FleetConfig", "VehicleState", "demo_source", "parking_capacity"]
 
 OBSERVER_ID = "observer"
 MESH_DEMO_TASK_INTERVAL_S = 90.0
@@ -496,6 +496,24 @@ class Fleet:
         while self._carry >= dt - 1e-9:
             self._carry -= dt
             self.step()
+
+
+def parking_capacity(layout: Layout) -> int:
+    """How many AGVs ``layout`` can hold: its distinct parking and charging points.
+
+    An idle AGV rests on one of these, off the lanes. A fleet larger than this has to
+    rest on lanes, and on a layout of one-way loops (openTCS Demo-01 has five parking
+    spots) the resting AGVs block the loop until it gridlocks.
+    """
+    usable = set(layout.usable_stations())
+    return len(
+        {
+            station.point
+            for kind in ("parking", "charging")
+            for station in layout.stations_of_kind(kind)
+            if station.id in usable
+        }
+    )
 
 
 def demo_source(

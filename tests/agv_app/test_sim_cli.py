@@ -43,8 +43,32 @@ def test_sim_writes_the_metrics_and_exits_zero(
     assert "bytes_per_agv_per_s" in capsys.readouterr().out
 
 
+DEMO_01 = Path(__file__).resolve().parents[2] / "agv_app/data/opentcs/Demo-01.xml"
+
+
+def test_an_opentcs_layout_runs_a_fleet_of_its_parking_capacity(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "demo01.json"
+    code = main(["sim", "--layout", str(DEMO_01), "--minutes", "10", "--quiet", "--json", str(out)])
+    assert code == 0
+    figures = json.loads(out.read_text())
+    assert figures["agvs"] == 5  # Demo-01 has five parking places
+    assert figures["collisions"] == figures["lock_overlaps"] == figures["deadlocks"] == 0
+    assert figures["tasks_created"] > 0
+    assert "has 5 parking places; running 5 AGVs" in capsys.readouterr().err
+
+
+def test_more_agvs_than_parking_places_is_refused_clearly(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    code = main(["sim", "--layout", str(DEMO_01), "--agvs", "20", "--minutes", "1", "--quiet"])
+    assert code == 2
+    assert "5 parking places, too few for 20 AGVs" in capsys.readouterr().err
+
+
 def test_broadcast_and_an_opentcs_layout(tmp_path: Path) -> None:
-    layout = Path(__file__).resolve().parents[2] / "agv_app/data/opentcs/Demo-01.xml"
+    layout = DEMO_01
     code = main(["sim", "--agvs", "4", "--minutes", "1", "--layout", str(layout), "--quiet"])
     assert code == 0
     code = main(["sim", "--agvs", "3", "--minutes", "0.5", "--broadcast", "--quiet"])
