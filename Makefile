@@ -30,8 +30,10 @@ lint: $(STAMP)
 	$(BIN)/ruff format --check .
 	$(BIN)/mypy
 
-bench: $(STAMP)
-	for script in bench/*.py; do $(BIN)/python $$script || exit 1; done
+BENCHMARKS := tuplespace groups mesh fleet dashboard
+
+bench: $(STAMP) chromium
+	for name in $(BENCHMARKS); do $(BIN)/python -m bench.$$name || exit 1; done
 
 clean:
 	rm -rf $(VENV) .pytest_cache .mypy_cache .ruff_cache .hypothesis
