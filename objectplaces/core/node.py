@@ -870,10 +870,13 @@ class NodeMachine:
         )
 
     def _send_frame(self, target: str, channel: Channel, kind: FrameKind, payload: Any) -> None:
+        was_idle = channel.idle
         frame = channel.send(kind, payload, self.now)
         data = codec.encode(frame)
         self._emit(Send(target, data, "channel"))
-        self._push_timer(self.now + self.config.retransmit_timeout, ("retx", target, channel))
+        if was_idle:
+            # One timer per channel: _retransmit re-arms it at the next frame's deadline.
+            self._push_timer(self.now + self.config.retransmit_timeout, ("retx", target, channel))
 
     def _on_ack(self, source: str, ack: ChannelAck) -> None:
         if ack.of_participant_stream:
