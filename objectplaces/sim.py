@@ -71,9 +71,16 @@ class _SimNode:
         if self.alive:
             self.pump.drain()
 
-    def deliver(self, source: str, message: Message, size: int) -> None:
-        self.machine.receive_message(source, message, self.net._loop.now, size=size)
-        self.pump.drain()
+    def deliver(self, source: str, message: Message | bytes, size: int) -> None:
+        now = self.net._loop.now
+        try:
+            if isinstance(message, bytes):
+                self.machine.receive(source, message, now)
+            else:
+                self.machine.receive_message(source, message, now, size=size)
+        finally:
+            # Whatever the frame did, what the machine queued before it failed goes out.
+            self.pump.drain()
 
     def sync(self, subscriber: str) -> None:
         self.machine.send_properties_to(subscriber)
@@ -255,6 +262,27 @@ class SimulatedNetwork:
         if predicate():
             return True
         return self._loop.run_until(self._loop.now + timeout, predicate)
+
+    def inject(self, source: str, target: str, data: bytes) -> None:
+        """Deliver raw bytes to ``target`` as if ``source`` had sent them: the hostile peer.
+
+        The bytes take the ``source -> target`` link's delay (and jitter), then the
+        same receive path real frames take: decoded once, handed to the target's
+        machine, malformed ones refused and counted there (``dropped_malformed``).
+        Injected frames are never lost, duplicated or stopped by a partition, so the
+        test knows they arrived; they count under the kind "injected" in ``stats()``.
+        Should handling one raise, the network drops that frame, counts it in
+        ``stats().dropped["failed"]``, logs it, and the target keeps running.
+
+        Args:
+            source: the claimed sender; any id, a node of this network or not.
+            target: a live node.
+            data: the frame's bytes, well-formed or not.
+
+        Raises:
+            LocalProtocolError: ``target`` is not a live node, or ``data`` is not bytes.
+        """
+        self._network.inject(source, target, data)
 
     def call_later(self, delay: float, fn: Callable[[], Any]) -> None:
         """Run ``fn`` after ``delay`` virtual seconds (for drivers of simulated applications)."""

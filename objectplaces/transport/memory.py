@@ -10,6 +10,7 @@ of one republication interval.
 
 from __future__ import annotations
 
+import logging
 import random
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field, replace
@@ -23,8 +24,12 @@ from objectplaces.runtime.sim import EventLoop
 __all__ = ["LinkParams", "MemoryNetwork", "NetworkStats", "NodeTraffic"]
 
 Cell = tuple[int, int]
-Deliver = Callable[[str, Message, int], None]
+Deliver = Callable[[str, Message | bytes, int], None]
+"""Hands one frame to a node: its decoded message, or its raw bytes when they do not
+decode (the node's own decoder then refuses and counts them)."""
 Sync = Callable[[str], None]
+
+log = logging.getLogger("objectplaces")
 
 
 @dataclass(frozen=True, slots=True)
@@ -85,7 +90,8 @@ class NetworkStats:
         bytes: their total size.
         by_kind: kind -> (messages, bytes).
         per_node: node -> its traffic.
-        dropped: reason ("loss", "partition", "dead") -> frames dropped.
+        dropped: reason -> frames dropped: "loss", "partition", "dead" (the target was
+            gone), "failed" (handling the frame raised; the target lives on).
         delivered: frames that reached a live node.
     """
 
@@ -114,7 +120,7 @@ class MemoryNetwork:
         self._publishers_in: dict[Cell, dict[str, None]] = {}
         self._last_cell: dict[str, Cell] = {}
         self._traffic: dict[str, NodeTraffic] = {}
-        self._dropped: dict[str, int] = {"loss": 0, "partition": 0, "dead": 0}
+        self._dropped: dict[str, int] = {"loss": 0, "partition": 0, "dead": 0, "failed": 0}
         self._delivered = 0
         self._messages = 0
         self._bytes = 0
@@ -208,10 +214,7 @@ class MemoryNetwork:
                 return 0
 
     def _send(self, source: str, targets: Iterable[str], data: bytes, kind: str) -> int:
-        try:
-            message = codec.decode(data)
-        except DecodeError:
-            message = None  # still delivered as bytes-less garbage: counted, then dropped
+        message = _decoded(data)
         size = len(data)
         traffic = self._traffic[source].sent
         tally = traffic.get(kind)
@@ -269,7 +272,7 @@ class MemoryNetwork:
         self,
         source: str,
         targets: list[tuple[str, int]],
-        message: Message | None,
+        message: Message | bytes,
         size: int,
         kind: str,
     ) -> None:
@@ -282,7 +285,7 @@ class MemoryNetwork:
         source: str,
         target: str,
         incarnation: int,
-        message: Message | None,
+        message: Message | bytes,
         size: int,
         kind: str,
     ) -> None:
@@ -297,8 +300,52 @@ class MemoryNetwork:
         tally[0] += 1
         tally[1] += size
         self._delivered += 1
-        if message is not None:
+        try:
             entry[1](source, message, size)
+        except Exception:
+            # A transport outlives any one frame: the node keeps running (docs: hardening).
+            self._dropped["failed"] += 1
+            log.exception("node %s: handling a %s frame from %s raised", target, kind, source)
+
+    def inject(self, source: str, target: str, data: bytes) -> None:
+        """Deliver raw ``data`` to ``target`` as if ``source`` had sent it.
+
+        The frame takes the ``source -> target`` link's delay (and jitter) and then the
+        same arrival path as every other frame; it is never lost, duplicated or held by
+        a partition, so a test knows it arrived. ``source`` need not be a node of the
+        network. Counted under the kind "injected".
+
+        Raises:
+            LocalProtocolError: ``target`` is not a live node, or ``data`` is not bytes.
+        """
+        if target not in self._nodes:
+            raise LocalProtocolError(f"unknown node {target!r}")
+        if not isinstance(data, bytes | bytearray | memoryview):
+            raise LocalProtocolError(f"injected data must be bytes, got {data!r:.80}")
+        data = bytes(data)
+        kind = "injected"
+        size = len(data)
+        link = self._links.get((source, target), self.defaults)
+        delay = link.delay
+        if link.jitter:
+            delay = max(0.0, delay + link.jitter * (2.0 * self.rng.random() - 1.0))
+        sent = self._traffic.setdefault(source, NodeTraffic()).sent.setdefault(kind, [0, 0])
+        by_kind = self._by_kind.setdefault(kind, [0, 0])
+        for tally in (sent, by_kind):
+            tally[0] += 1
+            tally[1] += size
+        self._messages += 1
+        self._bytes += size
+        self.loop.call_at(
+            self.loop.now + delay,
+            self._arrive,
+            source,
+            target,
+            self._incarnations[target],
+            _decoded(data),
+            size,
+            kind,
+        )
 
     # -- cell subscriptions -------------------------------------------------------------
 
@@ -366,3 +413,11 @@ class MemoryNetwork:
             dropped=dict(self._dropped),
             delivered=self._delivered,
         )
+
+
+def _decoded(data: bytes) -> Message | bytes:
+    """The message in ``data``, decoded once for every recipient; the bytes if it fails."""
+    try:
+        return codec.decode(data)
+    except DecodeError:
+        return data

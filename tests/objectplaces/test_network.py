@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import logging
+
+import msgpack
 import pytest
 
 from objectplaces import LocalProtocolError, groups
@@ -98,3 +101,42 @@ def test_graceful_leave_tells_peers_at_once() -> None:
     net.leave("b")
     net.run_for(0.1)
     assert gone == ["b"]
+
+
+def test_injected_garbage_and_a_malformed_property_frame_leave_the_target_running(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    net = SimulatedNetwork(seed=37, delay=0.02)
+    log: list[Event] = []
+    a, c = net.add_node("a"), net.add_node("c")
+    c.set_participant_factory("voter", lambda: RecordingParticipant(log))
+    place(a, 0, 0)
+    role = RecordingInitiator()
+    a.start_interaction(role, groups.within(5), "voter")  # a indexes positions
+    net.run_for(0.1)
+    hostile = [
+        b"\x93garbage",
+        b"",
+        msgpack.packb([1, 1, {"position": ["x", "y"]}]),
+        msgpack.packb([1, 2, {"position": [float("nan"), 0.0]}]),
+        msgpack.packb([1, 3, {"position": [None, 1]}, "extra"]),
+    ]
+    with caplog.at_level(logging.WARNING, logger="objectplaces"):
+        for data in hostile:
+            net.inject("evil", "a", data)
+        net.run_for(0.015)
+        assert net.stats().by_kind["injected"][0] == len(hostile)
+        assert net.stats().per_node["a"].received.get("injected") is None  # still in flight
+        net.run_for(0.01)  # the link's delay (0.02 s) has passed
+    assert net.stats().per_node["a"].received["injected"][0] == len(hostile)
+    assert a.stats().counters["dropped_malformed"] == 3
+    # each hostile frame was refused by the machine or, when handling it raised, dropped
+    refused = sum(v for k, v in a.stats().counters.items() if k.startswith("dropped"))
+    assert refused + net.stats().dropped["failed"] == len(hostile)
+    # a keeps running: c walks in and is followed as before
+    place(c, 1, 0)
+    net.run_for(0.5)
+    assert role.membership() == [("in", "c")]
+    assert ("c", "in_group_of", "a") in log
+    with pytest.raises(LocalProtocolError, match="unknown node 'zz'"):
+        net.inject("evil", "zz", b"")
