@@ -71,20 +71,34 @@ class _SimNode:
         if self.alive:
             self.pump.drain()
 
-    def deliver(self, source: str, message: Message | bytes, size: int) -> None:
-        now = self.net._loop.now
+    # The driver side the memory network calls (transport.base.RawNodeDriver). Whatever
+    # an input does, the drain in ``finally`` sends what the machine queued before it.
+
+    def deliver(self, source: str, message: Message, size: int) -> None:
         try:
-            if isinstance(message, bytes):
-                self.machine.receive(source, message, now)
-            else:
-                self.machine.receive_message(source, message, now, size=size)
+            self.machine.receive_message(source, message, self.net._loop.now, size=size)
         finally:
-            # Whatever the frame did, what the machine queued before it failed goes out.
             self.pump.drain()
 
-    def sync(self, subscriber: str) -> None:
-        self.machine.send_properties_to(subscriber)
-        self.pump.drain()
+    def deliver_raw(self, source: str, data: bytes) -> None:
+        try:
+            self.machine.receive(source, data, self.net._loop.now)
+        finally:
+            self.pump.drain()
+
+    def peer_joined(self, peer: str) -> None:
+        self.machine.peer_joined(peer, self.net._loop.now)
+        self.wake()
+
+    def peer_restarted(self, peer: str) -> None:
+        self.machine.peer_restarted(peer, self.net._loop.now)
+        self.wake()
+
+    def send_properties_to(self, peer: str) -> None:
+        try:
+            self.machine.send_properties_to(peer)
+        finally:
+            self.pump.drain()
 
 
 class SimulatedNetwork:
@@ -183,14 +197,8 @@ class SimulatedNetwork:
         space = space if space is not None else TupleSpace(clock=self._now)
         machine = NodeMachine(node_id, now=self.now, config=config, space=space)
         node = _SimNode(self, machine, space)
-        restarted = self._network.attached_before(node_id)
         self._nodes[node_id] = node
-        self._network.attach(node_id, node.deliver, node.sync)
-        if restarted:
-            for other in self._nodes.values():
-                if other is not node:
-                    other.machine.peer_restarted(node_id, self.now)
-                    other.wake()
+        self._network.attach(node_id, node)
         node.wake()
         return node.activator
 

@@ -2,10 +2,15 @@
 reordering and partitions, in virtual time, with real wire bytes counted.
 
 It also plays the part a content router plays on a real deployment: it keeps the cell
-subscriptions nodes declare and delivers each ``Publish`` to the subscribers of its
-cells. When a node subscribes to a cell, the router asks the nodes that last published
-there to send the newcomer their properties, so its view fills within one delay instead
-of one republication interval.
+subscriptions nodes declare (in a ``CellRouter``, the one the mesh uses too) and
+delivers each ``Publish`` to the subscribers of its cells. When a node subscribes to a
+cell, the network asks the nodes that last published there to send the newcomer their
+properties, so its view fills within one delay instead of one republication interval.
+
+Each node is attached with its ``RawNodeDriver``; time comes from a ``Scheduler``. A
+node that attaches under an id seen before is a new run of it: every other node's
+driver hears ``peer_restarted``. Handling one frame may raise; the network then drops
+that frame, counts it (``dropped["failed"]``) and carries on, as every transport does.
 """
 
 from __future__ import annotations
@@ -19,15 +24,10 @@ from objectplaces.core import codec
 from objectplaces.core.errors import DecodeError, LocalProtocolError
 from objectplaces.core.events import Broadcast, Output, Publish, Send, Subscribe
 from objectplaces.core.messages import Message
-from objectplaces.runtime.sim import EventLoop
+from objectplaces.transport.base import RawNodeDriver, Scheduler
+from objectplaces.transport.routing import Cell, CellRouter
 
 __all__ = ["LinkParams", "MemoryNetwork", "NetworkStats", "NodeTraffic"]
-
-Cell = tuple[int, int]
-Deliver = Callable[[str, Message | bytes, int], None]
-"""Hands one frame to a node: its decoded message, or its raw bytes when they do not
-decode (the node's own decoder then refuses and counts them)."""
-Sync = Callable[[str], None]
 
 log = logging.getLogger("objectplaces")
 
@@ -104,21 +104,23 @@ class NetworkStats:
 
 
 class MemoryNetwork:
-    """Routes frames between attached nodes through the event loop."""
+    """Routes frames between attached nodes, in the scheduler's time.
 
-    def __init__(self, loop: EventLoop, rng: random.Random, defaults: LinkParams) -> None:
+    Args:
+        loop: the clock and timer queue every delivery is scheduled on.
+        rng: draws every random choice (jitter, loss, duplication, reordering).
+        defaults: how every link behaves unless ``set_link`` says otherwise.
+    """
+
+    def __init__(self, loop: Scheduler, rng: random.Random, defaults: LinkParams) -> None:
         self.loop = loop
         self.rng = rng
         self.defaults = defaults
         self._links: dict[tuple[str, str], LinkParams] = {}
-        self._nodes: dict[str, tuple[int, Deliver, Sync]] = {}
+        self._nodes: dict[str, tuple[int, RawNodeDriver]] = {}
         self._incarnations: dict[str, int] = {}
         self._component: dict[str, int] | None = None
-        self._wildcard: dict[str, None] = {}
-        self._cell_subs: dict[Cell, dict[str, None]] = {}
-        self._node_cells: dict[str, frozenset[Cell] | None] = {}
-        self._publishers_in: dict[Cell, dict[str, None]] = {}
-        self._last_cell: dict[str, Cell] = {}
+        self._router = CellRouter()
         self._traffic: dict[str, NodeTraffic] = {}
         self._dropped: dict[str, int] = {"loss": 0, "partition": 0, "dead": 0, "failed": 0}
         self._delivered = 0
@@ -128,25 +130,31 @@ class MemoryNetwork:
 
     # -- membership -----------------------------------------------------------------
 
-    def attach(self, node: str, deliver: Deliver, sync: Sync) -> None:
-        """Connect ``node``; frames for it go to ``deliver``, sync requests to ``sync``."""
+    def attach(self, node: str, driver: RawNodeDriver) -> None:
+        """Connect ``node``, driven by ``driver``.
+
+        A node attached under an id seen before is a new run of it: every other live
+        node's driver hears ``peer_restarted`` at once.
+
+        Raises:
+            LocalProtocolError: ``node`` is attached already.
+        """
         if node in self._nodes:
             raise LocalProtocolError(f"node {node!r} is already on the network")
-        incarnation = self._incarnations.get(node, 0) + 1
-        self._incarnations[node] = incarnation
-        self._nodes[node] = (incarnation, deliver, sync)
+        previous = self._incarnations.get(node, 0)
+        self._incarnations[node] = previous + 1
+        self._nodes[node] = (previous + 1, driver)
         self._traffic.setdefault(node, NodeTraffic())
+        if previous:
+            for other, (_, other_driver) in list(self._nodes.items()):
+                if other != node:
+                    self._handle(other_driver.peer_restarted, node, target=other)
 
     def detach(self, node: str) -> None:
         """Disconnect ``node`` at once, as a crash: frames in flight to it are lost."""
         if self._nodes.pop(node, None) is None:
             raise LocalProtocolError(f"unknown node {node!r}")
-        self._set_subscription(node, frozenset())
-        self._wildcard.pop(node, None)
-        self._node_cells.pop(node, None)
-        cell = self._last_cell.pop(node, None)
-        if cell is not None:
-            self._publishers_in[cell].pop(node, None)
+        self._router.forget(node)
 
     def attached_before(self, node: str) -> bool:
         """True when ``node`` has been on this network at some time (live or not)."""
@@ -201,14 +209,7 @@ class MemoryNetwork:
             case Broadcast(data, kind):
                 return self._send(source, [n for n in self._nodes if n != source], data, kind)
             case Publish(cells, data, kind):
-                self._last_published(source, cells[0])
-                targets: dict[str, None] = dict(self._wildcard)
-                for cell in cells:
-                    subs = self._cell_subs.get(cell)
-                    if subs:
-                        targets.update(subs)
-                targets.pop(source, None)
-                return self._send(source, targets, data, kind)
+                return self._send(source, self._router.publish(source, cells), data, kind)
             case Subscribe(cells):
                 self._subscribe(source, cells)
                 return 0
@@ -293,6 +294,7 @@ class MemoryNetwork:
         if entry is None or entry[0] != incarnation:
             self._dropped["dead"] += 1
             return
+        driver = entry[1]
         received = self._traffic[target].received
         tally = received.get(kind)
         if tally is None:
@@ -301,11 +303,22 @@ class MemoryNetwork:
         tally[1] += size
         self._delivered += 1
         try:
-            entry[1](source, message, size)
+            if isinstance(message, bytes):
+                driver.deliver_raw(source, message)
+            else:
+                driver.deliver(source, message, size)
         except Exception:
-            # A transport outlives any one frame: the node keeps running (docs: hardening).
+            # A transport outlives any one frame: the node keeps running.
             self._dropped["failed"] += 1
-            log.exception("node %s: handling a %s frame from %s raised", target, kind, source)
+            log.exception("node %s: handling a %s frame from %s failed", target, kind, source)
+
+    def _handle(self, call: Callable[[str], None], peer: str, *, target: str) -> None:
+        """Tell ``target``'s driver about ``peer``; a failure there stays there."""
+        try:
+            call(peer)
+        except Exception:
+            self._dropped["failed"] += 1
+            log.exception("node %s: handling news of %s failed", target, peer)
 
     def inject(self, source: str, target: str, data: bytes) -> None:
         """Deliver raw ``data`` to ``target`` as if ``source`` had sent it.
@@ -349,51 +362,20 @@ class MemoryNetwork:
 
     # -- cell subscriptions -------------------------------------------------------------
 
-    def _last_published(self, node: str, cell: Cell) -> None:
-        old = self._last_cell.get(node)
-        if old == cell:
-            return
-        if old is not None:
-            self._publishers_in[old].pop(node, None)
-        self._last_cell[node] = cell
-        self._publishers_in.setdefault(cell, {})[node] = None
-
     def _subscribe(self, node: str, cells: frozenset[Cell] | None) -> None:
-        if cells is None:
-            self._set_subscription(node, frozenset())
-            self._node_cells[node] = None
-            self._wildcard[node] = None
-            publishers: Iterable[str] = [n for n in self._nodes if n != node]
-        else:
-            self._wildcard.pop(node, None)
-            old = self._set_subscription(node, cells)
-            added = sorted(cells - old)
-            found: dict[str, None] = {}
-            for cell in added:
-                found.update(self._publishers_in.get(cell, {}))
-            found.pop(node, None)
-            publishers = found
+        subscribed = self._router.subscribe(node, cells)
+        publishers: Iterable[str] = subscribed.publishers
+        if subscribed.became_full:
+            publishers = [n for n in self._nodes if n != node]
         for publisher in publishers:
             link = self._links.get((node, publisher), self.defaults)
             incarnation = self._incarnations[publisher]
             self.loop.call_at(self.loop.now + link.delay, self._sync, publisher, incarnation, node)
 
-    def _set_subscription(self, node: str, cells: frozenset[Cell]) -> frozenset[Cell]:
-        old = self._node_cells.get(node) or frozenset()
-        for cell in old - cells:
-            subs = self._cell_subs[cell]
-            subs.pop(node, None)
-            if not subs:
-                del self._cell_subs[cell]
-        for cell in sorted(cells - old):
-            self._cell_subs.setdefault(cell, {})[node] = None
-        self._node_cells[node] = cells
-        return old
-
     def _sync(self, publisher: str, incarnation: int, subscriber: str) -> None:
         entry = self._nodes.get(publisher)
         if entry is not None and entry[0] == incarnation and subscriber in self._nodes:
-            entry[2](subscriber)
+            self._handle(entry[1].send_properties_to, subscriber, target=publisher)
 
     # -- statistics -------------------------------------------------------------------
 
