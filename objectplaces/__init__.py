@@ -10,13 +10,13 @@ from __future__ import annotations
 
 from objectplaces import groups
 from objectplaces.activator import NodeStats, ObserverHandle, RoleActivator, Session
+from objectplaces.core.config import NodeConfig, ParticipationInfo, SessionInfo
 from objectplaces.core.errors import (
     DecodeError,
     LocalProtocolError,
     ObjectPlacesError,
     RemoteProtocolError,
 )
-from objectplaces.core.node import NodeConfig, ParticipationInfo, SessionInfo
 from objectplaces.mesh import start_node
 from objectplaces.roles import Initiator, InitiatorRef, Participant, ParticipantRef, TimerHandle
 

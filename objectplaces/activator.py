@@ -11,10 +11,11 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from objectplaces.core.config import ParticipationInfo, SessionInfo
 from objectplaces.core.errors import LocalProtocolError
 from objectplaces.core.events import TimerHandle
 from objectplaces.core.groups import DefinitionLike
-from objectplaces.core.node import NodeMachine, ParticipationInfo, SessionInfo
+from objectplaces.core.node import NodeMachine
 from objectplaces.core.roles import Initiator, Participant
 from tuplespace import TupleSpace
 
@@ -146,8 +147,7 @@ class RoleActivator:
             LocalProtocolError: no live session of this node has that id.
         """
         sid = session.session_id if isinstance(session, Session) else session
-        self._machine.now = self._clock()
-        self._machine.stop_session(sid)
+        self._machine.stop_session(sid, self._clock())
         self._wake()
 
     def view_group(self, definition: DefinitionLike) -> frozenset[str]:
@@ -156,8 +156,7 @@ class RoleActivator:
 
     def call_later(self, delay: float, fn: Callable[[], Any]) -> TimerHandle:
         """Run ``fn`` after ``delay`` seconds of the runtime's clock."""
-        self._machine.now = self._clock()
-        handle = self._machine.call_later(delay, fn)
+        handle = self._machine.call_later(delay, fn, self._clock())
         self._wake()
         return handle
 

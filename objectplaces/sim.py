@@ -96,7 +96,7 @@ class _SimNode:
 
     def send_properties_to(self, peer: str) -> None:
         try:
-            self.machine.send_properties_to(peer)
+            self.machine.send_properties_to(peer, self.net._loop.now)
         finally:
             self.pump.drain()
 

@@ -27,6 +27,7 @@ class Channel:
         "_sent",
         "acked_through",
         "broken",
+        "closed",
         "epoch",
         "expected",
         "max_tries",
@@ -53,6 +54,8 @@ class Channel:
         self.acked_through = -1
         self.expected = 0
         self.broken = False
+        #: Set by the owner when it drops the channel: its timer then dies quietly.
+        self.closed = False
         # seq -> [frame, next deadline, tries so far]
         self._sent: dict[int, list[Any]] = {}
         self._buffer: dict[int, ChannelData] = {}

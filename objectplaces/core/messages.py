@@ -16,7 +16,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 from enum import IntEnum
-from typing import Any, TypeAlias
+from typing import Any, TypeAlias, assert_never
 
 __all__ = [
     "ChannelAck",
@@ -25,6 +25,7 @@ __all__ = [
     "Leave",
     "Message",
     "PropertyUpdate",
+    "kind_of",
 ]
 
 
@@ -93,3 +94,18 @@ class ChannelAck:
 
 
 Message: TypeAlias = PropertyUpdate | Leave | ChannelData | ChannelAck
+
+
+def kind_of(message: Message) -> str:
+    """Name a message's family for statistics ("property", "channel", "ack", "leave")."""
+    match message:
+        case PropertyUpdate():
+            return "property"
+        case ChannelData():
+            return "channel"
+        case ChannelAck():
+            return "ack"
+        case Leave():
+            return "leave"
+        case _:
+            assert_never(message)

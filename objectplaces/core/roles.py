@@ -14,7 +14,15 @@ from objectplaces.core.errors import LocalProtocolError
 from objectplaces.core.events import TimerHandle
 from objectplaces.core.ids import InitiatorRef, ParticipantRef
 
-__all__ = ["Initiator", "InitiatorBinding", "Participant", "ParticipantBinding", "Role"]
+__all__ = [
+    "Initiator",
+    "InitiatorBinding",
+    "Participant",
+    "ParticipantBinding",
+    "Role",
+    "bind",
+    "is_bound",
+]
 
 
 class _Binding(Protocol):
@@ -43,6 +51,16 @@ class ParticipantBinding(_Binding, Protocol):
     initiator: InitiatorRef
 
     def send(self, message: Any) -> bool: ...
+
+
+def bind(role: Role, binding: InitiatorBinding | ParticipantBinding) -> None:
+    """Give ``role`` its context in a session (the middleware's side of activation)."""
+    role._binding = binding
+
+
+def is_bound(role: Role) -> bool:
+    """Whether ``role`` already plays in a session."""
+    return role._binding is not None
 
 
 class Role:

@@ -74,8 +74,7 @@ class AsyncioRunner:
     def send_properties_to(self, peer: str) -> None:
         """A peer subscribed to our cell: it gets our properties."""
         if not self.closed:
-            self.machine.now = self._loop.time()
-            self.machine.send_properties_to(peer)
+            self.machine.send_properties_to(peer, self._loop.time())
             self.wake()
 
     def drain(self) -> None:

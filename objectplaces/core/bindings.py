@@ -1,0 +1,122 @@
+"""The context a role is bound to while it plays in a session.
+
+Roles are application code; what they may ask of the middleware is exactly the
+``InitiatorBinding`` / ``ParticipantBinding`` protocols of roles.py. The contexts here
+implement those protocols on the public commands of the two tables (``SessionTable``,
+``ParticipationTable``) and of the machine (``RoleHost``: clock and timers), never on
+private state: a context names its session (or its participation, epoch included) and
+the table decides, so a role whose session ended simply gets False from ``send``.
+
+A role's clock is the machine's: the ``now`` of the input being processed. Role
+callbacks run after that input, in the same instant, so every command they issue
+carries that time.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any, Protocol
+
+from objectplaces.core.events import TimerHandle
+from objectplaces.core.ids import InitiatorRef, ParticipantRef, SessionId
+from objectplaces.core.timers import ParticipationOwner, RoleOwner, SessionOwner
+
+if TYPE_CHECKING:  # the tables bind roles to these contexts: import them for types only
+    from objectplaces.core.participations import ParticipationTable
+    from objectplaces.core.sessions import SessionTable
+
+__all__ = ["InitiatorContext", "ParticipantContext", "RoleHost"]
+
+
+class RoleHost(Protocol):
+    """What every role context needs of the node machine (implemented by ``NodeMachine``)."""
+
+    @property
+    def node_id(self) -> str:
+        """The node's id."""
+        ...
+
+    @property
+    def space(self) -> Any:
+        """The node's tuplespace."""
+        ...
+
+    @property
+    def now(self) -> float:
+        """The time of the input being processed."""
+        ...
+
+    def call_later(
+        self, delay: float, fn: Callable[[], Any], now: float, *, owner: RoleOwner | None = None
+    ) -> TimerHandle:
+        """Run ``fn`` at ``now + delay``; cancelled when ``owner`` ends."""
+        ...
+
+
+class InitiatorContext:
+    """An initiator role's view of its session (see ``roles.InitiatorBinding``)."""
+
+    __slots__ = ("_host", "_owner", "_sessions", "node_id", "session_id", "space")
+
+    def __init__(self, host: RoleHost, sessions: SessionTable, session_id: SessionId) -> None:
+        self._host = host
+        self._sessions = sessions
+        self._owner = SessionOwner(session_id)
+        self.node_id = host.node_id
+        self.session_id: str = session_id
+        self.space = host.space
+
+    def now(self) -> float:
+        """The node's clock."""
+        return self._host.now
+
+    def call_later(self, delay: float, fn: Callable[[], Any]) -> TimerHandle:
+        """A timer that dies with the session."""
+        host = self._host
+        return host.call_later(delay, fn, host.now, owner=self._owner)
+
+    def send(self, participant: ParticipantRef, message: Any) -> bool:
+        """Send to one member (False when it is none)."""
+        return self._sessions.send(self.session_id, participant, message, self._host.now)
+
+    def members(self) -> frozenset[ParticipantRef]:
+        """The joined members."""
+        return self._sessions.members_of(self.session_id)
+
+    def stop(self) -> None:
+        """Stop the session."""
+        self._sessions.stop(self.session_id, self._host.now)
+
+
+class ParticipantContext:
+    """A participant role's view of its participation (see ``roles.ParticipantBinding``)."""
+
+    __slots__ = ("_host", "_owner", "_table", "initiator", "node_id", "session_id", "space")
+
+    def __init__(
+        self,
+        host: RoleHost,
+        table: ParticipationTable,
+        owner: ParticipationOwner,
+        initiator: InitiatorRef,
+    ) -> None:
+        self._host = host
+        self._table = table
+        self._owner = owner
+        self.node_id = host.node_id
+        self.session_id: str = initiator.session_id
+        self.space = host.space
+        self.initiator = initiator
+
+    def now(self) -> float:
+        """The node's clock."""
+        return self._host.now
+
+    def call_later(self, delay: float, fn: Callable[[], Any]) -> TimerHandle:
+        """A timer that dies with this activation."""
+        host = self._host
+        return host.call_later(delay, fn, host.now, owner=self._owner)
+
+    def send(self, message: Any) -> bool:
+        """Send to the initiator (False once deactivated)."""
+        return self._table.send(self._owner, message, self._host.now)

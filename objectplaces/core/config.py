@@ -1,0 +1,73 @@
+"""Tunables of one node, and what introspection shows of its sessions.
+
+Every duration is in seconds of the driver's clock: virtual seconds in the simulation,
+loop seconds on the mesh. The machine never reads a clock itself (sans-I/O); these
+numbers only ever get added to the ``now`` an input carries.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from objectplaces.core import codec
+
+__all__ = ["NodeConfig", "ParticipationInfo", "SessionInfo"]
+
+
+@dataclass(frozen=True, slots=True)
+class NodeConfig:
+    """Tunables of one node; every duration is in seconds.
+
+    Attributes:
+        property_interval: republish all properties this often (the heartbeat); None: never.
+        failure_timeout: a node not heard for this long leaves every group; None: three
+            property intervals when those are on, else no failure detection.
+        interest_radius: scoped dissemination: hear only nodes within about this
+            distance (None: hear every node, the paper's behaviour).
+        cell_size: side of the grid cells used for dissemination scopes and the index.
+        retransmit_timeout: first retransmission of an unacknowledged channel frame.
+        max_retransmissions: tries before a channel counts as broken (its peer gone).
+        tombstone_ttl: how long a closed channel is remembered to drop its late frames.
+        max_frame: largest frame accepted, in bytes.
+    """
+
+    property_interval: float | None = None
+    failure_timeout: float | None = None
+    interest_radius: float | None = None
+    cell_size: float = 25.0
+    retransmit_timeout: float = 0.2
+    max_retransmissions: int = 12
+    tombstone_ttl: float = 10.0
+    max_frame: int = codec.DEFAULT_MAX_FRAME
+
+    @property
+    def effective_failure_timeout(self) -> float | None:
+        """The failure timeout in force (explicit, or three property intervals)."""
+        if self.failure_timeout is not None:
+            return self.failure_timeout
+        return None if self.property_interval is None else 3 * self.property_interval
+
+
+@dataclass(frozen=True, slots=True)
+class SessionInfo:
+    """A session this node initiated, as introspection shows it."""
+
+    session_id: str
+    initiator: str
+    initiator_role: str
+    participant_role: str
+    members: frozenset[str]
+    pending: frozenset[str]
+    started_at: float
+    definition: Any
+
+
+@dataclass(frozen=True, slots=True)
+class ParticipationInfo:
+    """A participant role active on this node."""
+
+    session_id: str
+    initiator: str
+    participant_role: str
+    since: float

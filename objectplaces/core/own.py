@@ -1,0 +1,130 @@
+"""This node's own properties and how they are published (docs/protocol.md §2, §5).
+
+A node updates only its own properties. Updates made in the same instant are
+*coalesced*: ``set`` only marks a name dirty, and the dirty names leave as one frame
+when the driver next drains the machine (``take_update``). That is why a position and a
+hull length set together cost one ~14-byte compact frame (§1), not two.
+
+Every frame carries a fresh per-node sequence number, including a frame sent to one
+peer only (``full_update_for``): receivers keep per property the highest number seen,
+so numbers must never repeat within a run.
+
+Where a frame goes depends on dissemination (§5). Without an interest radius it is
+broadcast. With one, it is published to the cell the node is in; when the node has just
+moved to another cell it is published to both, so the old cell's subscribers see the
+new position, drop the node from their scope, and do not keep a stale position forever
+(the trap DESIGN.md warns of). The subscription itself is the square of cells that
+covers the interest radius around the node's position; it is recomputed on every move
+but re-announced only when the square's bounds change.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from types import MappingProxyType
+from typing import Any
+
+from objectplaces.core import codec
+from objectplaces.core.config import NodeConfig
+from objectplaces.core.events import Broadcast, Output, Publish, Send
+from objectplaces.core.messages import PropertyUpdate
+
+__all__ = ["OwnProperties"]
+
+Cell = tuple[int, int]
+
+
+class OwnProperties:
+    """The node's own property values, the pending changes, and their routing.
+
+    Args:
+        config: the node's tunables (interest radius and cell size matter here).
+    """
+
+    __slots__ = ("_bounds", "_config", "_dirty", "_published_cell", "_readonly", "_seq", "_values")
+
+    def __init__(self, config: NodeConfig) -> None:
+        self._config = config
+        self._values: dict[str, Any] = {}
+        self._readonly: Mapping[str, Any] = MappingProxyType(self._values)
+        self._dirty: dict[str, Any] = {}
+        self._seq = 0
+        self._published_cell: Cell | None = None
+        self._bounds: tuple[int, int, int, int] | None = None
+
+    @property
+    def values(self) -> Mapping[str, Any]:
+        """The current values (read-only, live)."""
+        return self._readonly
+
+    @property
+    def pending(self) -> bool:
+        """Whether changes wait to be published."""
+        return bool(self._dirty)
+
+    def set(self, name: str, value: Any) -> None:
+        """Record a new value (already checked and rounded the way the wire rounds)."""
+        self._values[name] = value
+        self._dirty[name] = value
+
+    def take_update(self) -> Output | None:
+        """The frame that publishes every pending change (None when nothing is pending)."""
+        if not self._dirty:
+            return None
+        dirty, self._dirty = self._dirty, {}
+        return self._publication(dirty)
+
+    def republish(self) -> Output | None:
+        """The heartbeat: a frame with every value (pending changes included)."""
+        self._dirty = {}
+        return self._publication(self._values) if self._values else None
+
+    def full_update_for(self, peer: str) -> Send | None:
+        """Every value, for one peer (a newcomer, or a new subscriber of our cell)."""
+        if not self._values:
+            return None
+        self._seq += 1
+        return Send(peer, codec.encode(PropertyUpdate(self._seq, dict(self._values))), "property")
+
+    def _publication(self, values: Mapping[str, Any]) -> Output:
+        self._seq += 1
+        data = codec.encode(PropertyUpdate(self._seq, dict(values)))
+        cell = self._cell()
+        if self._config.interest_radius is None or cell is None:
+            return Broadcast(data, "property")
+        old = self._published_cell
+        cells = (cell,) if old is None or old == cell else (cell, old)
+        self._published_cell = cell
+        return Publish(cells, data, "property")
+
+    def _position(self) -> tuple[float, float] | None:
+        position = self._values.get(codec.POSITION)
+        return position if isinstance(position, tuple) else None
+
+    def _cell(self) -> Cell | None:
+        position = self._position()
+        if position is None:
+            return None
+        size = self._config.cell_size
+        return (math.floor(position[0] / size), math.floor(position[1] / size))
+
+    def new_subscription(self) -> frozenset[Cell] | None:
+        """The cells to subscribe to, when they changed since last asked (else None)."""
+        radius = self._config.interest_radius
+        position = self._position()
+        if radius is None or position is None:
+            return None
+        size = self._config.cell_size
+        x, y = position
+        bounds = (
+            math.floor((x - radius) / size),
+            math.floor((y - radius) / size),
+            math.floor((x + radius) / size),
+            math.floor((y + radius) / size),
+        )
+        if bounds == self._bounds:
+            return None
+        self._bounds = bounds
+        x0, y0, x1, y1 = bounds
+        return frozenset((cx, cy) for cx in range(x0, x1 + 1) for cy in range(y0, y1 + 1))

@@ -1,0 +1,274 @@
+"""The participant side: roles this node plays in other nodes' sessions (docs/protocol.md §3).
+
+A participation is created by the first frame of a new channel from an initiator
+(normally ``ACTIVATE``; with loss and reordering it may be any frame of the stream, which
+the channel buffers until the gap is filled). It is keyed by (initiator node, session
+number) and carries the channel's epoch:
+
+* a frame of an *older* epoch than the current participation is stale and dropped;
+* a frame of a *newer* epoch means the initiator removed us and activated us again
+  while our ``DEACTIVATE`` was still in flight: the old participation ends first, so the
+  role hears ``out_group_of`` before a fresh role hears ``in_group_of``.
+
+``ACTIVATE`` runs the registered factory for the role name. No factory (or one that
+raises, or returns something that is not a ``Participant``) means ``DECLINED``; the
+participation then lives only until the initiator acknowledges that answer, so the
+retransmission of ``DECLINED`` is not cut short.
+
+When a participation ends (deactivated, initiator gone, channel broken, node leaving),
+its role hears ``out_group_of`` once, its timers are cancelled, and a *tombstone*
+remembers the closed (initiator, session, epoch) for ``tombstone_ttl``: late frames of
+that channel are acknowledged (so the initiator stops retransmitting) and dropped,
+instead of being taken for a new activation. Tombstones expire on a timer, so memory
+stays bounded however many sessions a long run sees.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from objectplaces.core import codec
+from objectplaces.core.channel import Channel
+from objectplaces.core.channels import Channels
+from objectplaces.core.config import NodeConfig, ParticipationInfo
+from objectplaces.core.errors import LocalProtocolError
+from objectplaces.core.ids import InitiatorRef, session_id_for
+from objectplaces.core.messages import ChannelAck, ChannelData, FrameKind
+from objectplaces.core.outbox import Outbox
+from objectplaces.core.roles import Participant, bind
+from objectplaces.core.timers import ExpireTombstone, ParticipationOwner, RoleTimers, TimerQueue
+
+__all__ = ["ParticipantFactory", "ParticipationTable"]
+
+log = logging.getLogger("objectplaces")
+
+ParticipantFactory = Callable[[], Participant]
+Binder = Callable[[ParticipationOwner, InitiatorRef], Any]
+"""Makes the context a freshly activated participant role is bound to."""
+
+
+@dataclass(slots=True)
+class _Participation:
+    owner: ParticipationOwner
+    channel: Channel
+    ref: InitiatorRef
+    since: float
+    role: Participant | None = None
+    role_name: str = ""
+    declining: bool = False  # DECLINED sent; kept until the initiator acks it
+
+
+class ParticipationTable:
+    """Participant roles of this node, their channels, and tombstones of closed ones.
+
+    Args:
+        node_id: this node's id (for log lines).
+        config: tombstone lifetime.
+        channels: sends channel frames.
+        outbox: where callbacks and counters go.
+        timers: where tombstone expiries go.
+        role_timers: pending timers of participant roles, cancelled when they end.
+        binder: makes the context each activated role is bound to.
+    """
+
+    def __init__(
+        self,
+        node_id: str,
+        *,
+        config: NodeConfig,
+        channels: Channels,
+        outbox: Outbox,
+        timers: TimerQueue,
+        role_timers: RoleTimers,
+        binder: Binder,
+    ) -> None:
+        self._node_id = node_id
+        self._config = config
+        self._channels = channels
+        self._outbox = outbox
+        self._timers = timers
+        self._role_timers = role_timers
+        self._binder = binder
+        self._factories: dict[str, ParticipantFactory] = {}
+        self._parts: dict[tuple[str, int], _Participation] = {}
+        self._tombstones: dict[tuple[str, int], tuple[int, float]] = {}
+
+    # ------------------------------------------------------------------ factories
+
+    def set_factory(self, name: str, factory: ParticipantFactory | None) -> None:
+        """Register (or, with None, remove) the factory of participant role ``name``.
+
+        Raises:
+            LocalProtocolError: a bad name, or a factory that is not callable.
+        """
+        if not isinstance(name, str) or not name:
+            raise LocalProtocolError(
+                f"participant role name must be a non-empty string, got {name!r}"
+            )
+        if factory is None:
+            self._factories.pop(name, None)
+        elif not callable(factory):
+            raise LocalProtocolError(
+                f"participant factory for {name!r} is not callable: {factory!r}"
+            )
+        else:
+            self._factories[name] = factory
+
+    @property
+    def factories(self) -> Mapping[str, ParticipantFactory]:
+        """Participant role names this node can play, with their factories."""
+        return self._factories
+
+    # ------------------------------------------------------------------ frames
+
+    def on_frame(self, source: str, frame: ChannelData, now: float) -> None:
+        """A frame from an initiator to a participant role (to be) on this node."""
+        key = (source, frame.session)
+        tomb = self._tombstones.get(key)
+        if tomb is not None and frame.epoch <= tomb[0]:
+            # A closed channel: ack so the initiator stops retransmitting, deliver nothing.
+            self._channels.acknowledge(
+                source, ChannelAck(False, frame.session, frame.epoch, frame.seq)
+            )
+            self._outbox.count("dropped_stale")
+            return
+        part = self._parts.get(key)
+        if part is not None and part.owner.epoch != frame.epoch:
+            if frame.epoch < part.owner.epoch:
+                self._outbox.count("dropped_stale")
+                return
+            self._end(part, now)  # a newer activation supersedes the old one
+            part = None
+        if part is None:
+            owner = ParticipationOwner(source, frame.session, frame.epoch)
+            channel = self._channels.open(
+                to_participant=False, session=frame.session, epoch=frame.epoch
+            )
+            ref = InitiatorRef(source, session_id_for(source, frame.session))
+            part = self._parts[key] = _Participation(owner, channel, ref, now)
+        deliver, ack = part.channel.on_data(frame)
+        self._channels.acknowledge(source, ack)
+        for item in deliver:
+            if self._parts.get(key) is not part:
+                break  # ended by an earlier frame of this batch (DEACTIVATE)
+            self._on_initiator_said(part, item, now)
+
+    def _on_initiator_said(self, part: _Participation, frame: ChannelData, now: float) -> None:
+        match frame.kind:
+            case FrameKind.ACTIVATE if part.role is None and not part.declining:
+                self._activate(part, frame.payload, now)
+            case FrameKind.ROLE if part.role is not None:
+                self._outbox.call(part.role.receive, (frame.payload,), part.ref.session_id)
+            case FrameKind.DEACTIVATE:
+                self._end(part, now)
+            case _:
+                self._outbox.count("dropped_unexpected_frame")
+
+    def _activate(self, part: _Participation, payload: Any, now: float) -> None:
+        name = payload[0] if isinstance(payload, list) and payload else None
+        factory = self._factories.get(name) if isinstance(name, str) else None
+        role: Participant | None = None
+        if factory is not None:
+            try:
+                role = factory()
+                if not isinstance(role, Participant):
+                    raise TypeError(f"factory for {name!r} returned {role!r}, not a Participant")
+            except Exception:
+                log.exception("node %s: participant factory %r failed", self._node_id, name)
+                role = None
+        initiator = part.owner.initiator
+        if role is None:
+            part.declining = True
+            self._channels.send(initiator, part.channel, FrameKind.DECLINED, None, now)
+            return
+        part.role = role
+        part.role_name = str(name)
+        bind(role, self._binder(part.owner, part.ref))
+        self._channels.send(initiator, part.channel, FrameKind.ACTIVATED, None, now)
+        self._outbox.call(role.in_group_of, (part.ref,), part.ref.session_id)
+
+    def on_ack(self, source: str, ack: ChannelAck, now: float) -> None:
+        """An initiator acknowledged frames of our stream to it."""
+        part = self._parts.get((source, ack.session))
+        if part is None or part.owner.epoch != ack.epoch:
+            return
+        part.channel.on_ack(ack.ack)
+        if part.declining and part.channel.idle:
+            self._end(part, now)
+
+    # ------------------------------------------------------------------ commands
+
+    def send(self, owner: ParticipationOwner, message: Any, now: float) -> bool:
+        """Send a role message to the initiator; False once the role is inactive.
+
+        Raises:
+            LocalProtocolError: ``message`` is not plain data.
+        """
+        part = self._parts.get((owner.initiator, owner.session))
+        if part is None or part.owner != owner or part.role is None:
+            codec.encode_value(message)
+            return False
+        self._channels.send(owner.initiator, part.channel, FrameKind.ROLE, message, now)
+        return True
+
+    def _end(self, part: _Participation, now: float) -> None:
+        owner = part.owner
+        key = (owner.initiator, owner.session)
+        if self._parts.get(key) is part:
+            del self._parts[key]
+        part.channel.closed = True
+        expires = now + self._config.tombstone_ttl
+        self._tombstones[key] = (owner.epoch, expires)
+        self._timers.push(expires, ExpireTombstone(owner.initiator, owner.session))
+        self._role_timers.cancel(owner)
+        role = part.role
+        if role is not None:
+            part.role = None
+            self._outbox.call(role.out_group_of, (part.ref,), part.ref.session_id)
+
+    def initiator_gone(self, node: str, now: float) -> None:
+        """``node`` failed or left: every role in its sessions ends."""
+        for part in [p for p in self._parts.values() if p.owner.initiator == node]:
+            self._end(part, now)
+
+    def end_all(self, now: float) -> None:
+        """End every participation (this node leaves)."""
+        for part in list(self._parts.values()):
+            self._end(part, now)
+
+    def forget_tombstones_of(self, node: str) -> None:
+        """``node`` restarted: its new run's sessions reuse numbers and must count."""
+        for key in [k for k in self._tombstones if k[0] == node]:
+            del self._tombstones[key]
+
+    def expire_tombstone(self, initiator: str, session: int, now: float) -> None:
+        """Forget a tombstone whose time is up (a newer one for the same key stays)."""
+        key = (initiator, session)
+        tomb = self._tombstones.get(key)
+        if tomb is not None and tomb[1] <= now:
+            del self._tombstones[key]
+
+    # ------------------------------------------------------------------ channels
+
+    def channel_broken(self, target: str, channel: Channel, now: float) -> None:
+        """The initiator never acknowledged: the participation ends."""
+        part = self._parts.get((target, channel.session))
+        if part is not None and part.channel is channel:
+            self._end(part, now)
+
+    # ------------------------------------------------------------------ introspection
+
+    def infos(self) -> list[ParticipationInfo]:
+        """Participant roles active on this node."""
+        return [
+            ParticipationInfo(p.ref.session_id, p.owner.initiator, p.role_name, p.since)
+            for p in self._parts.values()
+            if p.role is not None
+        ]
+
+    def counts(self) -> dict[str, int]:
+        """Sizes of the per-participation structures."""
+        return {"participations": len(self._parts), "tombstones": len(self._tombstones)}

@@ -1,0 +1,384 @@
+"""The initiator side: sessions this node started, and their members (docs/protocol.md §3).
+
+A session is formed and kept up to date entirely by its initiator's middleware; the
+participants only answer. For each session the table keeps:
+
+* ``members``: nodes sent ``ACTIVATE``, each with its own channel and epoch. A member is
+  *pending* until it answers ``ACTIVATED``; only then does the role hear ``in_group``,
+  and only joined members' messages ever reach the role (guarantee 1).
+* ``declined``: nodes that answered ``DECLINED`` (no factory for the role there). They
+  are not asked again while they keep matching, and the role never hears of them
+  (guarantee 3). A node that stops matching leaves this set, so it is asked afresh if
+  it matches again later (it may have registered the role since).
+* ``closing``: channels of removed members whose ``DEACTIVATE`` is not yet
+  acknowledged. They keep retransmitting until the peer acks or is declared gone; a
+  frame arriving on one is acked (so the peer stops retransmitting) but never
+  delivered: that is how "late messages of a removed participant are dropped"
+  (guarantee 1) is enforced without any timing assumption.
+* ``epochs``: how many times each node was activated in this session. Each activation
+  gets a new channel named by (session, epoch), so a node that leaves and rejoins can
+  never have an old frame taken for a new one (§4). Kept for the session's life: a
+  participant may still hold a tombstone for an old epoch, and a reused epoch would
+  be taken for that closed channel.
+
+Membership follows the view: whenever a candidate's properties or the initiator's own
+change, the definition is evaluated again (``node_changed``, ``reevaluate_all``). A
+stopped session is forgotten once every member's deactivation is acknowledged or its
+peer is gone (guarantee 4: nothing left behind).
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from objectplaces.core import codec
+from objectplaces.core.channel import Channel
+from objectplaces.core.channels import Channels
+from objectplaces.core.config import SessionInfo
+from objectplaces.core.errors import LocalProtocolError
+from objectplaces.core.groups import DefinitionLike, GroupDefinition
+from objectplaces.core.ids import ParticipantRef, SessionId, session_id_for
+from objectplaces.core.messages import ChannelAck, ChannelData, FrameKind
+from objectplaces.core.outbox import Outbox
+from objectplaces.core.roles import Initiator, is_bound
+from objectplaces.core.timers import RoleTimers, SessionOwner
+from objectplaces.core.view import PropertyView
+
+__all__ = ["SessionTable"]
+
+
+@dataclass(slots=True)
+class _Member:
+    node: str
+    epoch: int
+    channel: Channel
+    joined: bool = False  # False while pending: ACTIVATE sent, no answer yet
+
+
+@dataclass(slots=True)
+class _Session:
+    number: int
+    sid: SessionId
+    role: Initiator
+    definition: DefinitionLike
+    participant_role: str
+    started_at: float
+    members: dict[str, _Member] = field(default_factory=dict)
+    closing: dict[tuple[str, int], Channel] = field(default_factory=dict)
+    declined: set[str] = field(default_factory=set)
+    epochs: dict[str, int] = field(default_factory=dict)
+    stopped: bool = False
+
+
+class SessionTable:
+    """Every session this node initiated, from start until nothing of it is left.
+
+    Args:
+        node_id: this node's id (session ids are ``<node>#<number>``).
+        view: the property view that definitions are resolved over.
+        own: this node's own properties (the definition's first argument).
+        channels: sends channel frames.
+        outbox: where callbacks and counters go.
+        role_timers: pending timers of initiator roles, cancelled on stop.
+    """
+
+    def __init__(
+        self,
+        node_id: str,
+        *,
+        view: PropertyView,
+        own: Mapping[str, Any],
+        channels: Channels,
+        outbox: Outbox,
+        role_timers: RoleTimers,
+    ) -> None:
+        self._node_id = node_id
+        self._view = view
+        self._own = own
+        self._channels = channels
+        self._outbox = outbox
+        self._role_timers = role_timers
+        self._sessions: dict[int, _Session] = {}
+        self._numbers = itertools.count(1)
+
+    # ------------------------------------------------------------------ commands
+
+    def open(
+        self, role: Initiator, definition: DefinitionLike, participant_role: str, now: float
+    ) -> SessionId:
+        """Start a session: the role hears ``started``, then matches are activated.
+
+        Raises:
+            LocalProtocolError: a bad argument, or ``role`` already plays in a session.
+        """
+        if not isinstance(role, Initiator):
+            raise LocalProtocolError(f"initiator role must subclass Initiator, got {role!r}")
+        if is_bound(role):
+            raise LocalProtocolError(f"{role!r} already plays in session {role.session_id!r}")
+        if not callable(definition):
+            raise LocalProtocolError(f"group definition must be callable, got {definition!r}")
+        if not isinstance(participant_role, str) or not participant_role:
+            raise LocalProtocolError(
+                f"participant role name must be a non-empty string, got {participant_role!r}"
+            )
+        number = next(self._numbers)
+        sid = session_id_for(self._node_id, number)
+        session = _Session(number, sid, role, definition, participant_role, now)
+        self._sessions[number] = session
+        self._outbox.call(role.started, (), sid)
+        self._reevaluate(session, now)
+        return sid
+
+    def stop(self, sid: str, now: float) -> None:
+        """Stop a live session: deactivate every member, cancel the role's timers.
+
+        Raises:
+            LocalProtocolError: no live session of this node has that id.
+        """
+        session = self._live(sid)
+        if session is None:
+            raise LocalProtocolError(f"unknown session {sid!r} on node {self._node_id!r}")
+        session.stopped = True
+        for member in list(session.members.values()):
+            # The role asked for the stop: it hears no out_group for it (DESIGN.md).
+            self._remove(session, member, deactivate_at=now, notify=False)
+        session.declined.clear()
+        self._role_timers.cancel(SessionOwner(session.sid))
+        self._maybe_forget(session)
+
+    def stop_all(self, now: float) -> None:
+        """Stop every live session (the node leaves)."""
+        for session in list(self._sessions.values()):
+            if not session.stopped:
+                self.stop(session.sid, now)
+
+    def send(self, sid: str, participant: ParticipantRef, message: Any, now: float) -> bool:
+        """Send a role message to a joined member; False when it is none (nothing sent).
+
+        Raises:
+            LocalProtocolError: ``participant`` belongs to another session, or
+                ``message`` is not plain data (checked even when nothing is sent, so a
+                bad message fails the same way whatever the membership).
+        """
+        if participant.session_id != sid:
+            raise LocalProtocolError(f"{participant} is not a participant of {sid!r}")
+        session = self._live(sid)
+        member = None if session is None else session.members.get(participant.node_id)
+        if session is None or member is None or not member.joined:
+            codec.encode_value(message)
+            return False
+        self._channels.send(member.node, member.channel, FrameKind.ROLE, message, now)
+        return True
+
+    def members_of(self, sid: str) -> frozenset[ParticipantRef]:
+        """The joined members of a session (empty once it stopped)."""
+        session = self._live(sid)
+        if session is None:
+            return frozenset()
+        return frozenset(ParticipantRef(m.node, sid) for m in session.members.values() if m.joined)
+
+    # ------------------------------------------------------------------ the view moved
+
+    def reevaluate_all(self, now: float) -> None:
+        """This node's own properties changed: every session re-resolves its group."""
+        for session in list(self._sessions.values()):
+            if not session.stopped:
+                self._reevaluate(session, now)
+
+    def node_changed(self, node: str, now: float) -> None:
+        """``node``'s properties changed, or it left the view: re-check it everywhere."""
+        for session in list(self._sessions.values()):
+            if not session.stopped:
+                self._evaluate(session, node, now)
+
+    def peer_gone(self, node: str) -> None:
+        """``node`` failed or left: it leaves every session at once, nothing to deactivate."""
+        for session in list(self._sessions.values()):
+            member = session.members.get(node)
+            if member is not None:
+                self._remove(session, member, deactivate_at=None)
+            for key in [k for k in session.closing if k[0] == node]:
+                session.closing.pop(key).closed = True
+            session.declined.discard(node)
+            self._maybe_forget(session)
+
+    def _reevaluate(self, session: _Session, now: float) -> None:
+        nodes = set(self._view.candidates(session.definition, self._own))
+        nodes.update(session.members)
+        nodes.update(session.declined)
+        for node in sorted(nodes):  # never set order (STYLE.md §7)
+            self._evaluate(session, node, now)
+
+    def _evaluate(self, session: _Session, node: str, now: float) -> None:
+        if self._view.matches(session.definition, self._own, node, session.sid):
+            if node not in session.members and node not in session.declined:
+                self._activate(session, node, now)
+            return
+        session.declined.discard(node)
+        member = session.members.get(node)
+        if member is not None:
+            self._remove(session, member, deactivate_at=now)
+
+    def _activate(self, session: _Session, node: str, now: float) -> None:
+        epoch = session.epochs.get(node, 0) + 1
+        session.epochs[node] = epoch
+        channel = self._channels.open(to_participant=True, session=session.number, epoch=epoch)
+        session.members[node] = _Member(node, epoch, channel)
+        payload = [session.participant_role, type(session.role).__name__]
+        self._channels.send(node, channel, FrameKind.ACTIVATE, payload, now)
+
+    def _remove(
+        self,
+        session: _Session,
+        member: _Member,
+        *,
+        deactivate_at: float | None,
+        notify: bool = True,
+    ) -> None:
+        """Drop a member; with ``deactivate_at``, tell it (the peer is still there)."""
+        del session.members[member.node]
+        channel = member.channel
+        if deactivate_at is not None and not channel.broken:
+            self._channels.send(member.node, channel, FrameKind.DEACTIVATE, None, deactivate_at)
+            session.closing[(member.node, member.epoch)] = channel
+        else:
+            channel.closed = True
+        if member.joined and notify:
+            ref = ParticipantRef(member.node, session.sid)
+            self._outbox.call(session.role.out_group, (ref,), session.sid)
+
+    def _maybe_forget(self, session: _Session) -> None:
+        if session.stopped and not session.members and not session.closing:
+            self._sessions.pop(session.number, None)
+
+    # ------------------------------------------------------------------ frames
+
+    def on_frame(self, source: str, frame: ChannelData, now: float) -> None:
+        """A frame from a participant to one of our sessions."""
+        session = self._sessions.get(frame.session)
+        if session is None:
+            self._outbox.count("dropped_unknown_session")
+            return
+        member = session.members.get(source)
+        if member is None or member.epoch != frame.epoch:
+            self._on_stray_frame(session, source, frame)
+            return
+        deliver, ack = member.channel.on_data(frame)
+        self._channels.acknowledge(source, ack)
+        for item in deliver:
+            if session.members.get(source) is not member:
+                self._outbox.count("dropped_non_member")
+                continue
+            self._on_member_said(session, member, item)
+
+    def _on_stray_frame(self, session: _Session, source: str, frame: ChannelData) -> None:
+        closing = session.closing.get((source, frame.epoch))
+        if closing is not None:
+            # Guarantee 1: a removed participant's late frames are acked, never delivered.
+            _, ack = closing.on_data(frame)
+            self._channels.acknowledge(source, ack)
+            self._outbox.count("dropped_non_member")
+        elif source in session.declined and session.epochs.get(source) == frame.epoch:
+            # Our ack of its DECLINED was lost: ack again so it can forget us.
+            self._channels.acknowledge(
+                source, ChannelAck(True, frame.session, frame.epoch, frame.seq)
+            )
+        else:
+            self._outbox.count("dropped_unknown_session")
+
+    def _on_member_said(self, session: _Session, member: _Member, frame: ChannelData) -> None:
+        ref = ParticipantRef(member.node, session.sid)
+        match frame.kind:
+            case FrameKind.ACTIVATED if not member.joined:
+                member.joined = True
+                self._outbox.call(session.role.in_group, (ref,), session.sid)
+            case FrameKind.DECLINED if not member.joined:
+                # Guarantee 3: the initiator never hears of a node that declined.
+                del session.members[member.node]
+                member.channel.closed = True
+                session.declined.add(member.node)
+            case FrameKind.ROLE if member.joined and not session.stopped:
+                self._outbox.call(session.role.receive, (ref, frame.payload), session.sid)
+            case _:
+                self._outbox.count("dropped_unexpected_frame")
+
+    def on_ack(self, source: str, ack: ChannelAck) -> None:
+        """A participant acknowledged frames of one of our channels."""
+        session = self._sessions.get(ack.session)
+        if session is None:
+            return
+        member = session.members.get(source)
+        if member is not None and member.epoch == ack.epoch:
+            member.channel.on_ack(ack.ack)
+            return
+        closing = session.closing.get((source, ack.epoch))
+        if closing is not None:
+            closing.on_ack(ack.ack)
+            if closing.idle:
+                del session.closing[(source, ack.epoch)]
+                closing.closed = True
+                self._maybe_forget(session)
+
+    def channel_broken(self, target: str, channel: Channel) -> None:
+        """``target`` never acknowledged: it is gone from this channel's session."""
+        session = self._sessions.get(channel.session)
+        if session is None:
+            return
+        member = session.members.get(target)
+        if member is not None and member.channel is channel:
+            self._remove(session, member, deactivate_at=None)
+        if session.closing.get((target, channel.epoch)) is channel:
+            del session.closing[(target, channel.epoch)]
+        channel.closed = True
+        self._maybe_forget(session)
+
+    # ------------------------------------------------------------------ introspection
+
+    def _live(self, sid: str) -> _Session | None:
+        prefix, _, number = str(sid).rpartition("#")
+        if prefix != self._node_id or not number.isdigit():
+            return None
+        session = self._sessions.get(int(number))
+        return None if session is None or session.stopped else session
+
+    def role_of(self, sid: str) -> Initiator | None:
+        """The initiator role of a live session, if any."""
+        session = self._live(sid)
+        return None if session is None else session.role
+
+    def infos(self) -> list[SessionInfo]:
+        """Live sessions, oldest first."""
+        infos = []
+        for s in self._sessions.values():
+            if s.stopped:
+                continue
+            definition = s.definition
+            described = (
+                definition.to_json()
+                if isinstance(definition, GroupDefinition)
+                else repr(definition)
+            )
+            infos.append(
+                SessionInfo(
+                    s.sid,
+                    self._node_id,
+                    type(s.role).__name__,
+                    s.participant_role,
+                    frozenset(n for n, m in s.members.items() if m.joined),
+                    frozenset(n for n, m in s.members.items() if not m.joined),
+                    s.started_at,
+                    described,
+                )
+            )
+        return infos
+
+    def counts(self) -> dict[str, int]:
+        """Sizes of the per-session structures (all 0 once everything is stopped)."""
+        return {
+            "sessions": len(self._sessions),
+            "members": sum(len(s.members) for s in self._sessions.values()),
+            "closing_channels": sum(len(s.closing) for s in self._sessions.values()),
+        }

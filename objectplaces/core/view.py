@@ -1,0 +1,249 @@
+"""The property view: what one node knows of the others (docs/protocol.md §2, §5, §6).
+
+Four concerns share one set of keys (the other nodes' ids), which is why they live in
+one part and are forgotten together:
+
+* **values**: per node, per property, the value with the highest sequence number seen.
+  Updates are unreliable and may arrive reordered or twice; "newest wins" per property
+  (not per frame) because a republication carries every property while a delta carries
+  only some, and an old full frame must not undo a newer delta.
+* **liveness**: when each node was last heard, by any frame (property or channel).
+  Failure detection (§2) only needs "not heard since"; the machine asks for the silent
+  nodes and decides what departure means.
+* **the index** (§6): a uniform grid per position property that a declarative group
+  definition uses, and a running maximum per radius property, so that resolving a
+  group costs about O(neighbours) instead of O(view). Both are built lazily, the first
+  time a definition asks, and kept up to date from then on.
+* **the scope** (§5): under scoped dissemination the node hears only the cells it
+  subscribes to. A node seen moving out of those cells is forgotten at once, because
+  no later update would ever correct its stale position.
+
+The view hands out read-only mappings (``mapping``): callers may keep and read them,
+never change the machine's state through them.
+
+Group definitions are application code: the view runs them, but one that raises is
+logged, counted (``definition_errors``) and treated as "no match", so a bad definition
+costs its own session, never the node.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Iterable, Mapping
+from types import MappingProxyType
+from typing import Any
+
+from objectplaces.core import codec
+from objectplaces.core.groups import DefinitionLike, GroupDefinition
+from objectplaces.core.messages import PropertyUpdate
+from objectplaces.core.outbox import Outbox
+from objectplaces.core.spatial import GridIndex, RunningMax
+
+__all__ = ["Cell", "PropertyView"]
+
+log = logging.getLogger("objectplaces")
+
+Cell = tuple[int, int]
+
+
+class PropertyView:
+    """The latest known properties of every other node this node hears.
+
+    Args:
+        node_id: the owning node's id (for log lines).
+        cell_size: side of the index's and the scope's grid cells.
+        outbox: where counters go.
+    """
+
+    __slots__ = (
+        "_cell_size",
+        "_heard",
+        "_indexes",
+        "_maxima",
+        "_node_id",
+        "_outbox",
+        "_props",
+        "_proxies",
+        "_readonly",
+        "_scope",
+        "_seqs",
+    )
+
+    def __init__(self, node_id: str, *, cell_size: float, outbox: Outbox) -> None:
+        self._node_id = node_id
+        self._cell_size = cell_size
+        self._outbox = outbox
+        self._props: dict[str, dict[str, Any]] = {}
+        # One read-only proxy per node, made once: handing out the view costs O(1).
+        self._proxies: dict[str, Mapping[str, Any]] = {}
+        self._readonly: Mapping[str, Mapping[str, Any]] = MappingProxyType(self._proxies)
+        self._seqs: dict[str, dict[str, int]] = {}
+        self._heard: dict[str, float] = {}
+        self._indexes: dict[str, GridIndex] = {}
+        self._maxima: dict[str, RunningMax] = {}
+        self._scope: frozenset[Cell] | None = None
+
+    # ------------------------------------------------------------------ reading
+
+    @property
+    def mapping(self) -> Mapping[str, Mapping[str, Any]]:
+        """Node id -> its properties; read-only, and live (copy it to keep a snapshot)."""
+        return self._readonly
+
+    def __contains__(self, node: object) -> bool:
+        return node in self._props
+
+    def __len__(self) -> int:
+        return len(self._props)
+
+    def props_of(self, node: str) -> Mapping[str, Any] | None:
+        """``node``'s properties (read-only), or None when it is not in the view."""
+        return self._proxies.get(node)
+
+    def knows(self, node: str) -> bool:
+        """Whether ``node`` is in the view or was heard from at all."""
+        return node in self._props or node in self._heard
+
+    def silent_since(self, cutoff: float) -> list[str]:
+        """Nodes last heard at or before ``cutoff``, sorted (never in set order)."""
+        return sorted(n for n, heard in self._heard.items() if heard <= cutoff)
+
+    # ------------------------------------------------------------------ updating
+
+    def heard(self, node: str, now: float) -> None:
+        """``node`` sent something at ``now``: it is alive."""
+        self._heard[node] = now
+
+    def apply(self, source: str, update: PropertyUpdate, now: float) -> list[tuple[str, Any]]:
+        """Take a property update from ``source``; return the (name, value) pairs that changed.
+
+        The hottest path of a large network: every delivered update comes through here,
+        so locals are bound once and nothing is allocated for an unchanged value.
+        """
+        self._heard[source] = now
+        props = self._props.get(source)
+        if props is None:
+            props = self._props[source] = {}
+            self._proxies[source] = MappingProxyType(props)
+            self._seqs[source] = {}
+        seqs = self._seqs[source]
+        seq = update.seq
+        changed: list[tuple[str, Any]] = []
+        indexes, maxima = self._indexes, self._maxima
+        for name, value in update.values.items():
+            if seq <= seqs.get(name, -1):
+                continue
+            seqs[name] = seq
+            if name in props and props[name] == value:
+                continue
+            props[name] = value
+            changed.append((name, value))
+            if name in indexes or name in maxima:
+                self._index(source, name, value)
+        return changed
+
+    def _index(self, node: str, name: str, value: Any) -> None:
+        index = self._indexes.get(name)
+        if index is not None:
+            if isinstance(value, tuple | list) and len(value) == 2:
+                index.place(node, float(value[0]), float(value[1]))
+            else:
+                index.remove(node)
+        maximum = self._maxima.get(name)
+        if maximum is not None:
+            maximum.set(node, float(value) if isinstance(value, int | float) else 0.0)
+
+    def forget(self, node: str) -> Mapping[str, Any] | None:
+        """Drop everything known of ``node``; return its last properties (None if unknown)."""
+        last = self._props.pop(node, None)
+        self._proxies.pop(node, None)
+        self._seqs.pop(node, None)
+        self._heard.pop(node, None)
+        for index in self._indexes.values():
+            index.remove(node)
+        for maximum in self._maxima.values():
+            maximum.remove(node)
+        return last
+
+    # ------------------------------------------------------------------ scope (§5)
+
+    @property
+    def scoped(self) -> bool:
+        """Whether this node hears only some cells."""
+        return self._scope is not None
+
+    def set_scope(self, cells: frozenset[Cell]) -> list[str]:
+        """Hear only ``cells`` from now on; return the nodes now out of scope, sorted."""
+        self._scope = cells
+        return sorted(n for n in self._props if not self.in_scope(n))
+
+    def in_scope(self, node: str) -> bool:
+        """Whether ``node``'s last position lies in a cell this node hears.
+
+        A node without a position stays in scope: nothing says it is elsewhere.
+        """
+        if self._scope is None:
+            return True
+        position = self._props[node].get(codec.POSITION)
+        if not isinstance(position, tuple):
+            return True
+        size = self._cell_size
+        return (math.floor(position[0] / size), math.floor(position[1] / size)) in self._scope
+
+    # ------------------------------------------------------------------ groups (§6)
+
+    def candidates(self, definition: DefinitionLike, own: Mapping[str, Any]) -> Iterable[str]:
+        """Nodes that may satisfy ``definition``: the index's neighbours, or everyone.
+
+        Only a declarative definition states its reach; any other callable is opaque
+        and must be tried on every node in the view.
+        """
+        if isinstance(definition, GroupDefinition):
+            reach = definition.reach(own, self._max_of)
+            if reach is not None:
+                position = own.get(reach.position)
+                if not isinstance(position, tuple | list) or len(position) != 2:
+                    return ()
+                index = self._index_for(reach.position)
+                return index.near(float(position[0]), float(position[1]), reach.radius)
+        return self._props.keys()
+
+    def matches(
+        self, definition: DefinitionLike, own: Mapping[str, Any], node: str, sid: str = ""
+    ) -> bool:
+        """Whether ``node`` satisfies ``definition`` now (False when it is not in view)."""
+        props = self._proxies.get(node)
+        if props is None:
+            return False
+        try:
+            return bool(definition(own, props))
+        except Exception:
+            log.exception("node %s: group definition of session %r raised", self._node_id, sid)
+            self._outbox.count("definition_errors")
+            return False
+
+    def group(self, definition: DefinitionLike, own: Mapping[str, Any]) -> frozenset[str]:
+        """Every node that satisfies ``definition`` now, from the view alone."""
+        return frozenset(
+            n for n in self.candidates(definition, own) if self.matches(definition, own, n)
+        )
+
+    def _index_for(self, position: str) -> GridIndex:
+        index = self._indexes.get(position)
+        if index is None:
+            index = self._indexes[position] = GridIndex(self._cell_size)
+            for node, props in self._props.items():
+                value = props.get(position)
+                if isinstance(value, tuple | list) and len(value) == 2:
+                    index.place(node, float(value[0]), float(value[1]))
+        return index
+
+    def _max_of(self, name: str) -> float:
+        maximum = self._maxima.get(name)
+        if maximum is None:
+            maximum = self._maxima[name] = RunningMax()
+            for node, props in self._props.items():
+                value = props.get(name)
+                maximum.set(node, float(value) if isinstance(value, int | float) else 0.0)
+        return maximum.value
