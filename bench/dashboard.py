@@ -21,13 +21,14 @@ from playwright.sync_api import sync_playwright
 
 from agv_app.fleet import demo_source
 from bench.report import markdown_table, publish
-from tests.dashboard.test_browser import CHROMIUM, CHROMIUM_ARGS, Served
+from tests.dashboard.served import Served
+from tests.dashboard.test_browser import CHROMIUM, CHROMIUM_ARGS
 
 
 def measure(agvs: int, seconds: float) -> tuple[float, float, float]:
     """Median and lowest frame rate, and the feed messages per second, over ``seconds``."""
     fleet = demo_source(agvs=agvs, seed=1)
-    with Served(fleet) as served, sync_playwright() as pw:  # type: ignore[arg-type]
+    with Served(fleet) as served, sync_playwright() as pw:
         browser = pw.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
         page = browser.new_page(viewport={"width": 1400, "height": 900})
         page.goto(served.url + "/")

@@ -9,7 +9,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from dashboard.feed import SessionRecord
+from dashboard.capture import SessionRecord
 from objectplaces import NodeStats, RoleActivator
 
 __all__ = [

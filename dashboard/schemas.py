@@ -1,4 +1,9 @@
-"""Request and response bodies of the REST API (pydantic v2), and a JSON helper."""
+"""Request and response bodies of the REST API (pydantic v2), and a JSON helper.
+
+Every request body is strict (a boolean is never a number, a number never a string),
+refuses unknown fields, and is bounded: names are short, numbers finite and in range,
+``params`` small. Group definitions have their own models in ``dashboard.definitions``.
+"""
 
 from __future__ import annotations
 
@@ -9,7 +14,11 @@ from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from dashboard.definitions import GroupDefinitionIn, Name
+
 __all__ = [
+    "MAX_PARAMS",
+    "MIN_SPEED",
     "ErrorOut",
     "GroupViewOut",
     "LockOut",
@@ -29,6 +38,12 @@ __all__ = [
 ]
 
 Polygon = list[list[float]]
+
+MAX_PARAMS = 16
+"""Most entries a session's ``params`` may hold."""
+
+MIN_SPEED = 0.01
+"""Slowest simulation speed accepted: slower would look frozen while showing as running."""
 
 
 def json_value(value: Any) -> Any:
@@ -56,7 +71,7 @@ class _Out(BaseModel):
 
 
 class _In(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", strict=True)
 
 
 class ErrorOut(_Out):
@@ -124,15 +139,16 @@ class NodeDetailOut(NodeOut):
 class StartSessionIn(_In):
     """Start an interaction session on a node."""
 
-    node: str = Field(description="the initiator's node id", examples=["agv-1"])
-    role: str = Field(description="a registered initiator role name", examples=["poll"])
-    definition: dict[str, Any] = Field(
-        description="a declarative group definition",
+    node: Name = Field(description="the initiator's node id", examples=["agv-01"])
+    role: Name = Field(description="a registered initiator role name", examples=["poll"])
+    definition: GroupDefinitionIn = Field(
+        description="a declarative group definition (at most 32 levels deep)",
         examples=[{"type": "within", "distance": 20.0}],
     )
-    participant_role: str = Field(min_length=1, examples=["poll-responder"])
-    params: dict[str, Any] = Field(
+    participant_role: Name = Field(examples=["poll-responder"])
+    params: dict[Name, Any] = Field(
         default_factory=dict,
+        max_length=MAX_PARAMS,
         description="role parameters; poll takes {'property': name}",
         examples=[{"property": "status"}],
     )
@@ -166,7 +182,7 @@ class LockOut(_Out):
 class TaskIn(_In):
     """Create a transport task at a station."""
 
-    station: str = Field(min_length=1, examples=["S1"])
+    station: Name = Field(examples=["pick-A1-1"])
 
 
 class TaskOut(_Out):
@@ -187,7 +203,12 @@ class SimOut(_Out):
 class SpeedIn(_In):
     """Set the simulation speed."""
 
-    factor: float = Field(gt=0, le=100, description="simulated seconds per wall-clock second")
+    factor: float = Field(
+        ge=MIN_SPEED,
+        le=100,
+        allow_inf_nan=False,
+        description="simulated seconds per wall-clock second, 0.01 to 100",
+    )
 
 
 class MetricsOut(_Out):
@@ -195,3 +216,6 @@ class MetricsOut(_Out):
 
     sim: SimOut
     metrics: dict[str, float | None]
+    advance_errors: int = Field(
+        description="advances of the fleet that raised so far (logged; the fleet kept going)"
+    )

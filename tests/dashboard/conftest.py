@@ -21,8 +21,7 @@ with warnings.catch_warnings():
     warnings.simplefilter("ignore", StarletteDeprecationWarning)
     from starlette.testclient import TestClient as TestClient
 
-from agv_app.demo_layout import demo_warehouse
-from agv_app.layout import Layout
+from agv_app.layout import Layout, demo_warehouse
 from dashboard.app import create_app
 from dashboard.source import InitiatorFactory, UnknownStationError, VehicleView
 from objectplaces import RoleActivator
@@ -107,6 +106,24 @@ class NetworkSource:
 
     def advance(self, seconds: float) -> None:
         self.net.run_for(seconds)
+
+
+class FailingSource(NetworkSource):
+    """A ``NetworkSource`` whose ``advance`` raises on the calls numbered in ``failing``
+    (1 is the first call); the others advance the network as usual."""
+
+    def __init__(self, failing: set[int]) -> None:
+        super().__init__()
+        self.failing = failing
+        self.calls = 0
+        self.advanced: list[float] = []
+
+    def advance(self, seconds: float) -> None:
+        self.calls += 1
+        if self.calls in self.failing:
+            raise ZeroDivisionError(f"step {self.calls} fails")
+        self.advanced.append(seconds)
+        super().advance(seconds)
 
 
 @pytest.fixture

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import socket
-import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -11,10 +9,9 @@ from typing import Any
 
 import httpx
 import pytest
-import uvicorn
 
-from dashboard.app import create_app
 from tests.dashboard.conftest import NetworkSource
+from tests.dashboard.served import Served
 
 CHROMIUM = Path("/usr/bin/chromium")
 CHROMIUM_ARGS = [
@@ -29,34 +26,6 @@ pytestmark = [
     pytest.mark.browser,
     pytest.mark.skipif(not CHROMIUM.exists(), reason="needs /usr/bin/chromium (make chromium)"),
 ]
-
-
-class Served:
-    """A dashboard listening on a free loopback port in a background thread."""
-
-    def __init__(self, source: NetworkSource) -> None:
-        self.source = source
-        self.sock = socket.socket()
-        self.sock.bind(("127.0.0.1", 0))
-        self.url = f"http://127.0.0.1:{self.sock.getsockname()[1]}"
-        config = uvicorn.Config(create_app(source), log_level="warning", lifespan="on")
-        self.server = uvicorn.Server(config)
-        self.thread = threading.Thread(
-            target=self.server.run, kwargs={"sockets": [self.sock]}, daemon=True
-        )
-
-    def __enter__(self) -> Served:
-        self.thread.start()
-        deadline = time.monotonic() + 10
-        while not self.server.started:
-            assert time.monotonic() < deadline, "the dashboard did not start"
-            time.sleep(0.02)
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.server.should_exit = True
-        self.thread.join(timeout=10)
-        self.sock.close()
 
 
 @pytest.fixture
@@ -135,14 +104,14 @@ def test_session_started_over_rest_shows_in_the_panel(page: Any, served: Served)
     row.wait_for(state="detached", timeout=5_000)
 
 
-def test_clicking_a_station_creates_a_task(page: Any, served: Served) -> None:
+def test_clicking_a_station_creates_a_task(page: Any, source: NetworkSource) -> None:
     pos = page.evaluate("window.__dashboard.stationScreenPosition('pick-A1-1')")
     assert pos is not None
     page.mouse.click(pos["x"], pos["y"])
     page.wait_for_function("window.__dashboard.lastTask !== null", timeout=5_000)
     assert page.evaluate("window.__dashboard.lastTask") == {"id": "task-1", "station": "pick-A1-1"}
     assert "task-1 created at pick-A1-1" in page.locator("#control-status").text_content()
-    assert served.source.tasks == ["pick-A1-1"]
+    assert source.tasks == ["pick-A1-1"]
 
 
 def test_pause_and_speed_controls(page: Any, served: Served) -> None:

@@ -11,7 +11,8 @@ from typing import Any
 import pytest
 
 from agv_app.fleet import demo_source
-from tests.dashboard.test_browser import CHROMIUM, CHROMIUM_ARGS, Served
+from tests.dashboard.served import Served
+from tests.dashboard.test_browser import CHROMIUM, CHROMIUM_ARGS
 
 pytestmark = [
     pytest.mark.browser,
@@ -24,7 +25,7 @@ def fleet_page(tmp_path: Path) -> Iterator[tuple[Any, Any]]:
     fleet = demo_source(agvs=6, seed=3)
     fleet.set_speed(8.0)  # eight simulated seconds per wall second: visible motion soon
     sync_api = pytest.importorskip("playwright.sync_api")
-    with Served(fleet) as served, sync_api.sync_playwright() as pw:  # type: ignore[arg-type]
+    with Served(fleet) as served, sync_api.sync_playwright() as pw:
         browser = pw.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
         page = browser.new_page(viewport={"width": 1400, "height": 900})
         problems: list[str] = []

@@ -10,16 +10,8 @@ from dataclasses import dataclass
 import pytest
 
 from agv_app.layout import Layout, Point, Segment, Station
-from dashboard.feed import (
-    ClientFeed,
-    FeedHub,
-    FleetState,
-    PolygonCache,
-    SessionRecord,
-    diff,
-    layout_json,
-    vehicle_json,
-)
+from dashboard.capture import FleetState, PolygonCache, SessionRecord, layout_json, vehicle_json
+from dashboard.feed import ClientFeed, FeedHub, diff
 
 LAYOUT = {"points": [], "segments": [], "stations": [], "bounds": [0.0, 0.0, 10.0, 10.0]}
 

@@ -1,0 +1,20 @@
+"""The REST API and the feed, one router per concern; ``ROUTERS`` lists them all."""
+
+from __future__ import annotations
+
+from fastapi import APIRouter
+
+from dashboard.routes import events, fleet, groups, nodes, page, sessions, sim
+
+__all__ = ["ROUTERS"]
+
+ROUTERS: tuple[APIRouter, ...] = (
+    nodes.router,
+    sessions.router,
+    groups.router,
+    fleet.router,
+    sim.router,
+    events.router,
+    page.router,
+)
+"""Every router of the app, in the order the OpenAPI lists them."""

@@ -1,0 +1,52 @@
+"""``/api/sim/...``: pause, resume and speed of simulated time."""
+
+from __future__ import annotations
+
+from fastapi import APIRouter, Depends, HTTPException, Path
+
+from dashboard.deps import State, require_token
+from dashboard.errors import ERROR_RESPONSES
+from dashboard.limits import shown
+from dashboard.schemas import SimOut, SpeedIn
+
+__all__ = ["router"]
+
+router = APIRouter(
+    prefix="/api/sim",
+    tags=["sim"],
+    responses=ERROR_RESPONSES,
+    dependencies=[Depends(require_token)],
+)
+
+
+@router.post("/pause", response_model=SimOut)
+async def pause(state: State) -> SimOut:
+    """Stop simulated time."""
+    state.source.pause()
+    state.publish()
+    return state.sim()
+
+
+@router.post("/resume", response_model=SimOut)
+async def resume(state: State) -> SimOut:
+    """Let simulated time run again."""
+    state.source.resume()
+    state.publish()
+    return state.sim()
+
+
+@router.post("/speed", response_model=SimOut)
+async def speed(body: SpeedIn, state: State) -> SimOut:
+    """Set simulated seconds per wall-clock second (0.01 <= factor <= 100)."""
+    try:
+        state.source.set_speed(body.factor)
+    except ValueError as exc:
+        raise HTTPException(422, str(exc)) from exc
+    state.publish()
+    return state.sim()
+
+
+@router.post("/{action}")
+async def unknown_action(action: str = Path(max_length=64)) -> None:
+    """Anything else under /api/sim is an error that names the valid actions."""
+    raise HTTPException(404, f"unknown sim action {shown(action)} (known: pause, resume, speed)")
