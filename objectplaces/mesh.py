@@ -23,7 +23,8 @@ from objectplaces.activator import RoleActivator
 from objectplaces.core.errors import LocalProtocolError
 from objectplaces.core.node import NodeConfig, NodeMachine
 from objectplaces.runtime.aio import AsyncioRunner
-from objectplaces.transport.websocket import MeshOptions, PeerStats, WebSocketMesh
+from objectplaces.transport.options import MeshOptions, PeerStats
+from objectplaces.transport.websocket import WebSocketMesh
 from tuplespace import TupleSpace
 
 __all__ = ["MeshNode", "MeshOptions", "PeerStats", "start_node"]
@@ -49,7 +50,8 @@ class MeshNode(RoleActivator):
         self._runner = runner
         self._mesh = mesh
         self._task: asyncio.Task[None] | None = None
-        self._closed = False
+        self._close_called = False
+        self._close_reason: str | None = None
 
     @property
     def address(self) -> str:
@@ -58,8 +60,13 @@ class MeshNode(RoleActivator):
 
     @property
     def closed(self) -> bool:
-        """Whether ``close()`` was called."""
-        return self._closed
+        """Whether the node is off the mesh: ``close()`` was called, or the mesh stopped."""
+        return self._close_reason is not None
+
+    @property
+    def close_reason(self) -> str | None:
+        """Why the node is off the mesh (None while it is on it)."""
+        return self._close_reason
 
     def peers(self) -> list[str]:
         """Ids of the peers linked to this node now, sorted."""
@@ -85,21 +92,37 @@ class MeshNode(RoleActivator):
 
     def _start(self) -> None:
         self._task = asyncio.create_task(self._mesh.run(), name=f"objectplaces-node-{self.node_id}")
-        self._task.add_done_callback(self._on_done)
+        self._task.add_done_callback(self._on_mesh_done)
         self._runner.wake()
 
-    def _on_done(self, task: asyncio.Task[None]) -> None:
-        if not task.cancelled() and task.exception() is not None:
-            log.error("node %s: mesh stopped", self.node_id, exc_info=task.exception())
+    def _on_mesh_done(self, task: asyncio.Task[None]) -> None:
+        """However the mesh stopped, the node is closed and says why, once."""
+        error: BaseException | None = None
+        if task.cancelled():
+            reason = "the mesh was cancelled"
+        elif (error := task.exception()) is not None:
+            reason = f"the mesh failed: {_describe(error)}"
+        else:
+            reason = "the mesh stopped"
+        self._mesh.abort()  # a task cancelled before it ran never cleaned up
+        if self._close_reason is None:
+            self._close_reason = reason
+            self._runner.close()
+            log.error("node %s: %s; the node is closed", self.node_id, reason, exc_info=error)
 
     async def close(self) -> None:
-        """Leave the mesh: stop our sessions, drop our roles, tell the peers, close links."""
-        if self._closed:
+        """Leave the mesh: stop our sessions, drop our roles, tell the peers, close links.
+
+        Also releases what is left after the mesh stopped by itself (see ``closed``).
+        """
+        if self._close_called:
             return
-        self._closed = True
+        self._close_called = True
         runner = self._runner
-        self.machine.leave(runner.now())
-        runner.drain()
+        if self._close_reason is None:
+            self._close_reason = "closed"
+            self.machine.leave(runner.now())
+            runner.drain()
         runner.close()
         await self._mesh.close()
         task = self._task
@@ -121,6 +144,13 @@ class MeshNode(RoleActivator):
 
     def __repr__(self) -> str:
         return f"<MeshNode {self.node_id!r} at {self.address}>"
+
+
+def _describe(exc: BaseException) -> str:
+    """Name the first real error inside ``exc`` (task groups wrap theirs)."""
+    while isinstance(exc, BaseExceptionGroup) and exc.exceptions:
+        exc = exc.exceptions[0]
+    return f"{type(exc).__name__}: {exc}"
 
 
 async def start_node(

@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 
 from websockets.asyncio.client import ClientConnection, connect
+from websockets.asyncio.server import ServerConnection
 
 from objectplaces.transport.mesh_frames import (
     Auth,
@@ -39,3 +40,22 @@ async def authenticate(
     assert isinstance(welcome, Auth)
     assert welcome.welcome
     return challenge
+
+
+async def accept_handshake(
+    ws: ServerConnection, secret: bytes, *, node: str, address: str = "127.0.0.1:9"
+) -> Hello:
+    """Run the listener's side of the handshake; returns the dialer's hello."""
+    hello = decode_transport(await ws.recv(decode=False))
+    assert isinstance(hello, Hello)
+    assert not hello.challenge
+    nonce = os.urandom(16)
+    await ws.send(
+        encode_hello(challenge=True, node=node, address=address, incarnation=1, nonce=nonce)
+    )
+    auth = decode_transport(await ws.recv(decode=False))
+    assert isinstance(auth, Auth)
+    dialer_mac, listener_mac = handshake_macs(secret, hello.node, node, hello.nonce, nonce)
+    assert auth.mac == dialer_mac
+    await ws.send(encode_auth(listener_mac, welcome=True))
+    return hello

@@ -1,15 +1,20 @@
-"""Mesh links in one process: a dropped link comes back, a quick restart resynchronises."""
+"""Mesh links in one process: a dropped link comes back, a quick restart resynchronises,
+forgotten peers leave nothing behind, and a node whose mesh stops says it is closed."""
 
 from __future__ import annotations
 
 import asyncio
+import logging
 import time
 from collections.abc import Callable
 from typing import Any
 
+import pytest
+
 from objectplaces import Initiator, Participant, groups
-from objectplaces.mesh import MeshNode, start_node
+from objectplaces.mesh import MeshNode, MeshOptions, start_node
 from objectplaces.roles import ParticipantRef
+from tests.mesh.rawpeer import authenticate, open_raw
 
 SECRET = b"links"
 
@@ -100,3 +105,59 @@ async def test_a_quick_restart_replaces_the_old_run_at_once() -> None:
         for each in (restarted, b, a):
             if each is not None:
                 await each.close()
+
+
+async def test_peers_without_a_link_are_forgotten_after_forget_after() -> None:
+    options = MeshOptions(forget_after=0.3, gossip_interval=0.05)
+    a = await node("a", [], options=options)
+    try:
+        for n in range(5):  # visitors that authenticate, then go
+            ws = await open_raw(a.address)
+            await authenticate(ws, SECRET, node=f"visitor-{n}")
+            await ws.close()
+        b = await node("b", [a.address], options=options)
+        await until(lambda: a.peers() == ["b"])
+        assert {f"visitor-{n}" for n in range(5)} <= set(a.peer_stats())
+        await b.close()
+        await until(lambda: not a.peer_stats()["b"].connected)
+        await until(lambda: a.peer_stats() == {})
+        assert len(a._mesh.directory) == 0
+    finally:
+        await a.close()
+
+
+async def test_a_node_whose_mesh_fails_is_closed_and_says_why_once(
+    caplog: pytest.LogCaptureFixture, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    a = await node("a", [])
+    b = await node("b", [a.address])
+    try:
+        await until(lambda: a.peers() == ["b"] and b.peers() == ["a"])
+        assert not a.closed
+
+        def broken(now: float) -> None:
+            raise RuntimeError("the directory broke")
+
+        monkeypatch.setattr(a._mesh.directory, "tick", broken)
+        with caplog.at_level(logging.ERROR, logger="objectplaces.mesh"):
+            a._mesh._changed.set()
+            await until(lambda: a.closed)
+            await until(lambda: b.peers() == [])  # a dropped its links at once
+        assert a.close_reason == "the mesh failed: RuntimeError: the directory broke"
+        said = [r for r in caplog.records if "the node is closed" in r.getMessage()]
+        assert len(said) == 1
+    finally:
+        await b.close()
+        await a.close()
+    assert a.closed
+
+
+async def test_a_node_whose_mesh_task_is_cancelled_is_closed() -> None:
+    a = await node("a", [])
+    try:
+        assert a._task is not None
+        a._task.cancel()
+        await until(lambda: a.closed)
+        assert a.close_reason == "the mesh was cancelled"
+    finally:
+        await a.close()

@@ -1,0 +1,157 @@
+"""The handshake machine alone: two machines talk bytes to each other, no sockets."""
+
+from __future__ import annotations
+
+import msgpack
+import pytest
+
+from objectplaces.transport.handshake import Established, HandshakeMachine, Refused
+from objectplaces.transport.mesh_frames import (
+    HELLO,
+    PeerAddress,
+    encode_auth,
+    encode_gossip,
+    encode_hello,
+)
+
+SECRET = b"shared"
+
+
+def machine(
+    node: str, *, dialing: bool, secret: bytes = SECRET, now: float = 0.0
+) -> HandshakeMachine:
+    return HandshakeMachine(
+        node_id=node,
+        address=f"127.0.0.1:{7000 + ord(node[0])}",
+        incarnation=ord(node[0]),
+        secret=secret,
+        nonce=(node * 16).encode()[:16],
+        dialing=dialing,
+        now=now,
+        timeout=5.0,
+        max_frame=4096,
+        dialed="127.0.0.1:7000" if dialing else "",
+    )
+
+
+def converse(dialer: HandshakeMachine, listener: HandshakeMachine) -> int:
+    """Carry frames both ways until neither has more to say; returns how many went."""
+    sent = 0
+    while True:
+        moved = False
+        for source, target in ((dialer, listener), (listener, dialer)):
+            for data in source.data_to_send():
+                target.receive(data)
+                sent += 1
+                moved = True
+        if not moved:
+            return sent
+
+
+def test_two_machines_with_the_secret_establish_a_link_in_four_frames() -> None:
+    dialer, listener = machine("a", dialing=True), machine("b", dialing=False)
+    assert converse(dialer, listener) == 4
+    assert dialer.outcome == Established("b", "127.0.0.1:7098", ord("b"), dialer="a")
+    assert listener.outcome == Established("a", "127.0.0.1:7097", ord("a"), dialer="a")
+
+
+def test_a_dialer_without_the_secret_is_refused_and_learns_nothing() -> None:
+    dialer = machine("a", dialing=True, secret=b"guess")
+    listener = machine("b", dialing=False)
+    listener.receive(dialer.data_to_send()[0])  # hello
+    dialer.receive(listener.data_to_send()[0])  # challenge
+    listener.receive(dialer.data_to_send()[0])  # a wrong proof
+    assert listener.outcome == Refused(1008, "authentication failed for 'a'", "refused_auth")
+    assert listener.data_to_send() == []  # no welcome, no proof of ours
+    assert dialer.outcome is None
+
+
+def test_a_listener_without_the_secret_is_refused_by_the_dialer() -> None:
+    dialer = machine("a", dialing=True)
+    impostor = machine("b", dialing=False, secret=b"guess")
+    impostor.receive(dialer.data_to_send()[0])
+    dialer.receive(impostor.data_to_send()[0])
+    impostor.receive(dialer.data_to_send()[0])  # the dialer's proof: the impostor refuses
+    assert isinstance(impostor.outcome, Refused)
+    assert dialer.outcome is None
+    dialer.receive(encode_auth(b"\x00" * 32, welcome=True))  # a welcome it made up
+    assert dialer.outcome == Refused(1008, "authentication failed", "refused_auth")
+
+
+def test_the_dialers_proof_cannot_be_replayed_as_the_listeners() -> None:
+    dialer, listener = machine("a", dialing=True), machine("b", dialing=False)
+    listener.receive(dialer.data_to_send()[0])
+    dialer.receive(listener.data_to_send()[0])
+    auth = msgpack.unpackb(dialer.data_to_send()[0])
+    dialer.receive(encode_auth(auth[1], welcome=True))  # echo the dialer's own proof
+    assert isinstance(dialer.outcome, Refused)
+    assert dialer.outcome.counter == "refused_auth"
+
+
+@pytest.mark.parametrize(
+    ("data", "code", "reason", "counter"),
+    [
+        ("a text frame", 1003, "text frames", "refused_malformed"),
+        (b"\x93\xc1\xc1", 1002, "malformed handshake", "refused_malformed"),
+        (
+            msgpack.packb([HELLO, 99, "x", "h:1", 1, b"0" * 16]),
+            1008,
+            "version 99",
+            "refused_version",
+        ),
+        (encode_auth(b"k" * 32), 1002, "expected a hello", ""),
+        (encode_gossip([PeerAddress("x", "h:1", 1)]), 1002, "expected a hello", ""),
+        (
+            encode_hello(challenge=False, node="b", address="h:1", incarnation=1, nonce=b"n" * 16),
+            1008,
+            "node id 'b' is this node's",
+            "",
+        ),
+    ],
+)
+def test_the_listener_refuses_a_bad_first_frame(
+    data: bytes | str, code: int, reason: str, counter: str
+) -> None:
+    listener = machine("b", dialing=False)
+    listener.receive(data)
+    assert isinstance(listener.outcome, Refused)
+    assert (listener.outcome.code, listener.outcome.counter) == (code, counter)
+    assert reason in listener.outcome.reason
+    assert listener.data_to_send() == []
+
+
+def test_the_dialer_refuses_anything_but_a_challenge_then_a_welcome() -> None:
+    dialer = machine("a", dialing=True)
+    dialer.data_to_send()
+    dialer.receive(encode_hello(challenge=False, node="b", address="h:1", incarnation=1,
+                                nonce=b"n" * 16))  # fmt: skip
+    assert dialer.outcome == Refused(1002, "expected a challenge")
+    itself = machine("a", dialing=True)
+    itself.receive(encode_hello(challenge=True, node="a", address="h:1", incarnation=1,
+                                nonce=b"n" * 16))  # fmt: skip
+    assert itself.outcome == Refused(1008, "127.0.0.1:7000 is this node itself")
+    dialer, listener = machine("a", dialing=True), machine("b", dialing=False)
+    listener.receive(dialer.data_to_send()[0])
+    dialer.receive(listener.data_to_send()[0])
+    dialer.receive(encode_auth(b"k" * 32))  # a dialer's proof, not a welcome
+    assert dialer.outcome == Refused(1002, "expected a welcome")
+
+
+def test_the_handshake_times_out_at_its_deadline_and_later_input_is_ignored() -> None:
+    listener = machine("b", dialing=False, now=10.0)
+    assert listener.deadline == 15.0
+    listener.tick(14.999)
+    assert listener.outcome is None
+    listener.tick(15.0)
+    assert listener.outcome == Refused(1008, "handshake timed out", "refused_timeout")
+    listener.receive(machine("a", dialing=True).data_to_send()[0])
+    assert listener.data_to_send() == []
+    assert isinstance(listener.outcome, Refused)
+
+
+def test_a_nonce_of_the_wrong_size_is_a_local_error() -> None:
+    with pytest.raises(ValueError, match="nonce must be 16 bytes, got 3"):
+        HandshakeMachine(
+            node_id="a", address="h:1", incarnation=1, secret=SECRET, nonce=b"abc",
+            dialing=True, now=0.0, timeout=1.0, max_frame=4096,
+        )  # fmt: skip
