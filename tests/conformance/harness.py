@@ -14,6 +14,7 @@ from typing import Any, Protocol
 from objectplaces import RoleActivator
 from objectplaces.mesh import MeshNode, start_node
 from objectplaces.sim import SimulatedNetwork
+from tests.mesh.rawpeer import authenticate, open_raw
 
 INTERVAL = 0.2
 FAILURE_TIMEOUT = 1.0
@@ -30,6 +31,10 @@ class Harness(Protocol):
 
     async def leave(self, node_id: str) -> None:
         """Let a node leave gracefully."""
+        ...
+
+    async def hostile(self, target: str, frames: list[bytes]) -> None:
+        """Hand ``target`` each frame as if an authenticated peer (no node) sent it."""
         ...
 
     async def until(self, predicate: Callable[[], bool], within: float = 10.0) -> None:
@@ -59,6 +64,11 @@ class SimHarness:
 
     async def leave(self, node_id: str) -> None:
         self.net.leave(node_id)
+
+    async def hostile(self, target: str, frames: list[bytes]) -> None:
+        for frame in frames:
+            self.net.inject("intruder", target, frame)
+        self.net.run_for(0.01)
 
     async def until(self, predicate: Callable[[], bool], within: float = 10.0) -> None:
         assert self.net.run_until(predicate, within), f"not within {within}s of virtual time"
@@ -94,6 +104,15 @@ class MeshHarness:
 
     async def leave(self, node_id: str) -> None:
         await self.nodes.pop(node_id).close()
+
+    async def hostile(self, target: str, frames: list[bytes]) -> None:
+        # One link per frame: a frame the node cannot handle costs the link it came on.
+        for n, frame in enumerate(frames):
+            ws = await open_raw(self.nodes[target].address)
+            await authenticate(ws, self.secret, node=f"intruder-{n}")
+            await ws.send(frame)
+            async with asyncio.timeout(10):
+                await ws.wait_closed()
 
     async def until(self, predicate: Callable[[], bool], within: float = 10.0) -> None:
         deadline = time.monotonic() + within

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import AsyncIterator
 from typing import Any
 
+import msgpack
 import pytest
 
 from objectplaces import Initiator, Participant, groups
@@ -195,3 +197,22 @@ async def test_scoped_dissemination_hears_its_cells_and_forgets_the_departed(net
     await net.until(lambda: scoped.view().get("mover", {}).get("position") == (6.0, 6.0))
     mover.update_node_property("position", (500.0, 500.0))
     await net.until(lambda: "mover" not in scoped.view())
+
+
+async def test_hostile_frames_cost_the_sender_never_the_node(net: Harness) -> None:
+    a = await net.add("a")
+    a.update_node_property("position", (0.0, 0.0))
+    recorder = Recorder()
+    session = a.start_interaction(recorder, groups.within(5.0), "ticker")  # indexes positions
+    b = await net.add("b")
+    b.set_participant_factory("ticker", Ticker)
+    b.update_node_property("position", (1.0, 0.0))
+    await net.until(lambda: recorder.members_now() == {"b"})
+    unusable = [["x", "y"], [math.nan, 0], [math.inf, -math.inf], [None, 1]]
+    await net.hostile("a", [msgpack.packb([1, 1, {"position": p}]) for p in unusable])
+    b.update_node_property("position", (2.0, 0.0))
+    await net.until(lambda: a.view()["b"]["position"] == (2.0, 0.0))
+    mark = len(recorder.log)
+    await net.until(lambda: any(e[0] == "rx" for e in recorder.log[mark:]))
+    assert recorder.members_now() == {"b"}
+    only_members_spoke(recorder, session.session_id)
