@@ -19,16 +19,26 @@ from websockets.asyncio.client import ClientConnection
 from websockets.asyncio.server import ServerConnection
 from websockets.exceptions import ConnectionClosed
 
+from objectplaces.core.messages import Message
 from objectplaces.transport.directory import LinkInfo, PeerCounters
 from objectplaces.transport.handshake import Established, HandshakeMachine, Refused
 from objectplaces.transport.mesh_frames import encode_batch
 from objectplaces.transport.policing import CloseCode, Delivered, Inbound, LinkPolicy, Refusal
 
-__all__ = ["LEAVING", "Connection", "MeshLink", "close_quietly", "run_handshake", "short_reason"]
+__all__ = [
+    "LEAVING",
+    "Connection",
+    "Deliver",
+    "MeshLink",
+    "close_quietly",
+    "run_handshake",
+    "short_reason",
+]
 
 log = logging.getLogger("objectplaces.mesh")
 
 Connection = ServerConnection | ClientConnection
+Deliver = Callable[[str, Message, int], None]
 LEAVING: Final = "leaving"
 """The close reason (with code 1001) of a node that leaves the mesh for good."""
 _BATCH_BYTES: Final = 64 * 1024
@@ -118,13 +128,16 @@ class MeshLink:
             self.queue.put_nowait(None)
 
     async def run(
-        self, handle: Callable[[Inbound], None], now: Callable[[], float]
+        self, deliver: Deliver, handle: Callable[[Inbound], None], now: Callable[[], float]
     ) -> tuple[str, Refusal | None]:
         """Carry frames both ways until the link closes.
 
         Args:
-            handle: acts on one item the policy allowed; if it raises, the link closes.
+            deliver: takes each middleware message (``NodeDriver.deliver``).
+            handle: takes the peer's gossip and subscriptions.
             now: the clock the flood limit runs on.
+
+        If ``deliver`` or ``handle`` raises, the link closes (code 1011, the error named).
 
         Returns:
             Why the link closed, and the refusal that closed it (None: the peer or the
@@ -134,7 +147,7 @@ class MeshLink:
         async with asyncio.TaskGroup() as tg:
             writer = tg.create_task(self._write())
             try:
-                refusal = await self._read(handle, now)
+                refusal = await self._read(deliver, handle, now)
             finally:
                 writer.cancel()
         if self.close_reason:
@@ -171,12 +184,12 @@ class MeshLink:
             return
 
     async def _read(
-        self, handle: Callable[[Inbound], None], now: Callable[[], float]
+        self, deliver: Deliver, handle: Callable[[Inbound], None], now: Callable[[], float]
     ) -> Refusal | None:
         ws = self.ws
         try:
             async for data in ws:
-                refusal = self._on_message(data, handle, now())
+                refusal = self._on_message(data, deliver, handle, now())
                 if refusal is not None:
                     self.close_reason = f"{refusal.code} {refusal.reason}"
                     await ws.close(refusal.code, short_reason(refusal.reason))
@@ -186,18 +199,26 @@ class MeshLink:
         return None
 
     def _on_message(
-        self, data: str | bytes, handle: Callable[[Inbound], None], now: float
+        self,
+        data: str | bytes,
+        deliver: Deliver,
+        handle: Callable[[Inbound], None],
+        now: float,
     ) -> Refusal | None:
         items, refusal = self.policy.read(data, now)
-        for item in items:
-            try:
-                handle(item)
-            except Exception as exc:
-                # Nothing one frame does may stop the node: close this link, say why.
-                log.error("handling a frame from %s failed", self.peer, exc_info=True)
-                what = type(item.message if isinstance(item, Delivered) else item).__name__
-                return Refusal(
-                    CloseCode.INTERNAL_ERROR,
-                    f"failed handling {what}: {type(exc).__name__}: {exc}",
-                )
+        peer = self.peer
+        item: Inbound | None = None
+        try:
+            for item in items:
+                if type(item) is Delivered:  # the hot path: most frames are messages
+                    deliver(peer, item.message, item.size)
+                else:
+                    handle(item)
+        except Exception as exc:
+            # Nothing one frame does may stop the node: close this link, say why.
+            log.error("handling a frame from %s failed", peer, exc_info=True)
+            what = type(item.message if isinstance(item, Delivered) else item).__name__
+            return Refusal(
+                CloseCode.INTERNAL_ERROR, f"failed handling {what}: {type(exc).__name__}: {exc}"
+            )
         return refusal

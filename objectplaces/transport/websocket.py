@@ -342,7 +342,11 @@ class WebSocketMesh:
             return
         reason = "closed"
         try:  # the link is registered: from here on, every way out brings it down
-            reason, refusal = await link.run(lambda item: self._dispatch(est.peer, item), self._now)
+            reason, refusal = await link.run(
+                self._driver_or_fail().deliver,
+                lambda item: self._on_peer_news(est.peer, item),
+                self._now,
+            )
             if refusal is not None:
                 failed = refusal.code == CloseCode.INTERNAL_ERROR
                 self._count("links_closed_failed" if failed else "links_closed_bad_input")
@@ -361,7 +365,7 @@ class WebSocketMesh:
         assert driver is not None, "attach() first"
         return driver
 
-    def _dispatch(self, peer: str, item: Inbound) -> None:
+    def _on_peer_news(self, peer: str, item: Inbound) -> None:
         driver = self._driver_or_fail()
         match item:
             case Delivered(message, size):
