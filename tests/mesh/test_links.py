@@ -12,6 +12,7 @@ from typing import Any
 import pytest
 
 from objectplaces import Initiator, Participant, groups
+from objectplaces.core.messages import PropertyUpdate
 from objectplaces.mesh import MeshNode, MeshOptions, start_node
 from objectplaces.roles import ParticipantRef
 from tests.mesh.rawpeer import authenticate, open_raw
@@ -160,4 +161,37 @@ async def test_a_node_whose_mesh_task_is_cancelled_is_closed() -> None:
         await until(lambda: a.closed)
         assert a.close_reason == "the mesh was cancelled"
     finally:
+        await a.close()
+
+
+async def test_a_frame_whose_handling_raises_costs_its_link_never_the_node(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    a = await node("a", [])
+    failures: list[str] = []
+    deliver = a._runner.deliver
+
+    def deliver_failing_once(source: str, message: Any, size: int) -> None:
+        # A fault in the node's handling (whatever the machine does with this frame).
+        if isinstance(message, PropertyUpdate) and "poison" in message.values and not failures:
+            failures.append(source)
+            raise RuntimeError("poisoned")
+        deliver(source, message, size)
+
+    monkeypatch.setattr(a._runner, "deliver", deliver_failing_once)
+    b = await node("b", [a.address])
+    try:
+        await until(lambda: a.peers() == ["b"])
+        b.update_node_property("poison", 1)
+        await until(lambda: b.peer_stats()["a"].reconnects == 1 and a.peers() == ["b"])
+        assert failures == ["b"]
+        assert b.peer_stats()["a"].last_close == (
+            "1011 failed handling PropertyUpdate: RuntimeError: poisoned"
+        )
+        assert a.transport_counters()["links_closed_failed"] == 1
+        assert not a.closed
+        b.update_node_property("position", (4.0, 0.0))
+        await until(lambda: a.view().get("b", {}).get("position") == (4.0, 0.0))
+    finally:
+        await b.close()
         await a.close()

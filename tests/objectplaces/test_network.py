@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+from typing import Any
 
 import msgpack
 import pytest
@@ -140,3 +141,29 @@ def test_injected_garbage_and_a_malformed_property_frame_leave_the_target_runnin
     assert ("c", "in_group_of", "a") in log
     with pytest.raises(LocalProtocolError, match="unknown node 'zz'"):
         net.inject("evil", "zz", b"")
+
+
+def test_a_frame_whose_handling_raises_is_dropped_and_counted(
+    monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    net = SimulatedNetwork(seed=38)
+    a, b = net.add_node("a"), net.add_node("b")
+    receive = a.machine.receive_message
+    failures: list[str] = []
+
+    def receive_failing_once(source: str, message: Any, now: float, *, size: int = 0) -> None:
+        if not failures:  # a fault in the node's handling of this one frame
+            failures.append(source)
+            raise RuntimeError("poisoned")
+        receive(source, message, now, size=size)
+
+    monkeypatch.setattr(a.machine, "receive_message", receive_failing_once)
+    with caplog.at_level(logging.ERROR, logger="objectplaces"):
+        b.update_node_property("status", "first")
+        net.run_for(0.1)
+    assert failures == ["b"]
+    assert net.stats().dropped["failed"] == 1
+    assert any("poisoned" in r.exc_text for r in caplog.records if r.exc_text)
+    b.update_node_property("status", "second")
+    net.run_for(0.1)
+    assert a.view()["b"]["status"] == "second"
