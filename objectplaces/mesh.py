@@ -52,6 +52,7 @@ class MeshNode(RoleActivator):
         self._task: asyncio.Task[None] | None = None
         self._close_called = False
         self._close_reason: str | None = None
+        self._closed_event = asyncio.Event()
 
     @property
     def address(self) -> str:
@@ -67,6 +68,20 @@ class MeshNode(RoleActivator):
     def close_reason(self) -> str | None:
         """Why the node is off the mesh (None while it is on it)."""
         return self._close_reason
+
+    async def wait_closed(self) -> str:
+        """Wait until the node is off the mesh, for any reason; returns the reason."""
+        await self._closed_event.wait()
+        assert self._close_reason is not None
+        return self._close_reason
+
+    def _mark_closed(self, reason: str) -> bool:
+        """Record why the node is off the mesh; False if that was known already."""
+        if self._close_reason is not None:
+            return False
+        self._close_reason = reason
+        self._closed_event.set()
+        return True
 
     def peers(self) -> list[str]:
         """Ids of the peers linked to this node now, sorted."""
@@ -105,8 +120,7 @@ class MeshNode(RoleActivator):
         else:
             reason = "the mesh stopped"
         self._mesh.abort()  # a task cancelled before it ran never cleaned up
-        if self._close_reason is None:
-            self._close_reason = reason
+        if self._mark_closed(reason):
             self._runner.close()
             log.error("node %s: %s; the node is closed", self.node_id, reason, exc_info=error)
 
@@ -119,8 +133,7 @@ class MeshNode(RoleActivator):
             return
         self._close_called = True
         runner = self._runner
-        if self._close_reason is None:
-            self._close_reason = "closed"
+        if self._mark_closed("closed"):
             self.machine.leave(runner.now())
             runner.drain()
         runner.close()

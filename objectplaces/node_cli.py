@@ -11,6 +11,8 @@ make a node observable from outside, for tests and demonstrations:
   a tick every ``--tick`` seconds and echoes what it receives.
 
 Output is one JSON object per line on stdout (``{"event": ..., "t": monotonic time}``).
+The last is ``closed`` with its reason; should the node's mesh stop by itself, the
+process says why there and exits with status 1.
 With ``--control`` the node also reads JSON commands from stdin, one per line:
 ``{"cmd": "move", "x": 1, "y": 2}``, ``{"cmd": "set", "name": ..., "value": ...}``,
 ``{"cmd": "view"}``, ``{"cmd": "peers"}``, ``{"cmd": "stats"}``, ``{"cmd": "stop"}``,
@@ -293,6 +295,7 @@ async def _run(args: argparse.Namespace, secret: bytes) -> int:
     )
     stop = asyncio.Event()
     controller = _Controller(node, args, stop)
+    stopped: str | None = None
     try:
         for name, value in args.property:
             node.update_node_property(name, value)
@@ -306,15 +309,18 @@ async def _run(args: argparse.Namespace, secret: bytes) -> int:
             tasks = [tg.create_task(_watch_peers(node))]
             if args.control:
                 tasks.append(tg.create_task(_read_commands(controller)))
+            waits = [tg.create_task(stop.wait()), tg.create_task(node.wait_closed())]
             with contextlib.suppress(TimeoutError):
                 async with asyncio.timeout(args.run_seconds):
-                    await stop.wait()
-            for task in tasks:
+                    await asyncio.wait(waits, return_when=asyncio.FIRST_COMPLETED)
+            for task in tasks + waits:
                 task.cancel()
+        # The node closed by itself (its mesh stopped): the process says why, and fails.
+        stopped = node.close_reason
     finally:
         await node.close()
-        emit("closed")
-    return 0
+        emit("closed", reason=stopped or "left the mesh")
+    return 1 if stopped else 0
 
 
 def main(argv: list[str] | None = None) -> int:

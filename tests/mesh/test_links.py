@@ -158,8 +158,9 @@ async def test_a_node_whose_mesh_task_is_cancelled_is_closed() -> None:
     try:
         assert a._task is not None
         a._task.cancel()
-        await until(lambda: a.closed)
-        assert a.close_reason == "the mesh was cancelled"
+        async with asyncio.timeout(10):
+            assert await a.wait_closed() == "the mesh was cancelled"
+        assert a.closed
     finally:
         await a.close()
 
