@@ -156,10 +156,6 @@ class MemoryNetwork:
             raise LocalProtocolError(f"unknown node {node!r}")
         self._router.forget(node)
 
-    def attached_before(self, node: str) -> bool:
-        """True when ``node`` has been on this network at some time (live or not)."""
-        return node in self._incarnations
-
     def __contains__(self, node: object) -> bool:
         return node in self._nodes
 
