@@ -116,13 +116,13 @@ class RoleActivator:
         self, observer: Callable[[str, str, Any], Any]
     ) -> ObserverHandle:
         """Call ``observer(node_id, name, value)`` on every property change, ours included."""
-        return ObserverHandle(self._machine.add_property_observer(observer))
+        return ObserverHandle(self._machine.observers.add_property(observer))
 
     def register_node_departure_observer(
         self, observer: Callable[[str, Mapping[str, Any]], Any]
     ) -> ObserverHandle:
         """Call ``observer(node_id, last_properties)`` when a node fails or leaves."""
-        return ObserverHandle(self._machine.add_departure_observer(observer))
+        return ObserverHandle(self._machine.observers.add_departure(observer))
 
     def set_participant_factory(self, name: str, factory: Callable[[], Participant] | None) -> None:
         """Register the zero-argument factory of participant role ``name`` (None removes it)."""

@@ -1,7 +1,10 @@
 """The import arrows point one way, and the core stays free of I/O.
 
 dashboard -> agv_app -> objectplaces -> tuplespace; nothing imports dashboard;
-objectplaces.core imports only the standard library, msgpack, and itself.
+objectplaces.core imports only the standard library, msgpack, and itself; the
+transports import nothing of the runtimes. Inside the core, parts are layered: each
+module imports only modules of lower layers, so no part reaches into the router
+(node.py) or sideways into a sibling part, and the router stays thin.
 """
 
 from __future__ import annotations
@@ -57,3 +60,67 @@ def test_core_is_sans_io() -> None:
             assert top in stdlib or top == "msgpack" or name.startswith("objectplaces.core"), (
                 f"{path.relative_to(ROOT)} imports {name}"
             )
+
+
+def test_transports_import_nothing_of_the_runtimes() -> None:
+    for path in modules("objectplaces/transport"):
+        for name in imports_of(path):
+            assert not name.startswith("objectplaces.runtime"), (
+                f"{path.relative_to(ROOT)} imports {name}"
+            )
+
+
+# The core's layers, bottom first. A module may import modules of lower layers only.
+CORE_LAYERS = [
+    {"errors", "ids", "spatial"},
+    {"messages", "groups", "events"},
+    {"codec", "channel", "outbox", "roles"},
+    {"config", "timers", "observers", "intake"},
+    {"view", "own", "channels"},
+    {"plumbing"},
+    {"sessions", "participations"},
+    {"bindings"},
+    {"node"},
+]
+
+
+def core_layer(name: str) -> int:
+    for level, names in enumerate(CORE_LAYERS):
+        if name in names:
+            return level
+    raise AssertionError(f"objectplaces.core.{name} is in no layer of CORE_LAYERS")
+
+
+def test_every_core_module_has_a_layer() -> None:
+    found = {p.stem for p in modules("objectplaces/core") if p.stem != "__init__"}
+    assert found == set().union(*CORE_LAYERS)
+
+
+def test_core_parts_import_only_lower_layers() -> None:
+    for path in modules("objectplaces/core"):
+        if path.stem == "__init__":
+            continue
+        level = core_layer(path.stem)
+        for name in imports_of(path):
+            if name.startswith("objectplaces.core."):
+                other = name.removeprefix("objectplaces.core.")
+                assert core_layer(other) < level, (
+                    f"objectplaces/core/{path.name} (layer {level}) imports {name} "
+                    f"(layer {core_layer(other)})"
+                )
+
+
+@pytest.mark.parametrize(
+    "path",
+    [
+        *modules("objectplaces/core"),
+        ROOT / "objectplaces/activator.py",
+        ROOT / "objectplaces/roles.py",
+        ROOT / "objectplaces/groups.py",
+        ROOT / "objectplaces/__init__.py",
+    ],
+    ids=lambda p: str(p.relative_to(ROOT)),
+)
+def test_core_modules_stay_small(path: Path) -> None:
+    lines = len(path.read_text().splitlines())
+    assert lines <= 400, f"{path.relative_to(ROOT)} has {lines} lines; split it by job"

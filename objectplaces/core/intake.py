@@ -15,7 +15,7 @@ import logging
 
 from objectplaces.core import codec
 from objectplaces.core.errors import DecodeError
-from objectplaces.core.messages import Message, kind_of
+from objectplaces.core.messages import Message
 from objectplaces.core.outbox import Outbox
 
 __all__ = ["Intake"]
@@ -32,14 +32,12 @@ class Intake:
         outbox: where counters go.
     """
 
-    __slots__ = ("_max_frame", "_node_id", "_outbox", "received_by_kind")
+    __slots__ = ("_max_frame", "_node_id", "_outbox")
 
     def __init__(self, node_id: str, *, max_frame: int, outbox: Outbox) -> None:
         self._node_id = node_id
         self._max_frame = max_frame
         self._outbox = outbox
-        #: kind -> [frames, bytes] received (the transport's ``stats()`` shows these).
-        self.received_by_kind: dict[str, list[int]] = {}
 
     def decode(self, source: str, data: bytes) -> Message | None:
         """The message in ``data``, or None when it does not decode (counted, logged)."""
@@ -49,13 +47,3 @@ class Intake:
             self._outbox.count("dropped_malformed")
             log.warning("node %s: dropped a frame from %s: %s", self._node_id, source, exc)
             return None
-
-    def admit(self, source: str, message: Message, size: int) -> bool:
-        """Tally a decoded frame; whether the machine should act on it."""
-        tally = self.received_by_kind.setdefault(kind_of(message), [0, 0])
-        tally[0] += 1
-        tally[1] += size
-        if source == self._node_id:
-            self._outbox.count("dropped_own")
-            return False
-        return True

@@ -16,9 +16,10 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 from enum import IntEnum
-from typing import Any, TypeAlias, assert_never
+from typing import Any, Final, TypeAlias
 
 __all__ = [
+    "KIND_NAMES",
     "ChannelAck",
     "ChannelData",
     "FrameKind",
@@ -96,16 +97,15 @@ class ChannelAck:
 Message: TypeAlias = PropertyUpdate | Leave | ChannelData | ChannelAck
 
 
+KIND_NAMES: Final[Mapping[type, str]] = {
+    PropertyUpdate: "property",
+    ChannelData: "channel",
+    ChannelAck: "ack",
+    Leave: "leave",
+}
+"""Message type -> its family's name in statistics (a dict: it is read for every frame)."""
+
+
 def kind_of(message: Message) -> str:
     """Name a message's family for statistics ("property", "channel", "ack", "leave")."""
-    match message:
-        case PropertyUpdate():
-            return "property"
-        case ChannelData():
-            return "channel"
-        case ChannelAck():
-            return "ack"
-        case Leave():
-            return "leave"
-        case _:
-            assert_never(message)
+    return KIND_NAMES[type(message)]

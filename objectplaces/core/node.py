@@ -1,58 +1,59 @@
 """The node machine: everything one ObjectPlaces node decides, without doing any I/O.
 
-``NodeMachine`` is a router. Each input goes to the parts that own the state it
-concerns, in an order fixed here and nowhere else:
+``NodeMachine`` is a router: each input goes to the parts that own the state it
+concerns, in an order fixed here and nowhere else (§ are docs/protocol.md sections):
 
-===================  ===========================================================
-part                 owns
-===================  ===========================================================
-``OwnProperties``    this node's values, coalescing, routing of publications (§2, §5)
-``PropertyView``     the others' values, liveness, the spatial index, the scope (§2, §5, §6)
-``SessionTable``     sessions this node initiated: members, closing channels (§3)
+======================  =====================================================
+part                    owns
+======================  =====================================================
+``OwnProperties``       this node's values, coalescing, publication routing (§2, §5)
+``PropertyView``        the others' values, liveness, spatial index, scope (§2, §5, §6)
+``SessionTable``        sessions this node initiated, members, closing channels (§3)
 ``ParticipationTable``  roles this node plays for others, tombstones (§3)
-``Channels``         reliable frames on the wire, retransmission (§4)
-``TimerQueue``       what is due when (typed ``TimerAction`` values)
-``Outbox``           frames, callbacks and counters for the driver
-===================  ===========================================================
+``Channels``            reliable frames on the wire, retransmission (§4)
+``TimerQueue``          what is due when (typed ``TimerAction`` values)
+``Outbox``              frames, callbacks and counters for the driver
+======================  =====================================================
 
-(§ numbers are sections of docs/protocol.md.)
+The driver contract (STYLE.md §1): inputs are commands (``update_property``,
+``start_session`` ...), frames from peers (``receive``) and the passing of time
+(``tick``), each carrying ``now``; after each input the driver drains
+``messages_to_send()`` and ``events_received()`` and reads ``next_deadline()``.
 
-The driver contract (STYLE.md §1): inputs are API commands (``update_property``,
-``start_session`` ...), frames from peers (``receive``), and the passing of time
-(``tick``); every input carries ``now``. After each input the driver drains
-``messages_to_send()`` and ``events_received()`` and reads ``next_deadline()``. The
-same machine runs under the simulated network and the asyncio WebSocket mesh.
-
-Why the router, not the parts, handles departures: a node that fails or leaves
-(``_depart``) touches the view (forget it), the initiator side (it leaves every
-session, nothing to deactivate), the participant side (our roles in its sessions end),
-and the application (departure observers get its last properties). Each part does its
-own share; only the router knows all four and the order: state first, callbacks after,
-so an observer that inspects the node already sees it gone.
+Why departures are the router's: a node that fails or leaves (``_depart``) concerns the
+view (forget it), the initiator side (it leaves every session; nothing to deactivate),
+the participant side (our roles in its sessions end) and the application (departure
+observers get its last properties). Each part does its share; only the router knows all
+four and the order: state first, callbacks after, so an observer sees the node gone.
 """
 
 from __future__ import annotations
 
-import logging
 from collections.abc import Callable, Mapping
 from types import MappingProxyType
 from typing import Any, assert_never
 
 from objectplaces.core import codec
 from objectplaces.core.bindings import InitiatorContext, ParticipantContext
-from objectplaces.core.channels import Channels
 from objectplaces.core.config import NodeConfig, ParticipationInfo, SessionInfo
 from objectplaces.core.errors import LocalProtocolError
 from objectplaces.core.events import Broadcast, Callback, Output, Subscribe, TimerHandle
 from objectplaces.core.groups import DefinitionLike
 from objectplaces.core.ids import SessionId
 from objectplaces.core.intake import Intake
-from objectplaces.core.messages import ChannelAck, ChannelData, Leave, Message, PropertyUpdate
-from objectplaces.core.observers import DepartureObserver, Observers, PropertyObserver
-from objectplaces.core.outbox import Outbox
+from objectplaces.core.messages import (
+    KIND_NAMES,
+    ChannelAck,
+    ChannelData,
+    Leave,
+    Message,
+    PropertyUpdate,
+)
+from objectplaces.core.observers import Observers
 from objectplaces.core.own import OwnProperties
 from objectplaces.core.participations import ParticipantFactory, ParticipationTable
-from objectplaces.core.roles import Initiator, bind
+from objectplaces.core.plumbing import Plumbing
+from objectplaces.core.roles import Initiator
 from objectplaces.core.sessions import SessionTable
 from objectplaces.core.timers import (
     CheckLiveness,
@@ -60,16 +61,12 @@ from objectplaces.core.timers import (
     Republish,
     Retransmit,
     RoleOwner,
-    RoleTimers,
     RunTimer,
     TimerAction,
-    TimerQueue,
 )
 from objectplaces.core.view import PropertyView
 
 __all__ = ["NodeConfig", "NodeMachine", "ParticipationInfo", "SessionInfo"]
-
-log = logging.getLogger("objectplaces")
 
 
 class NodeMachine:
@@ -99,40 +96,38 @@ class NodeMachine:
         self.config = config = config or NodeConfig()
         self.space = space
         self._now = now
-        self._outbox = outbox = Outbox()
-        self._timers = timers = TimerQueue(self._timer_dead)
-        self._role_timers = RoleTimers(timers)
+        self._plumbing = plumbing = Plumbing.build(node_id, config)
+        self._outbox = outbox = plumbing.outbox
+        self._timers = timers = plumbing.timers
+        self._role_timers = plumbing.role_timers
+        self._channels = plumbing.channels
         self._own = OwnProperties(config)
-        self._view = PropertyView(node_id, cell_size=config.cell_size, outbox=outbox)
-        self._channels = Channels(config, outbox, timers)
+        self._observers = observers = Observers(outbox)
+        self._view = PropertyView(
+            node_id, cell_size=config.cell_size, outbox=outbox, observers=observers
+        )
         self._sessions = SessionTable(
-            node_id,
+            plumbing,
             view=self._view,
-            own=self._own.values,
-            channels=self._channels,
-            outbox=outbox,
-            role_timers=self._role_timers,
+            own=self._own.unwrapped,
+            binder=lambda sid: InitiatorContext(self, self._sessions, sid),
         )
         self._participations = ParticipationTable(
-            node_id,
-            config=config,
-            channels=self._channels,
-            outbox=outbox,
-            timers=timers,
-            role_timers=self._role_timers,
+            plumbing,
             binder=lambda owner, ref: ParticipantContext(self, self._participations, owner, ref),
         )
-        self._observers = Observers(outbox)
         self._intake = Intake(node_id, max_frame=config.max_frame, outbox=outbox)
         #: kind -> [frames, bytes] the transport put on the wire (``record_sent``).
         self.sent_by_kind: dict[str, list[int]] = {}
+        #: kind -> [frames, bytes] received (tallied here: it runs for every frame).
+        self.received_by_kind: dict[str, list[int]] = {}
         if config.interest_radius is None:
             outbox.emit(Subscribe(None))
         if config.property_interval is not None:
-            timers.push(now + config.property_interval, Republish())
+            timers.push(now + config.property_interval, Republish(config.property_interval))
         timeout = config.effective_failure_timeout
         if timeout is not None:
-            timers.push(now + timeout / 3, CheckLiveness())
+            timers.push(now + timeout / 3, CheckLiveness(timeout))
 
     @property
     def now(self) -> float:
@@ -143,19 +138,22 @@ class NodeMachine:
 
     def messages_to_send(self) -> list[Output]:
         """Take the frames to transmit (pending property changes are published first)."""
-        update = self._own.take_update()
-        if update is not None:
-            self._outbox.emit(update)
-        return self._outbox.take_outputs()
+        outbox = self._outbox
+        if self._own.pending:
+            outbox.emit(self._own.take_update())
+        out, outbox.outputs = outbox.outputs, []
+        return out
 
     def events_received(self) -> list[Callback]:
         """Take the callbacks to run, in order."""
-        return self._outbox.take_callbacks()
+        outbox = self._outbox
+        events, outbox.callbacks = outbox.callbacks, []
+        return events
 
     def has_work(self) -> bool:
         """True when a drain would find outputs, callbacks or a moved deadline."""
         outbox = self._outbox
-        return bool(outbox.outputs or outbox.callbacks) or self._own.pending or self._timers.changed
+        return bool(outbox.outputs or outbox.callbacks or self._own.pending or self._timers.changed)
 
     def next_deadline(self) -> float | None:
         """When ``tick`` must next be called (None: no timer pending)."""
@@ -178,13 +176,17 @@ class NodeMachine:
     def receive_message(self, source: str, message: Message, now: float, *, size: int = 0) -> None:
         """Take one already decoded message from ``source`` (``size``: its frame's bytes)."""
         self._now = now
-        if not self._intake.admit(source, message, size):
+        tally = self.received_by_kind.setdefault(KIND_NAMES[type(message)], [0, 0])
+        tally[0] += 1
+        tally[1] += size
+        if source == self.node_id:
+            self._outbox.count("dropped_own")  # a transport loop or a spoofing peer
             return
         match message:
             case PropertyUpdate():
                 self._on_properties(source, message, now)
             case ChannelData(to_participant=True):
-                self._view.heard(source, now)
+                self._view.heard(source, now)  # any frame proves the peer alive (§2)
                 self._participations.on_frame(source, message, now)
             case ChannelData():
                 self._view.heard(source, now)
@@ -215,9 +217,7 @@ class NodeMachine:
         """Send all our properties to one peer (a newcomer, or a new subscriber of our cell)."""
         self._now = now
         if peer != self.node_id:
-            update = self._own.full_update_for(peer)
-            if update is not None:
-                self._outbox.emit(update)
+            self._outbox.emit(self._own.full_update_for(peer))
 
     def record_sent(self, kind: str, frames: int, size: int) -> None:
         """Count ``frames`` frames of ``size`` bytes each that the transport put on the wire."""
@@ -240,12 +240,8 @@ class NodeMachine:
         Raises:
             LocalProtocolError: the name is not a non-empty string or the value not plain data.
         """
-        if not isinstance(name, str) or not name:
-            raise LocalProtocolError(f"property name must be a non-empty string, got {name!r}")
-        codec.encode_value(value)
+        value = self._own.set(name, value)
         self._now = now
-        value = codec.normalise_property(name, value)
-        self._own.set(name, value)
         self._observers.property_changed(self.node_id, name, value)
         if name == codec.POSITION:
             cells = self._own.new_subscription()
@@ -266,25 +262,17 @@ class NodeMachine:
 
     def view_group(self, definition: DefinitionLike) -> frozenset[str]:
         """Resolve ``definition`` over the local view, without sending anything."""
-        return self._view.group(definition, self._own.values)
+        return self._view.group(definition, self._own.unwrapped)
 
-    def add_property_observer(self, observer: PropertyObserver) -> Callable[[], None]:
-        """Call ``observer(node_id, name, value)`` on every local and remote change."""
-        return self._observers.add_property(observer)
-
-    def add_departure_observer(self, observer: DepartureObserver) -> Callable[[], None]:
-        """Call ``observer(node_id, last_properties)`` when a node fails or leaves."""
-        return self._observers.add_departure(observer)
+    @property
+    def observers(self) -> Observers:
+        """Where the application registers property and departure observers."""
+        return self._observers
 
     def _on_properties(self, source: str, update: PropertyUpdate, now: float) -> None:
-        changed = self._view.apply(source, update, now)
-        if not changed:
-            return
-        observers = self._observers
-        if observers.watching_properties:
-            for name, value in changed:
-                observers.property_changed(source, name, value)
         view = self._view
+        if not view.apply(source, update, now):
+            return
         if view.scoped and not view.in_scope(source):
             self._forget(source)  # it moved out of our cells: no update would follow
             return
@@ -329,11 +317,7 @@ class NodeMachine:
             LocalProtocolError: a bad argument, or ``role`` already plays in a session.
         """
         self._now = now
-        sid = self._sessions.open(role, definition, participant_role, now)
-        bind(
-            role, InitiatorContext(self, self._sessions, sid)
-        )  # before any callback of the session runs
-        return sid
+        return self._sessions.open(role, definition, participant_role, now)
 
     def stop_session(self, sid: str, now: float) -> None:
         """Stop a session started here: deactivate every participant.
@@ -352,10 +336,8 @@ class NodeMachine:
         Raises:
             LocalProtocolError: ``delay`` is negative or not a number.
         """
-        if not delay >= 0:
-            raise LocalProtocolError(f"delay must be >= 0 seconds, got {delay!r}")
         self._now = now
-        return self._role_timers.schedule(now + delay, fn, owner)
+        return self._role_timers.schedule(now, delay, fn, owner)
 
     # ------------------------------------------------------------------ timers
 
@@ -372,31 +354,17 @@ class NodeMachine:
                         self._sessions.channel_broken(target, channel)
                     else:
                         self._participations.channel_broken(target, channel, now)
-            case Republish():
-                update = self._own.republish()
-                if update is not None:
-                    self._outbox.emit(update)
-                assert self.config.property_interval is not None
-                self._timers.push(now + self.config.property_interval, Republish())
-            case CheckLiveness():
-                timeout = self.config.effective_failure_timeout
-                assert timeout is not None
+            case Republish(every):
+                self._outbox.emit(self._own.republish())
+                self._timers.push(now + every, action)
+            case CheckLiveness(timeout):
                 for node in self._view.silent_since(now - timeout):
                     self._depart(node, "failed")
-                self._timers.push(now + timeout / 3, CheckLiveness())
+                self._timers.push(now + timeout / 3, action)
             case ExpireTombstone(initiator, session):
                 self._participations.expire_tombstone(initiator, session, now)
             case _:
                 assert_never(action)
-
-    def _timer_dead(self, action: TimerAction) -> bool:
-        match action:
-            case RunTimer(handle):
-                return handle.cancelled
-            case Retransmit(_, channel):
-                return channel.closed
-            case _:
-                return False
 
     # ------------------------------------------------------------------ introspection
 
@@ -411,11 +379,6 @@ class NodeMachine:
     def participations(self) -> list[ParticipationInfo]:
         """Participant roles active on this node."""
         return self._participations.infos()
-
-    @property
-    def received_by_kind(self) -> Mapping[str, list[int]]:
-        """Kind -> [frames, bytes] received."""
-        return self._intake.received_by_kind
 
     @property
     def counters(self) -> Mapping[str, int]:

@@ -28,22 +28,26 @@ class Observers:
         outbox: where notifications are queued.
     """
 
-    __slots__ = ("_departure", "_outbox", "_property")
+    __slots__ = ("_departure", "_outbox", "_property", "watching_properties")
 
     def __init__(self, outbox: Outbox) -> None:
         self._outbox = outbox
         self._property: list[PropertyObserver] = []
         self._departure: list[DepartureObserver] = []
-
-    @property
-    def watching_properties(self) -> bool:
-        """Whether any property observer is registered (skips work on the hot path)."""
-        return bool(self._property)
+        #: Whether any property observer is registered: a plain attribute, read for every
+        #: received update, so the hot path skips all notification work when nobody watches.
+        self.watching_properties = False
 
     def add_property(self, observer: PropertyObserver) -> Callable[[], None]:
         """Register ``observer(node_id, name, value)``; returns its cancel function."""
         self._property.append(observer)
-        return lambda: _discard(self._property, observer)
+        self.watching_properties = True
+
+        def cancel() -> None:
+            _discard(self._property, observer)
+            self.watching_properties = bool(self._property)
+
+        return cancel
 
     def add_departure(self, observer: DepartureObserver) -> Callable[[], None]:
         """Register ``observer(node_id, last_properties)``; returns its cancel function."""

@@ -31,9 +31,11 @@ class Outbox:
         self.callbacks: list[Callback] = []
         self.counters: dict[str, int] = {}
 
-    def emit(self, output: Output) -> None:
-        """Queue one output (a frame to send, broadcast or publish, or a subscription)."""
-        self.outputs.append(output)
+    def emit(self, output: Output | None) -> None:
+        """Queue one output (a frame to send, broadcast or publish, or a subscription);
+        None, what a part returns when it has nothing to say, is ignored."""
+        if output is not None:
+            self.outputs.append(output)
 
     def send(self, target: str, data: bytes, kind: str) -> None:
         """Queue one encoded frame for one node."""

@@ -27,6 +27,7 @@ from typing import Any
 
 from objectplaces.core import codec
 from objectplaces.core.config import NodeConfig
+from objectplaces.core.errors import LocalProtocolError
 from objectplaces.core.events import Broadcast, Output, Publish, Send
 from objectplaces.core.messages import PropertyUpdate
 
@@ -42,7 +43,16 @@ class OwnProperties:
         config: the node's tunables (interest radius and cell size matter here).
     """
 
-    __slots__ = ("_bounds", "_config", "_dirty", "_published_cell", "_readonly", "_seq", "_values")
+    __slots__ = (
+        "_bounds",
+        "_config",
+        "_dirty",
+        "_published_cell",
+        "_readonly",
+        "_seq",
+        "_values",
+        "pending",
+    )
 
     def __init__(self, config: NodeConfig) -> None:
         self._config = config
@@ -52,6 +62,8 @@ class OwnProperties:
         self._seq = 0
         self._published_cell: Cell | None = None
         self._bounds: tuple[int, int, int, int] | None = None
+        #: Whether changes wait to be published (an attribute: the driver asks per drain).
+        self.pending = False
 
     @property
     def values(self) -> Mapping[str, Any]:
@@ -59,25 +71,38 @@ class OwnProperties:
         return self._readonly
 
     @property
-    def pending(self) -> bool:
-        """Whether changes wait to be published."""
-        return bool(self._dirty)
+    def unwrapped(self) -> Mapping[str, Any]:
+        """The current values without the read-only wrapper, for group definitions on
+        the hot path (see ``PropertyView.matches``); never hand this to the application."""
+        return self._values
 
-    def set(self, name: str, value: Any) -> None:
-        """Record a new value (already checked and rounded the way the wire rounds)."""
+    def set(self, name: str, value: Any) -> Any:
+        """Record a new value; return it as peers will see it (rounded like the wire).
+
+        Raises:
+            LocalProtocolError: the name is not a non-empty string or the value not plain data.
+        """
+        if not isinstance(name, str) or not name:
+            raise LocalProtocolError(f"property name must be a non-empty string, got {name!r}")
+        codec.encode_value(value)
+        value = codec.normalise_property(name, value)
         self._values[name] = value
         self._dirty[name] = value
+        self.pending = True
+        return value
 
     def take_update(self) -> Output | None:
         """The frame that publishes every pending change (None when nothing is pending)."""
         if not self._dirty:
             return None
         dirty, self._dirty = self._dirty, {}
+        self.pending = False
         return self._publication(dirty)
 
     def republish(self) -> Output | None:
         """The heartbeat: a frame with every value (pending changes included)."""
         self._dirty = {}
+        self.pending = False
         return self._publication(self._values) if self._values else None
 
     def full_update_for(self, peer: str) -> Send | None:

@@ -32,21 +32,20 @@ from typing import Any
 
 from objectplaces.core import codec
 from objectplaces.core.channel import Channel
-from objectplaces.core.channels import Channels
-from objectplaces.core.config import NodeConfig, ParticipationInfo
+from objectplaces.core.config import ParticipationInfo
 from objectplaces.core.errors import LocalProtocolError
 from objectplaces.core.ids import InitiatorRef, session_id_for
 from objectplaces.core.messages import ChannelAck, ChannelData, FrameKind
-from objectplaces.core.outbox import Outbox
-from objectplaces.core.roles import Participant, bind
-from objectplaces.core.timers import ExpireTombstone, ParticipationOwner, RoleTimers, TimerQueue
+from objectplaces.core.plumbing import Plumbing
+from objectplaces.core.roles import Participant, ParticipantBinding, bind
+from objectplaces.core.timers import ExpireTombstone, ParticipationOwner
 
 __all__ = ["ParticipantFactory", "ParticipationTable"]
 
 log = logging.getLogger("objectplaces")
 
 ParticipantFactory = Callable[[], Participant]
-Binder = Callable[[ParticipationOwner, InitiatorRef], Any]
+Binder = Callable[[ParticipationOwner, InitiatorRef], ParticipantBinding]
 """Makes the context a freshly activated participant role is bound to."""
 
 
@@ -65,32 +64,18 @@ class ParticipationTable:
     """Participant roles of this node, their channels, and tombstones of closed ones.
 
     Args:
-        node_id: this node's id (for log lines).
-        config: tombstone lifetime.
-        channels: sends channel frames.
-        outbox: where callbacks and counters go.
-        timers: where tombstone expiries go.
-        role_timers: pending timers of participant roles, cancelled when they end.
+        plumbing: the node's id, tunables (tombstone lifetime), outbox, channels, timers
+            (tombstone expiries) and role timers (a role's timers die with it).
         binder: makes the context each activated role is bound to.
     """
 
-    def __init__(
-        self,
-        node_id: str,
-        *,
-        config: NodeConfig,
-        channels: Channels,
-        outbox: Outbox,
-        timers: TimerQueue,
-        role_timers: RoleTimers,
-        binder: Binder,
-    ) -> None:
-        self._node_id = node_id
-        self._config = config
-        self._channels = channels
-        self._outbox = outbox
-        self._timers = timers
-        self._role_timers = role_timers
+    def __init__(self, plumbing: Plumbing, *, binder: Binder) -> None:
+        self._node_id = plumbing.node_id
+        self._config = plumbing.config
+        self._outbox = plumbing.outbox
+        self._channels = plumbing.channels
+        self._timers = plumbing.timers
+        self._role_timers = plumbing.role_timers
         self._binder = binder
         self._factories: dict[str, ParticipantFactory] = {}
         self._parts: dict[tuple[str, int], _Participation] = {}

@@ -30,21 +30,20 @@ peer is gone (guarantee 4: nothing left behind).
 from __future__ import annotations
 
 import itertools
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 from objectplaces.core import codec
 from objectplaces.core.channel import Channel
-from objectplaces.core.channels import Channels
 from objectplaces.core.config import SessionInfo
 from objectplaces.core.errors import LocalProtocolError
 from objectplaces.core.groups import DefinitionLike, GroupDefinition
 from objectplaces.core.ids import ParticipantRef, SessionId, session_id_for
 from objectplaces.core.messages import ChannelAck, ChannelData, FrameKind
-from objectplaces.core.outbox import Outbox
-from objectplaces.core.roles import Initiator, is_bound
-from objectplaces.core.timers import RoleTimers, SessionOwner
+from objectplaces.core.plumbing import Plumbing
+from objectplaces.core.roles import Initiator, InitiatorBinding, bind, is_bound
+from objectplaces.core.timers import SessionOwner
 from objectplaces.core.view import PropertyView
 
 __all__ = ["SessionTable"]
@@ -77,30 +76,28 @@ class SessionTable:
     """Every session this node initiated, from start until nothing of it is left.
 
     Args:
-        node_id: this node's id (session ids are ``<node>#<number>``).
+        plumbing: the node's id (session ids are ``<node>#<number>``), outbox, channels
+            and role timers (an initiator role's timers die with its session).
         view: the property view that definitions are resolved over.
         own: this node's own properties (the definition's first argument).
-        channels: sends channel frames.
-        outbox: where callbacks and counters go.
-        role_timers: pending timers of initiator roles, cancelled on stop.
+        binder: makes the context each initiator role is bound to.
     """
 
     def __init__(
         self,
-        node_id: str,
+        plumbing: Plumbing,
         *,
         view: PropertyView,
         own: Mapping[str, Any],
-        channels: Channels,
-        outbox: Outbox,
-        role_timers: RoleTimers,
+        binder: Callable[[SessionId], InitiatorBinding],
     ) -> None:
-        self._node_id = node_id
+        self._node_id = plumbing.node_id
+        self._outbox = plumbing.outbox
+        self._channels = plumbing.channels
+        self._role_timers = plumbing.role_timers
         self._view = view
         self._own = own
-        self._channels = channels
-        self._outbox = outbox
-        self._role_timers = role_timers
+        self._binder = binder
         self._sessions: dict[int, _Session] = {}
         self._numbers = itertools.count(1)
 
@@ -128,6 +125,7 @@ class SessionTable:
         sid = session_id_for(self._node_id, number)
         session = _Session(number, sid, role, definition, participant_role, now)
         self._sessions[number] = session
+        bind(role, self._binder(sid))  # before any callback of the session runs
         self._outbox.call(role.started, (), sid)
         self._reevaluate(session, now)
         return sid
@@ -190,9 +188,16 @@ class SessionTable:
 
     def node_changed(self, node: str, now: float) -> None:
         """``node``'s properties changed, or it left the view: re-check it everywhere."""
+        # The hot path of a large network: every changed node lands here once per
+        # session, so the common outcome (no change of membership) costs two lookups.
         for session in list(self._sessions.values()):
-            if not session.stopped:
-                self._evaluate(session, node, now)
+            if session.stopped:
+                continue
+            if self._view.matches(session.definition, self._own, node, session.sid):
+                if node not in session.members and node not in session.declined:
+                    self._activate(session, node, now)
+            elif node in session.members or node in session.declined:
+                self._unmatched(session, node, now)
 
     def peer_gone(self, node: str) -> None:
         """``node`` failed or left: it leaves every session at once, nothing to deactivate."""
@@ -216,7 +221,11 @@ class SessionTable:
         if self._view.matches(session.definition, self._own, node, session.sid):
             if node not in session.members and node not in session.declined:
                 self._activate(session, node, now)
-            return
+        elif node in session.members or node in session.declined:
+            self._unmatched(session, node, now)
+
+    def _unmatched(self, session: _Session, node: str, now: float) -> None:
+        """``node`` does not (or no longer) satisfy the definition."""
         session.declined.discard(node)
         member = session.members.get(node)
         if member is not None:

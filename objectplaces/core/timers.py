@@ -27,6 +27,7 @@ from dataclasses import dataclass
 from typing import Any, TypeAlias
 
 from objectplaces.core.channel import Channel
+from objectplaces.core.errors import LocalProtocolError
 from objectplaces.core.events import TimerHandle
 from objectplaces.core.ids import SessionId, session_id_for
 
@@ -42,6 +43,7 @@ __all__ = [
     "SessionOwner",
     "TimerAction",
     "TimerQueue",
+    "is_dead",
 ]
 
 
@@ -55,12 +57,17 @@ class Retransmit:
 
 @dataclass(frozen=True, slots=True)
 class Republish:
-    """Republish every own property: the heartbeat (docs/protocol.md §2)."""
+    """Republish every own property, then again after ``every``: the heartbeat (§2)."""
+
+    every: float
 
 
 @dataclass(frozen=True, slots=True)
 class CheckLiveness:
-    """Declare failed every node not heard for the failure timeout (docs/protocol.md §2)."""
+    """Declare failed every node not heard for ``timeout``; check again after a third of
+    it, so a failure is noticed within 4/3 of the timeout (docs/protocol.md §2)."""
+
+    timeout: float
 
 
 @dataclass(frozen=True, slots=True)
@@ -108,23 +115,30 @@ class ParticipationOwner:
 
 RoleOwner: TypeAlias = SessionOwner | ParticipationOwner
 
+
+def is_dead(action: TimerAction) -> bool:
+    """Whether ``action`` no longer needs to fire: a cancelled role timer, or the
+    retransmission timer of a channel its owner has closed."""
+    # Type checks, not a match: the driver asks this after every drain.
+    kind = type(action)
+    if kind is Retransmit:
+        return action.channel.closed  # type: ignore[union-attr]
+    if kind is RunTimer:
+        return action.handle.cancelled  # type: ignore[union-attr]
+    return False
+
+
 _COMPACT_FLOOR = 1024  # below this many entries the heap is never worth compacting
 
 
 class TimerQueue:
-    """Timer actions ordered by deadline; dead entries are dropped lazily.
+    """Timer actions ordered by deadline; dead entries (``is_dead``) are dropped lazily."""
 
-    Args:
-        is_dead: tells whether an action no longer needs to fire (a cancelled role
-            timer, the retransmission timer of a closed channel).
-    """
+    __slots__ = ("_compact_at", "_heap", "_seq", "changed")
 
-    __slots__ = ("_compact_at", "_heap", "_is_dead", "_seq", "changed")
-
-    def __init__(self, is_dead: Callable[[TimerAction], bool]) -> None:
+    def __init__(self) -> None:
         self._heap: list[tuple[float, int, TimerAction]] = []
         self._seq = itertools.count()
-        self._is_dead = is_dead
         self._compact_at = _COMPACT_FLOOR
         #: Set whenever the earliest deadline may have moved; the driver must re-read it.
         self.changed = False
@@ -150,7 +164,7 @@ class TimerQueue:
 
     def next_deadline(self) -> float | None:
         """The earliest deadline of a live action (dead ones on top are dropped)."""
-        heap, is_dead = self._heap, self._is_dead
+        heap = self._heap
         while heap and is_dead(heap[0][2]):
             heapq.heappop(heap)
         return heap[0][0] if heap else None
@@ -161,7 +175,6 @@ class TimerQueue:
         O(n), run when the heap has doubled since the last run, so amortised O(1) per
         push, and the heap never holds more than about twice its live entries.
         """
-        is_dead = self._is_dead
         self._heap = [entry for entry in self._heap if not is_dead(entry[2])]
         heapq.heapify(self._heap)
         self._compact_at = max(_COMPACT_FLOOR, 2 * len(self._heap))
@@ -184,9 +197,16 @@ class RoleTimers:
         return sum(len(handles) for handles in self._by_owner.values())
 
     def schedule(
-        self, deadline: float, fn: Callable[[], Any], owner: RoleOwner | None
+        self, now: float, delay: float, fn: Callable[[], Any], owner: RoleOwner | None
     ) -> TimerHandle:
-        """Run ``fn`` at ``deadline`` unless ``owner`` (None: nobody) ends first."""
+        """Run ``fn`` at ``now + delay`` unless ``owner`` (None: nobody) ends first.
+
+        Raises:
+            LocalProtocolError: ``delay`` is negative or not a number.
+        """
+        if not delay >= 0:
+            raise LocalProtocolError(f"delay must be >= 0 seconds, got {delay!r}")
+        deadline = now + delay
         handle = TimerHandle(deadline, fn, owner)
         if owner is not None:
             self._by_owner.setdefault(owner, set()).add(handle)

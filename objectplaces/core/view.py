@@ -37,6 +37,7 @@ from typing import Any
 from objectplaces.core import codec
 from objectplaces.core.groups import DefinitionLike, GroupDefinition
 from objectplaces.core.messages import PropertyUpdate
+from objectplaces.core.observers import Observers
 from objectplaces.core.outbox import Outbox
 from objectplaces.core.spatial import GridIndex, RunningMax
 
@@ -54,6 +55,7 @@ class PropertyView:
         node_id: the owning node's id (for log lines).
         cell_size: side of the index's and the scope's grid cells.
         outbox: where counters go.
+        observers: told of every changed property.
     """
 
     __slots__ = (
@@ -62,18 +64,23 @@ class PropertyView:
         "_indexes",
         "_maxima",
         "_node_id",
+        "_observers",
         "_outbox",
         "_props",
         "_proxies",
         "_readonly",
         "_scope",
         "_seqs",
+        "scoped",
     )
 
-    def __init__(self, node_id: str, *, cell_size: float, outbox: Outbox) -> None:
+    def __init__(
+        self, node_id: str, *, cell_size: float, outbox: Outbox, observers: Observers
+    ) -> None:
         self._node_id = node_id
         self._cell_size = cell_size
         self._outbox = outbox
+        self._observers = observers
         self._props: dict[str, dict[str, Any]] = {}
         # One read-only proxy per node, made once: handing out the view costs O(1).
         self._proxies: dict[str, Mapping[str, Any]] = {}
@@ -83,6 +90,8 @@ class PropertyView:
         self._indexes: dict[str, GridIndex] = {}
         self._maxima: dict[str, RunningMax] = {}
         self._scope: frozenset[Cell] | None = None
+        #: Whether this node hears only some cells (a plain attribute: read per update).
+        self.scoped = False
 
     # ------------------------------------------------------------------ reading
 
@@ -115,8 +124,9 @@ class PropertyView:
         """``node`` sent something at ``now``: it is alive."""
         self._heard[node] = now
 
-    def apply(self, source: str, update: PropertyUpdate, now: float) -> list[tuple[str, Any]]:
-        """Take a property update from ``source``; return the (name, value) pairs that changed.
+    def apply(self, source: str, update: PropertyUpdate, now: float) -> bool:
+        """Take a property update from ``source`` at ``now`` (so it is heard, too); tell
+        the property observers of each change; return whether anything changed.
 
         The hottest path of a large network: every delivered update comes through here,
         so locals are bound once and nothing is allocated for an unchanged value.
@@ -129,8 +139,8 @@ class PropertyView:
             self._seqs[source] = {}
         seqs = self._seqs[source]
         seq = update.seq
-        changed: list[tuple[str, Any]] = []
-        indexes, maxima = self._indexes, self._maxima
+        changed = False
+        indexes, maxima, observers = self._indexes, self._maxima, self._observers
         for name, value in update.values.items():
             if seq <= seqs.get(name, -1):
                 continue
@@ -138,9 +148,11 @@ class PropertyView:
             if name in props and props[name] == value:
                 continue
             props[name] = value
-            changed.append((name, value))
+            changed = True
             if name in indexes or name in maxima:
                 self._index(source, name, value)
+            if observers.watching_properties:
+                observers.property_changed(source, name, value)
         return changed
 
     def _index(self, node: str, name: str, value: Any) -> None:
@@ -168,14 +180,10 @@ class PropertyView:
 
     # ------------------------------------------------------------------ scope (§5)
 
-    @property
-    def scoped(self) -> bool:
-        """Whether this node hears only some cells."""
-        return self._scope is not None
-
     def set_scope(self, cells: frozenset[Cell]) -> list[str]:
         """Hear only ``cells`` from now on; return the nodes now out of scope, sorted."""
         self._scope = cells
+        self.scoped = True
         return sorted(n for n in self._props if not self.in_scope(n))
 
     def in_scope(self, node: str) -> bool:
@@ -212,8 +220,14 @@ class PropertyView:
     def matches(
         self, definition: DefinitionLike, own: Mapping[str, Any], node: str, sid: str = ""
     ) -> bool:
-        """Whether ``node`` satisfies ``definition`` now (False when it is not in view)."""
-        props = self._proxies.get(node)
+        """Whether ``node`` satisfies ``definition`` now (False when it is not in view).
+
+        Definitions get the view's own dicts (typed ``Mapping``), not read-only proxies:
+        a proxy costs every property lookup of every evaluation, a measurable share of a
+        large network's CPU (bench/groups.py). A definition is a predicate; the type
+        already says it must not write.
+        """
+        props = self._props.get(node)
         if props is None:
             return False
         try:
