@@ -8,7 +8,7 @@ same instant, so updates made together are coalesced into one message).
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from objectplaces.core.config import ParticipationInfo, SessionInfo
@@ -39,11 +39,19 @@ class ObserverHandle:
 
 @dataclass(frozen=True, slots=True)
 class NodeStats:
-    """What one node sent and received, by kind, and what it dropped and why."""
+    """What one node sent and received, by kind, and what it dropped and why.
+
+    Attributes:
+        sent: kind -> (frames, bytes) put on the wire.
+        received: kind -> (frames, bytes) received.
+        counters: what was dropped, retransmitted, broken ... and how often.
+        dropped_by_peer: frames refused per peer (malformed or with unusable values).
+    """
 
     sent: dict[str, tuple[int, int]]
     received: dict[str, tuple[int, int]]
     counters: dict[str, int]
+    dropped_by_peer: dict[str, int] = field(default_factory=dict)
 
     @property
     def messages_sent(self) -> int:
@@ -107,7 +115,10 @@ class RoleActivator:
         """Set one of this node's properties and publish it (same-instant updates coalesce).
 
         Raises:
-            LocalProtocolError: a bad name, or a value that is not plain data.
+            NotPlainDataError: a value that is not plain data (a ``TypeError``).
+            InvalidValueError: a bad name, a position that is not two finite numbers, a
+                hull length that is not a finite number >= 0, a value nested too deep or
+                too large (a ``ValueError``). Nothing is published then.
         """
         self._machine.update_property(name, value, self._clock())
         self._wake()
@@ -200,6 +211,7 @@ class RoleActivator:
             {k: (v[0], v[1]) for k, v in sorted(machine.sent_by_kind.items())},
             {k: (v[0], v[1]) for k, v in sorted(machine.received_by_kind.items())},
             dict(sorted(machine.counters.items())),
+            dict(sorted(machine.dropped_by_peer.items())),
         )
 
     def __repr__(self) -> str:

@@ -73,7 +73,7 @@ def test_transports_import_nothing_of_the_runtimes() -> None:
 # The core's layers, bottom first. A module may import modules of lower layers only.
 CORE_LAYERS = [
     {"errors", "ids", "spatial"},
-    {"messages", "groups", "events"},
+    {"messages", "groups", "events", "values"},
     {"codec", "channel", "outbox", "roles"},
     {"config", "timers", "observers", "intake"},
     {"view", "own", "channels"},

@@ -24,12 +24,15 @@ copy, so every node sees exactly the same value.
 
 from __future__ import annotations
 
-import math
-from typing import Any, Final
+from typing import Any, Final, assert_never
 
 import msgpack
 
-from objectplaces.core.errors import DecodeError, LocalProtocolError
+from objectplaces.core.errors import (
+    DecodeError,
+    InvalidValueError,
+    NotPlainDataError,
+)
 from objectplaces.core.messages import (
     ChannelAck,
     ChannelData,
@@ -37,11 +40,21 @@ from objectplaces.core.messages import (
     Leave,
     Message,
     PropertyUpdate,
+    Unusable,
+)
+from objectplaces.core.values import (
+    POSITION,
+    RADIUS,
+    check_plain,
+    checked_position,
+    checked_radius,
+    is_finite_number,
 )
 
 __all__ = [
     "DEFAULT_MAX_FRAME",
     "FIRST_TRANSPORT_TYPE",
+    "MAX_COUNTER",
     "POSITION",
     "RADIUS",
     "decode",
@@ -55,8 +68,9 @@ __all__ = [
 
 DEFAULT_MAX_FRAME: Final = 1 << 20
 FIRST_TRANSPORT_TYPE: Final = 32
-POSITION: Final = "position"
-RADIUS: Final = "hull_length"
+MAX_COUNTER: Final = 2**53
+"""Sequence, session, epoch and ack numbers are below this (exact as a float, and far
+beyond any real run); a larger one is a hostile or broken peer's, refused on decode."""
 
 _PROPS, _COMPACT, _LEAVE, _TO_PART, _TO_INIT, _ACK_PART, _ACK_INIT = 1, 2, 3, 4, 5, 6, 7
 _MM: Final = 1000.0
@@ -72,18 +86,14 @@ _KIND_NAMES: Final = {
 _FRAME_KINDS: Final = {k.value: k for k in FrameKind}
 
 
-def _is_real(value: object) -> bool:
-    return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
-
-
 def _position_mm(value: object) -> tuple[int, int] | None:
-    if isinstance(value, tuple | list) and len(value) == 2 and all(map(_is_real, value)):
+    if isinstance(value, tuple | list) and len(value) == 2 and all(map(is_finite_number, value)):
         return round(value[0] * _MM), round(value[1] * _MM)
     return None
 
 
 def _radius_mm(value: object) -> int | None:
-    return round(value * _MM) if _is_real(value) and value >= 0 else None  # type: ignore[operator]
+    return round(value * _MM) if is_finite_number(value) and value >= 0 else None  # type: ignore[operator]
 
 
 def normalise_property(name: str, value: Any) -> Any:
@@ -101,15 +111,19 @@ def normalise_property(name: str, value: Any) -> Any:
 
 
 def encode_value(value: Any) -> bytes:
-    """Serialise plain data (dict, list, str, int, float, bool, None, bytes).
+    """Serialise plain data (dict, list, tuple, str, int, float, bool, None, bytes).
 
     Raises:
-        LocalProtocolError: the value holds something that is not plain data.
+        NotPlainDataError: the value holds something that is not plain data.
+        InvalidValueError: plain data msgpack cannot carry (nested too deep, an
+            integer out of range).
     """
     try:
         return msgpack.packb(value, use_bin_type=True, strict_types=False)  # type: ignore[no-any-return]
     except (TypeError, ValueError, OverflowError) as exc:
-        raise LocalProtocolError(f"not serialisable as plain data: {value!r} ({exc})") from exc
+        check_plain(value)  # names the offending part, when it can be named
+        error = NotPlainDataError if isinstance(exc, TypeError) else InvalidValueError
+        raise error(f"not serialisable as plain data: {value!r:.200} ({exc})") from exc
 
 
 def _property_frame(update: PropertyUpdate) -> list[Any]:
@@ -146,6 +160,10 @@ def encode(message: Message) -> bytes:
             frame = [code, session, epoch, ack]
         case Leave():
             frame = [_LEAVE]
+        case Unusable():
+            raise InvalidValueError(f"a refused frame is never sent: {message!r}")
+        case _:
+            assert_never(message)
     return encode_value(frame)
 
 
@@ -173,9 +191,9 @@ def _reject_ext(code: int, data: bytes) -> Any:
 
 
 def _uint(value: Any, what: str) -> int:
-    if isinstance(value, int) and not isinstance(value, bool) and value >= 0:
+    if isinstance(value, int) and not isinstance(value, bool) and 0 <= value < MAX_COUNTER:
         return value
-    raise DecodeError(f"{what} must be a non-negative integer, got {value!r}")
+    raise DecodeError(f"{what} must be a non-negative integer below 2**53, got {value!r:.40}")
 
 
 def _mm(value: Any, what: str) -> float:
@@ -185,8 +203,18 @@ def _mm(value: Any, what: str) -> float:
 
 
 def _names(values: Any) -> dict[str, Any]:
+    """A peer's property map, its well-known properties checked and rounded like ours.
+
+    Raises:
+        DecodeError: not a map with string keys.
+        InvalidValueError: a well-known property is unusable (values.py says why).
+    """
     if not isinstance(values, dict) or not all(isinstance(k, str) for k in values):
-        raise DecodeError(f"property values must be a map with string keys, got {values!r}")
+        raise DecodeError(f"property values must be a map with string keys, got {values!r:.80}")
+    if POSITION in values:
+        values[POSITION] = normalise_property(POSITION, checked_position(values[POSITION]))
+    if RADIUS in values:
+        values[RADIUS] = normalise_property(RADIUS, checked_radius(values[RADIUS]))
     return values
 
 
@@ -195,7 +223,7 @@ def _decode_compact(frame: list[Any]) -> PropertyUpdate:
         raise DecodeError(f"compact property frame has {len(frame)} fields, expected 4-6")
     values: dict[str, Any] = {}
     if len(frame) == 6:
-        values.update(_names(frame[5]))
+        values.update(_names(frame[5]))  # a position in here is overridden just below
     values[POSITION] = (_mm(frame[2], "x"), _mm(frame[3], "y"))
     if len(frame) >= 5 and frame[4] is not None:
         values[RADIUS] = _mm(frame[4], "hull length")
@@ -252,18 +280,28 @@ def unpack_frame(data: bytes, *, max_size: int = DEFAULT_MAX_FRAME) -> list[Any]
 def decode(data: bytes, *, max_size: int = DEFAULT_MAX_FRAME) -> Message:
     """Decode one frame into a message.
 
+    Returns:
+        The message; ``Unusable`` for a well-formed property frame whose position or
+        hull length cannot be used (refused whole, but no reason to close a link).
+
     Raises:
         DecodeError: the frame is oversized, malformed, or of an unknown type.
     """
     frame = unpack_frame(data, max_size=max_size)
     match frame[0]:
-        case 1:
-            if len(frame) != 3:
-                raise DecodeError(f"property frame has {len(frame)} fields, expected 3")
-            return PropertyUpdate(_uint(frame[1], "seq"), _names(frame[2]))
-        case 2:
-            return _decode_compact(frame)
+        case 1 | 2:
+            try:
+                if frame[0] == 2:
+                    return _decode_compact(frame)
+                if len(frame) != 3:
+                    raise DecodeError(f"property frame has {len(frame)} fields, expected 3")
+                return PropertyUpdate(_uint(frame[1], "seq"), _names(frame[2]))
+            except InvalidValueError as exc:
+                # Well-formed, but unusable: refused whole, without closing a link.
+                return Unusable(str(exc))
         case 3:
+            if len(frame) != 1:
+                raise DecodeError(f"leave frame has {len(frame)} fields, expected 1")
             return Leave()
         case 4 | 5:
             return _decode_channel(frame)

@@ -26,6 +26,7 @@ __all__ = [
     "Leave",
     "Message",
     "PropertyUpdate",
+    "Unusable",
     "kind_of",
 ]
 
@@ -52,6 +53,22 @@ class PropertyUpdate:
 
     seq: int
     values: Mapping[str, Any]
+
+
+@dataclass(frozen=True, slots=True)
+class Unusable:
+    """A well-formed property frame the node must not apply: a ``position`` or
+    ``hull_length`` it cannot compute with (NaN, a string ...).
+
+    Decoders return this instead of raising: the frame is refused as a whole, yet a
+    transport has no reason to close the link, and the machine drops it and counts it
+    against its sender.
+
+    Attributes:
+        reason: what was wrong, for the log.
+    """
+
+    reason: str
 
 
 @dataclass(frozen=True, slots=True)
@@ -94,7 +111,7 @@ class ChannelAck:
     ack: int
 
 
-Message: TypeAlias = PropertyUpdate | Leave | ChannelData | ChannelAck
+Message: TypeAlias = PropertyUpdate | Leave | ChannelData | ChannelAck | Unusable
 
 
 KIND_NAMES: Final[Mapping[type, str]] = {
@@ -102,6 +119,7 @@ KIND_NAMES: Final[Mapping[type, str]] = {
     ChannelData: "channel",
     ChannelAck: "ack",
     Leave: "leave",
+    Unusable: "property",
 }
 """Message type -> its family's name in statistics (a dict: it is read for every frame)."""
 

@@ -48,6 +48,7 @@ from objectplaces.core.messages import (
     Leave,
     Message,
     PropertyUpdate,
+    Unusable,
 )
 from objectplaces.core.observers import Observers
 from objectplaces.core.own import OwnProperties
@@ -64,6 +65,7 @@ from objectplaces.core.timers import (
     RunTimer,
     TimerAction,
 )
+from objectplaces.core.values import POSITION
 from objectplaces.core.view import PropertyView
 
 __all__ = ["NodeConfig", "NodeMachine", "ParticipationInfo", "SessionInfo"]
@@ -117,10 +119,8 @@ class NodeMachine:
             binder=lambda owner, ref: ParticipantContext(self, self._participations, owner, ref),
         )
         self._intake = Intake(node_id, max_frame=config.max_frame, outbox=outbox)
-        #: kind -> [frames, bytes] the transport put on the wire (``record_sent``).
-        self.sent_by_kind: dict[str, list[int]] = {}
-        #: kind -> [frames, bytes] received (tallied here: it runs for every frame).
-        self.received_by_kind: dict[str, list[int]] = {}
+        self.sent_by_kind = outbox.sent_by_kind  # kind -> [frames, bytes]; and received:
+        self.received_by_kind: dict[str, list[int]] = {}  # tallied inline (every frame)
         if config.interest_radius is None:
             outbox.emit(Subscribe(None))
         if config.property_interval is not None:
@@ -169,7 +169,7 @@ class NodeMachine:
     def receive(self, source: str, data: bytes, now: float) -> None:
         """Take one frame from ``source``; malformed input is counted and dropped."""
         self._now = now
-        message = self._intake.decode(source, data)
+        message = self._intake.decode(source, data, now)
         if message is not None:
             self.receive_message(source, message, now, size=len(data))
 
@@ -199,6 +199,8 @@ class NodeMachine:
                 self._sessions.on_ack(source, message)
             case Leave():
                 self._depart(source, "left")
+            case Unusable(reason):
+                self._intake.drop(source, "dropped_invalid_property", reason, now)
             case _:
                 assert_never(message)
 
@@ -221,9 +223,7 @@ class NodeMachine:
 
     def record_sent(self, kind: str, frames: int, size: int) -> None:
         """Count ``frames`` frames of ``size`` bytes each that the transport put on the wire."""
-        tally = self.sent_by_kind.setdefault(kind, [0, 0])
-        tally[0] += frames
-        tally[1] += frames * size
+        self._outbox.record_sent(kind, frames, size)
 
     def leave(self, now: float) -> None:
         """Leave on purpose: stop our sessions, drop our roles, tell every peer."""
@@ -238,12 +238,13 @@ class NodeMachine:
         """Set one of this node's own properties; it is published at the next drain.
 
         Raises:
-            LocalProtocolError: the name is not a non-empty string or the value not plain data.
+            InvalidValueError: a bad name or an unacceptable value (values.py).
+            NotPlainDataError: a value that is not plain data. Nothing changes then.
         """
         value = self._own.set(name, value)
         self._now = now
         self._observers.property_changed(self.node_id, name, value)
-        if name == codec.POSITION:
+        if name == POSITION:
             cells = self._own.new_subscription()
             if cells is not None:
                 self._outbox.emit(Subscribe(cells))
@@ -379,6 +380,11 @@ class NodeMachine:
     def participations(self) -> list[ParticipationInfo]:
         """Participant roles active on this node."""
         return self._participations.infos()
+
+    @property
+    def dropped_by_peer(self) -> Mapping[str, int]:
+        """Frames refused per peer (malformed or with unusable values; read-only)."""
+        return self._intake.dropped_by_peer
 
     @property
     def counters(self) -> Mapping[str, int]:

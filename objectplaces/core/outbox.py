@@ -24,12 +24,14 @@ __all__ = ["Outbox"]
 class Outbox:
     """Outputs to transmit, callbacks to run, and the node's drop/event counters."""
 
-    __slots__ = ("callbacks", "counters", "outputs")
+    __slots__ = ("callbacks", "counters", "outputs", "sent_by_kind")
 
     def __init__(self) -> None:
         self.outputs: list[Output] = []
         self.callbacks: list[Callback] = []
         self.counters: dict[str, int] = {}
+        #: kind -> [frames, bytes] the transport put on the wire (``record_sent``).
+        self.sent_by_kind: dict[str, list[int]] = {}
 
     def emit(self, output: Output | None) -> None:
         """Queue one output (a frame to send, broadcast or publish, or a subscription);
@@ -50,6 +52,12 @@ class Outbox:
     def count(self, name: str, by: int = 1) -> None:
         """Add ``by`` to counter ``name``."""
         self.counters[name] = self.counters.get(name, 0) + by
+
+    def record_sent(self, kind: str, frames: int, size: int) -> None:
+        """Count ``frames`` frames of ``size`` bytes each that the transport sent."""
+        tally = self.sent_by_kind.setdefault(kind, [0, 0])
+        tally[0] += frames
+        tally[1] += frames * size
 
     def take_outputs(self) -> list[Output]:
         """Hand over the queued outputs, oldest first."""

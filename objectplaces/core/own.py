@@ -27,9 +27,17 @@ from typing import Any
 
 from objectplaces.core import codec
 from objectplaces.core.config import NodeConfig
-from objectplaces.core.errors import LocalProtocolError
+from objectplaces.core.errors import InvalidValueError
 from objectplaces.core.events import Broadcast, Output, Publish, Send
 from objectplaces.core.messages import PropertyUpdate
+from objectplaces.core.values import (
+    MAX_VALUE_SIZE,
+    POSITION,
+    RADIUS,
+    check_plain,
+    checked_position,
+    checked_radius,
+)
 
 __all__ = ["OwnProperties"]
 
@@ -50,6 +58,7 @@ class OwnProperties:
         "_published_cell",
         "_readonly",
         "_seq",
+        "_sizes",
         "_values",
         "pending",
     )
@@ -57,6 +66,7 @@ class OwnProperties:
     def __init__(self, config: NodeConfig) -> None:
         self._config = config
         self._values: dict[str, Any] = {}
+        self._sizes: dict[str, int] = {}  # encoded size of each generic property
         self._readonly: Mapping[str, Any] = MappingProxyType(self._values)
         self._dirty: dict[str, Any] = {}
         self._seq = 0
@@ -79,13 +89,35 @@ class OwnProperties:
     def set(self, name: str, value: Any) -> Any:
         """Record a new value; return it as peers will see it (rounded like the wire).
 
+        Nothing is recorded when the value is refused (values.py has the rules).
+
         Raises:
-            LocalProtocolError: the name is not a non-empty string or the value not plain data.
+            InvalidValueError: a name that is not a non-empty string; a position that is
+                not two finite numbers; a hull length that is not a finite number >= 0;
+                a value nested too deep; a value (or all values together) too large.
+            NotPlainDataError: a value that is not plain data.
         """
         if not isinstance(name, str) or not name:
-            raise LocalProtocolError(f"property name must be a non-empty string, got {name!r}")
-        codec.encode_value(value)
-        value = codec.normalise_property(name, value)
+            raise InvalidValueError(f"property name must be a non-empty string, got {name!r}")
+        if name == POSITION:
+            value = codec.normalise_property(name, checked_position(value))
+        elif name == RADIUS:
+            value = codec.normalise_property(name, checked_radius(value))
+        else:
+            check_plain(value, f"property {name!r}")
+            size = len(codec.encode_value(value))
+            if size > MAX_VALUE_SIZE:
+                raise InvalidValueError(
+                    f"property {name!r} takes {size} bytes, over the limit of {MAX_VALUE_SIZE}"
+                )
+            # Every republication carries every property: all together must fit a frame.
+            total = sum(self._sizes.values()) - self._sizes.get(name, 0) + size
+            if total > self._config.max_frame // 2:
+                raise InvalidValueError(
+                    f"property {name!r} would bring this node's properties to {total} bytes, "
+                    f"over half the frame limit ({self._config.max_frame // 2})"
+                )
+            self._sizes[name] = size
         self._values[name] = value
         self._dirty[name] = value
         self.pending = True
@@ -124,7 +156,7 @@ class OwnProperties:
         return Publish(cells, data, "property")
 
     def _position(self) -> tuple[float, float] | None:
-        position = self._values.get(codec.POSITION)
+        position = self._values.get(POSITION)
         return position if isinstance(position, tuple) else None
 
     def _cell(self) -> Cell | None:

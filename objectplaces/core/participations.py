@@ -1,9 +1,11 @@
 """The participant side: roles this node plays in other nodes' sessions (docs/protocol.md §3).
 
-A participation is created by the first frame of a new channel from an initiator
-(normally ``ACTIVATE``; with loss and reordering it may be any frame of the stream, which
-the channel buffers until the gap is filled). It is keyed by (initiator node, session
-number) and carries the channel's epoch:
+A participation is created by the first frame of a new channel from an initiator, which
+must be its ``ACTIVATE`` (sequence number 0). Any other frame of an unknown channel is
+dropped and counted: a peer must not be able to make state appear with stray frames,
+and a frame that merely overtook its ``ACTIVATE`` is retransmitted soon enough. A
+participation is keyed by (initiator node, session number) and carries the channel's
+epoch:
 
 * a frame of an *older* epoch than the current participation is stale and dropped;
 * a frame of a *newer* epoch means the initiator removed us and activated us again
@@ -128,6 +130,11 @@ class ParticipationTable:
             self._end(part, now)  # a newer activation supersedes the old one
             part = None
         if part is None:
+            if frame.seq != 0 or frame.kind is not FrameKind.ACTIVATE:
+                # Only an activation opens a participation: a stray frame must not
+                # make state appear (a reordered one is retransmitted after the ACTIVATE).
+                self._outbox.count("dropped_unknown_session")
+                return
             owner = ParticipationOwner(source, frame.session, frame.epoch)
             channel = self._channels.open(
                 to_participant=False, session=frame.session, epoch=frame.epoch
@@ -179,6 +186,7 @@ class ParticipationTable:
         """An initiator acknowledged frames of our stream to it."""
         part = self._parts.get((source, ack.session))
         if part is None or part.owner.epoch != ack.epoch:
+            self._outbox.count("dropped_stray_ack")
             return
         part.channel.on_ack(ack.ack)
         if part.declining and part.channel.idle:

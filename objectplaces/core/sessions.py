@@ -317,13 +317,14 @@ class SessionTable:
     def on_ack(self, source: str, ack: ChannelAck) -> None:
         """A participant acknowledged frames of one of our channels."""
         session = self._sessions.get(ack.session)
-        if session is None:
-            return
-        member = session.members.get(source)
+        member = None if session is None else session.members.get(source)
         if member is not None and member.epoch == ack.epoch:
             member.channel.on_ack(ack.ack)
             return
-        closing = session.closing.get((source, ack.epoch))
+        closing = None if session is None else session.closing.get((source, ack.epoch))
+        if session is None or closing is None:
+            self._outbox.count("dropped_stray_ack")
+            return
         if closing is not None:
             closing.on_ack(ack.ack)
             if closing.idle:

@@ -34,12 +34,12 @@ from collections.abc import Iterable, Mapping
 from types import MappingProxyType
 from typing import Any
 
-from objectplaces.core import codec
 from objectplaces.core.groups import DefinitionLike, GroupDefinition
 from objectplaces.core.messages import PropertyUpdate
 from objectplaces.core.observers import Observers
 from objectplaces.core.outbox import Outbox
 from objectplaces.core.spatial import GridIndex, RunningMax
+from objectplaces.core.values import POSITION
 
 __all__ = ["Cell", "PropertyView"]
 
@@ -193,7 +193,7 @@ class PropertyView:
         """
         if self._scope is None:
             return True
-        position = self._props[node].get(codec.POSITION)
+        position = self._props[node].get(POSITION)
         if not isinstance(position, tuple):
             return True
         size = self._cell_size

@@ -12,12 +12,14 @@ from hypothesis import strategies as st
 
 from objectplaces import DecodeError, LocalProtocolError
 from objectplaces.core import codec
+from objectplaces.core.errors import InvalidValueError, NotPlainDataError
 from objectplaces.core.messages import (
     ChannelAck,
     ChannelData,
     FrameKind,
     Leave,
     PropertyUpdate,
+    Unusable,
 )
 
 plain = st.recursive(
@@ -72,7 +74,14 @@ def test_round_trip(message: object) -> None:
     assert codec.decode(codec.encode(message)) == message  # type: ignore[arg-type]
 
 
-@given(seq=st.integers(0, 2**40), values=st.dictionaries(st.text(max_size=10), plain, max_size=5))
+@given(
+    seq=st.integers(0, 2**40),
+    values=st.dictionaries(
+        st.text(max_size=10).filter(lambda k: k not in ("position", "hull_length")),
+        plain,
+        max_size=5,
+    ),
+)
 def test_property_updates_round_trip(seq: int, values: dict[str, object]) -> None:
     decoded = codec.decode(codec.encode(PropertyUpdate(seq, values)))
     assert isinstance(decoded, PropertyUpdate)
@@ -154,8 +163,55 @@ def test_frame_type_peeks_without_decoding() -> None:
         codec.frame_type(b"\xff\xff")
 
 
-def test_non_finite_positions_take_the_generic_path() -> None:
-    update = PropertyUpdate(1, {"position": (math.inf, 0.0)})
-    decoded = codec.decode(codec.encode(update))
-    assert isinstance(decoded, PropertyUpdate)
-    assert decoded.values["position"] == [math.inf, 0.0]
+@pytest.mark.parametrize(
+    "values",
+    [
+        {"position": ["x", "y"]},
+        {"position": [math.nan, 0.0]},
+        {"position": [math.inf, -math.inf]},
+        {"position": [None, 1]},
+        {"position": [1.0, 2.0, 3.0]},
+        {"position": "here"},
+        {"hull_length": -1.0},
+        {"hull_length": math.nan},
+        {"hull_length": "long"},
+        {"status": "fine", "hull_length": True},
+    ],
+)
+def test_a_frame_with_an_unusable_well_known_property_is_refused_whole(
+    values: dict[str, object],
+) -> None:
+    # Built by hand: our own encoder never produces these (the local API refuses them).
+    refused = codec.decode(msgpack.packb([1, 1, values]))
+    assert isinstance(refused, Unusable)
+    assert "must be" in refused.reason
+    hidden = codec.decode(msgpack.packb([2, 1, 0, 0, None, {"x": 1, **values}]))
+    assert isinstance(hidden, Unusable)  # in a compact frame's other properties, too
+
+
+def test_well_known_properties_from_a_generic_frame_are_rounded_like_ours() -> None:
+    decoded = codec.decode(msgpack.packb([1, 4, {"position": [1, 2.00049], "hull_length": 3}]))
+    assert decoded == PropertyUpdate(4, {"position": (1.0, 2.0), "hull_length": 3.0})
+
+
+@pytest.mark.parametrize(
+    "frame",
+    [
+        [1, 2**53, {}],
+        [4, 2**60, 1, 0, 4, None],
+        [5, 1, 2**64 - 1, 0, 4, None],
+        [6, 1, 1, 2**63],
+    ],
+)
+def test_absurd_counters_are_refused(frame: list[object]) -> None:
+    with pytest.raises(DecodeError, match="below 2\\*\\*53"):
+        codec.decode(msgpack.packb(frame))
+
+
+def test_unplain_values_fail_as_type_errors_and_unfit_ones_as_value_errors() -> None:
+    with pytest.raises(NotPlainDataError, match=r"value\['f'\] is <object"):
+        codec.encode_value({"f": object()})
+    with pytest.raises(TypeError):
+        codec.encode_value([1, {2}])
+    with pytest.raises(InvalidValueError, match="out of the wire's range"):
+        codec.encode_value({"big": 2**70})

@@ -211,7 +211,9 @@ def test_bad_input_from_a_peer_is_dropped_and_counted() -> None:
         "dropped_malformed": 1,
         "dropped_own": 1,
         "dropped_unknown_session": 1,
+        "dropped_stray_ack": 1,
     }
+    assert a.dropped_by_peer == {"b": 1}  # decoding failures are counted per peer
     assert a.view() == {}
 
 

@@ -283,11 +283,15 @@ def test_a_newer_epoch_supersedes_the_old_participation(part: ParticipantSide) -
     assert part.outbox.counters["dropped_stale"] == 1
 
 
-def test_frames_before_the_activation_wait_for_it(part: ParticipantSide) -> None:
+def test_only_an_activation_opens_a_participation(part: ParticipantSide) -> None:
     part.table.set_factory("voter", Voter)
-    part.frame(1, FrameKind.ROLE, "request")  # overtook its ACTIVATE
+    part.frame(1, FrameKind.ROLE, "request")  # overtook its ACTIVATE, or a forgery
     assert called(part.outbox) == []
+    assert sent(part.outbox) == []  # not even acked: the initiator will retransmit
+    assert part.table.counts() == {"participations": 0, "tombstones": 0}
+    assert part.outbox.counters["dropped_unknown_session"] == 1
     part.frame(0, FrameKind.ACTIVATE, ["voter", "Requester"])
+    part.frame(1, FrameKind.ROLE, "request")  # the retransmission
     assert [(n, a) for n, a in called(part.outbox)] == [
         ("in_group_of", (InitiatorRef("a", "a#1"),)),
         ("receive", ("request",)),
