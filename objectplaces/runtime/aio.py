@@ -4,6 +4,13 @@ Every input (a frame, a timer, an API call) is followed by a drain of the machin
 the simulation; the drain runs once per loop iteration (``wake`` coalesces), so updates
 made in the same instant leave as one message. The machine's next deadline is kept as
 one ``loop.call_at`` timer, moved only when the deadline moves earlier.
+
+asyncio runs a timer that falls due within one tick of its clock
+(``BaseEventLoop._clock_resolution``), so on a coarse clock the timer may run a little
+before the deadline it was set for. The loop counts that deadline as reached, and so do
+we: the machine is ticked at the deadline, the runner's clock never reads earlier than a
+deadline already ticked, and the timer is re-armed after every tick whatever the tick
+found, so no deadline is ever left without a timer.
 """
 
 from __future__ import annotations
@@ -41,11 +48,12 @@ class AsyncioRunner:
         self._wake: asyncio.Handle | None = None
         self._timer: asyncio.TimerHandle | None = None
         self._timer_at: float | None = None
+        self._ticked_at = float("-inf")
         self.closed = False
 
     def now(self) -> float:
-        """The loop's clock, in seconds."""
-        return self._loop.time()
+        """The loop's clock, in seconds (never earlier than the last deadline ticked)."""
+        return max(self._loop.time(), self._ticked_at)
 
     def wake(self) -> None:
         """Drain the machine soon (once per loop iteration, however often called)."""
@@ -56,19 +64,19 @@ class AsyncioRunner:
         """Hand the machine one decoded frame from ``source`` (``size`` bytes on the wire)."""
         if self.closed:
             return
-        self.machine.receive_message(source, message, self._loop.time(), size=size)
+        self.machine.receive_message(source, message, self.now(), size=size)
         self.wake()
 
     def peer_restarted(self, peer: str) -> None:
         """``peer`` reconnected as a new run of itself: its old run is gone."""
         if not self.closed:
-            self.machine.peer_restarted(peer, self._loop.time())
+            self.machine.peer_restarted(peer, self.now())
             self.wake()
 
     def peer_joined(self, peer: str) -> None:
         """A full-dissemination peer (re)connected: it gets our properties."""
         if not self.closed:
-            self.machine.peer_joined(peer, self._loop.time())
+            self.machine.peer_joined(peer, self.now())
             self.wake()
 
     def send_properties_to(self, peer: str) -> None:
@@ -106,9 +114,15 @@ class AsyncioRunner:
             self._timer = self._loop.call_at(deadline, self._on_timer)
 
     def _on_timer(self) -> None:
+        due = self._timer_at
         self._timer = None
         self._timer_at = None
         if self.closed:
             return
-        self.machine.tick(self._loop.time())
+        if due is not None:
+            self._ticked_at = max(self._ticked_at, due)
+        self.machine.tick(self.now())
         self.pump.drain()
+        # The drain schedules only when it found work; a tick that fired nothing must
+        # still leave the machine's next deadline armed.
+        self._schedule(self.machine.next_deadline())

@@ -1,7 +1,10 @@
 """The one loop every runtime shares: drain the machine, transmit, run callbacks.
 
 Runtimes differ only in how they transmit and how they wait for the next deadline; what
-happens after an input is the same everywhere, so it lives here once.
+happens after an input is the same everywhere, so it lives here once. A drain always
+ends by handing the runtime the machine's next deadline, whatever the transport or the
+callbacks did, because a deadline without a timer silently stops a node's heartbeats and
+retransmissions.
 """
 
 from __future__ import annotations
@@ -67,11 +70,27 @@ class Pump:
                 if not outputs and not events:
                     break
                 for output in outputs:
-                    frames = self._transmit(output)
-                    if not isinstance(output, Subscribe):
-                        machine.record_sent(output.kind, frames, len(output.data))
+                    self._transmit_one(output)
                 for event in events:
                     run_callback(event, machine.node_id)
         finally:
             self._draining = False
-        self._schedule(machine.next_deadline())
+            # Whatever happened above, the machine's next deadline must get a timer, or its
+            # retransmissions and heartbeats stop until some other input happens to arrive.
+            self._schedule(machine.next_deadline())
+
+    def _transmit_one(self, output: Output) -> None:
+        # A transport that fails on one output costs that output only (channels repair it
+        # by retransmission), never the rest of the drain: the other outputs, the
+        # callbacks already taken from the machine, or the timer.
+        try:
+            frames = self._transmit(output)
+        except Exception:
+            log.exception(
+                "node %s: transport failed on a %s output",
+                self.machine.node_id,
+                type(output).__name__,
+            )
+            return
+        if not isinstance(output, Subscribe):
+            self.machine.record_sent(output.kind, frames, len(output.data))
