@@ -5,18 +5,13 @@ Import from here; the submodules are the implementation:
 * :mod:`agv_app.layout`: the floor plan graph, routing, passing places, errors;
 * :mod:`agv_app.geometry`: polylines, hulls, hull projections, wire encoding;
 * :mod:`agv_app.vehicle`: kinematics that never pass the end of a lock;
-* :mod:`agv_app.demo_layout`: the built-in demo warehouse;
-* :mod:`agv_app.layout_json`: the JSON layout format;
-* :mod:`agv_app.opentcs`: openTCS plant-model import.
+* :mod:`agv_app.layout.demo`: the built-in demo warehouse;
+* :mod:`agv_app.layout.json_format`: the JSON layout format;
+* :mod:`agv_app.layout.opentcs`: openTCS plant-model import.
 """
 
 from __future__ import annotations
 
-from agv_app.demo_layout import (
-    DEMO_VEHICLE_LENGTH_M,
-    DEMO_VEHICLE_WIDTH_M,
-    demo_warehouse,
-)
 from agv_app.geometry import (
     DEFAULT_OVERLAP_TOLERANCE_M2,
     WIRE_MARGIN_M,
@@ -33,7 +28,12 @@ from agv_app.geometry import (
     polygon_to_coords,
     projection_ahead,
 )
-from agv_app.layout import (
+from agv_app.layout.demo import (
+    DEMO_VEHICLE_LENGTH_M,
+    DEMO_VEHICLE_WIDTH_M,
+    demo_warehouse,
+)
+from agv_app.layout.graph import (
     STATION_KINDS,
     Layout,
     LayoutError,
@@ -46,7 +46,7 @@ from agv_app.layout import (
     Station,
     StationKind,
 )
-from agv_app.layout_json import (
+from agv_app.layout.json_format import (
     FORMAT,
     VERSION,
     layout_from_json,
@@ -56,7 +56,7 @@ from agv_app.layout_json import (
     load_layout,
     save_layout,
 )
-from agv_app.opentcs import (
+from agv_app.layout.opentcs import (
     PlantBlock,
     PlantLocation,
     PlantModel,
@@ -68,7 +68,7 @@ from agv_app.opentcs import (
     plant_model_to_layout,
     read_plant_model,
 )
-from agv_app.vehicle import (
+from agv_app.vehicle.kinematics import (
     Vehicle,
     VehicleSpec,
 )

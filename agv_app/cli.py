@@ -13,9 +13,9 @@ import sys
 import time
 from pathlib import Path
 
-from agv_app.fleet import Fleet, FleetConfig, parking_capacity
-from agv_app.layout import Layout, LayoutError
-from agv_app.layout_json import load_any
+from agv_app.fleet.sim import Fleet, FleetConfig, parking_capacity
+from agv_app.layout.graph import Layout, LayoutError
+from agv_app.layout.json_format import load_any
 
 __all__ = ["DEFAULT_AGVS", "SAFETY_KEYS", "fleet_size", "register", "run_sim"]
 

@@ -8,8 +8,8 @@ from pathlib import Path
 import pytest
 
 from agv_app.layout import LayoutFileError
-from agv_app.layout_json import load_any
-from agv_app.opentcs import (
+from agv_app.layout.json_format import load_any
+from agv_app.layout.opentcs import (
     import_notes,
     load_opentcs,
     parse_plant_model,

@@ -30,7 +30,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from agv_app.layout import Layout, Route
+from agv_app.layout.graph import Layout, Route
 
 __all__ = ["DEFAULT_CLEARANCE_M", "StopPlan", "clearance_for"]
 

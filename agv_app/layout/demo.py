@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import itertools
 
-from agv_app.layout import Layout, Point, Segment, Station, StationKind
+from agv_app.layout.graph import Layout, Point, Segment, Station, StationKind
 
 __all__ = ["DEMO_VEHICLE_LENGTH_M", "DEMO_VEHICLE_WIDTH_M", "demo_warehouse"]
 

@@ -9,9 +9,10 @@ and requested projections, plus a small margin for rounding), ``status``, ``task
 ``last_done`` whenever these change, which happens at least every ``t_update`` while
 it moves; the middleware's periodic republication is the heartbeat.
 
-It plays the voter (:mod:`agv_app.collision`) and bidder (:mod:`agv_app.tasks`) roles,
-keeps stale-node records of failed AGVs, and carries out tasks: to the pick station,
-dwell, to the drop station, dwell, home to its own parking spot.
+It plays the voter (:mod:`agv_app.traffic.collision`) and bidder
+(:mod:`agv_app.tasks.auction`) roles, keeps stale-node records of failed AGVs, and
+carries out tasks: to the pick station, dwell, to the drop station, dwell, home to its
+own parking spot.
 """
 
 from __future__ import annotations
@@ -21,7 +22,10 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from agv_app.collision import (
+from agv_app.geometry import Area, Polyline, Pose, hull_length, hull_projection, projection_ahead
+from agv_app.layout.graph import Layout
+from agv_app.tasks.auction import Bidder, TaskSpec
+from agv_app.traffic.collision import (
     AGV_KIND,
     LockBook,
     LockEntry,
@@ -33,11 +37,8 @@ from agv_app.collision import (
     broadcast_group,
     collision_group,
 )
-from agv_app.deadlock import StopPlan, clearance_for
-from agv_app.geometry import Area, Polyline, Pose, hull_length, hull_projection, projection_ahead
-from agv_app.layout import Layout
-from agv_app.tasks import Bidder, TaskSpec
-from agv_app.vehicle import Vehicle, VehicleSpec
+from agv_app.traffic.deadlock import StopPlan, clearance_for
+from agv_app.vehicle.kinematics import Vehicle, VehicleSpec
 from objectplaces import RoleActivator
 from objectplaces.groups import GroupDefinition
 from tuplespace import ANY

@@ -1,11 +1,11 @@
 """One AGV as its own process on the WebSocket mesh.
 
 ```
-python -m agv_app.agv_process --id agv-03 --listen 127.0.0.1:0 --join 127.0.0.1:7000 \\
+python -m agv_app.fleet.agv_process --id agv-03 --listen 127.0.0.1:0 --join 127.0.0.1:7000 \\
     --secret-file /tmp/secret --home P0350n --seed 3 [--run-seconds 600]
 ```
 
-The process starts a mesh node, builds an :class:`~agv_app.agv.AgvController` on the
+The process starts a mesh node, builds an :class:`~agv_app.vehicle.controller.AgvController` on the
 demo warehouse and steps it in real time (fixed ``--dt``). Besides what the controller
 publishes (position, hull length, status, task, last done), it publishes what an
 observer needs to draw the vehicle, each only when it changes: ``heading`` (radians),
@@ -35,11 +35,11 @@ import time
 from pathlib import Path
 from typing import Any
 
-from agv_app.agv import AgvConfig, AgvController
-from agv_app.demo_layout import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
 from agv_app.geometry import Area, polygon_to_coords
-from agv_app.layout import Layout
-from agv_app.vehicle import VehicleSpec
+from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
+from agv_app.layout.graph import Layout
+from agv_app.vehicle.controller import AgvConfig, AgvController
+from agv_app.vehicle.kinematics import VehicleSpec
 from objectplaces.core.errors import LocalProtocolError
 from objectplaces.mesh import MeshNode, start_node
 
@@ -119,7 +119,7 @@ class DisplayPublisher:
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     """Parse the command line (``sys.argv[1:]`` when ``argv`` is None)."""
     parser = argparse.ArgumentParser(
-        prog="python -m agv_app.agv_process",
+        prog="python -m agv_app.fleet.agv_process",
         description="Run one AGV of the demo warehouse as a node on the WebSocket mesh.",
     )
     parser.add_argument("--id", required=True, help="node id of the AGV, unique in the mesh")

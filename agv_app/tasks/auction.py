@@ -11,7 +11,7 @@
   finds it free: the award is final and a task is never given to two AGVs.
 
 A task that an AGV cannot finish (its node fails) is returned by the station, which
-watches its winners' departures (see :mod:`agv_app.station`).
+watches its winners' departures (see :mod:`agv_app.tasks.station`).
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Protocol
 
-from agv_app.collision import AGV_KIND, MessageTally
+from agv_app.traffic.collision import AGV_KIND, MessageTally
 from objectplaces import Initiator, Participant, ParticipantRef, groups
 from objectplaces.core.codec import encode_value
 from objectplaces.groups import GroupDefinition

@@ -45,7 +45,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from agv_app.geometry import XY
-from agv_app.layout import (
+from agv_app.layout.graph import (
     Layout,
     LayoutError,
     LayoutFileError,

@@ -14,9 +14,9 @@ from collections import deque
 from collections.abc import Callable, Mapping
 from typing import Any
 
-from agv_app.collision import MessageTally
 from agv_app.geometry import XY
-from agv_app.tasks import TaskAnnouncer, TaskSpec, bidder_group
+from agv_app.tasks.auction import TaskAnnouncer, TaskSpec, bidder_group
+from agv_app.traffic.collision import MessageTally
 from objectplaces import RoleActivator, Session
 
 __all__ = ["STATION_KIND", "Station"]

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from agv_app.station import Station
 from agv_app.tasks import Bidder, TaskSpec
+from agv_app.tasks.station import Station
 from objectplaces import RoleActivator
 from objectplaces.sim import SimulatedNetwork
 

@@ -16,20 +16,20 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from agv_app.agv import AgvConfig, AgvController
-from agv_app.demo_layout import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
+from agv_app.fleet.metrics import FleetMetrics
 from agv_app.geometry import XY, Area
-from agv_app.layout import Layout
-from agv_app.metrics import FleetMetrics
-from agv_app.monitor import SafetyMonitor, SafetyViolation
-from agv_app.station import Station
-from agv_app.tasks import TaskSpec
-from agv_app.vehicle import VehicleSpec
+from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
+from agv_app.layout.graph import Layout
+from agv_app.tasks.auction import TaskSpec
+from agv_app.tasks.station import Station
+from agv_app.traffic.monitor import SafetyMonitor, SafetyViolation
+from agv_app.vehicle.controller import AgvConfig, AgvController
+from agv_app.vehicle.kinematics import VehicleSpec
 from objectplaces import Initiator, RoleActivator
 from objectplaces.sim import SimulatedNetwork
 
 if TYPE_CHECKING:
-    from agv_app.mesh_fleet import MeshFleet
+    from agv_app.fleet.mesh import MeshFleet
 
 __all__ = ["Fleet", "FleetConfig", "VehicleState", "demo_source", "parking_capacity"]
 
@@ -527,7 +527,7 @@ def demo_source(
 
     Accepts the parsed ``demo`` arguments or the keywords ``agvs``, ``seed`` and
     ``processes``: 0 simulates ``agvs`` AGVs on one network in this process; more runs
-    that many AGV processes on the WebSocket mesh (a :class:`~agv_app.mesh_fleet.MeshFleet`,
+    that many AGV processes on the WebSocket mesh (a :class:`~agv_app.fleet.mesh.MeshFleet`,
     which the caller must ``await start()`` and ``await stop()``).
 
     Raises:
@@ -540,7 +540,7 @@ def demo_source(
     if processes < 0:
         raise ValueError(f"processes must be 0 or more, got {processes!r}")
     if processes:
-        from agv_app.mesh_fleet import MeshFleet  # spawns processes: only when asked for
+        from agv_app.fleet.mesh import MeshFleet  # spawns processes: only when asked for
 
         return MeshFleet(
             agvs=processes,

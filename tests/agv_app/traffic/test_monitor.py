@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from agv_app.geometry import Pose, hull
-from agv_app.monitor import SafetyMonitor
+from agv_app.traffic.monitor import SafetyMonitor
 
 
 def box(x: float) -> object:

@@ -4,7 +4,10 @@ from __future__ import annotations
 
 import pytest
 
-from agv_app.collision import (
+from agv_app.fleet import Fleet, FleetConfig
+from agv_app.geometry import Area, Polyline, hull_projection
+from agv_app.layout import Layout, Point, Segment
+from agv_app.traffic.collision import (
     LockBook,
     LockEntry,
     RequestEntry,
@@ -13,9 +16,6 @@ from agv_app.collision import (
     collision_group,
     decide_vote,
 )
-from agv_app.fleet import Fleet, FleetConfig
-from agv_app.geometry import Area, Polyline, hull_projection
-from agv_app.layout import Layout, Point, Segment
 from objectplaces.sim import SimulatedNetwork
 
 

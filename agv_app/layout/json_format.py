@@ -22,7 +22,7 @@ from typing import Any, cast
 
 import jsonschema
 
-from agv_app.layout import (
+from agv_app.layout.graph import (
     Layout,
     LayoutError,
     LayoutFileError,
@@ -236,11 +236,11 @@ def load_any(path: str | Path) -> Layout:
     if suffix == ".json":
         return load_layout(p)
     if suffix == ".xml":
-        from agv_app.opentcs import load_opentcs
+        from agv_app.layout.opentcs import load_opentcs
 
         return load_opentcs(p)
     if str(path) == "demo" and not p.exists():
-        from agv_app.demo_layout import demo_warehouse
+        from agv_app.layout.demo import demo_warehouse
 
         return demo_warehouse()
     raise LayoutFileError(

@@ -11,7 +11,6 @@ from typing import Any
 
 import pytest
 
-from agv_app.demo_layout import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
 from agv_app.geometry import Area, Polyline, hull, hull_projection, overlaps
 from agv_app.layout import (
     Layout,
@@ -22,7 +21,8 @@ from agv_app.layout import (
     Segment,
     Station,
 )
-from agv_app.layout_json import (
+from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
+from agv_app.layout.json_format import (
     layout_from_json,
     layout_schema,
     layout_to_json,
@@ -356,7 +356,7 @@ def test_demo_roundtrips_through_json() -> None:
 
 
 def test_docs_example_loads() -> None:
-    text = (Path(__file__).parents[2] / "docs" / "layout-format.md").read_text()
+    text = (Path(__file__).parents[3] / "docs" / "layout-format.md").read_text()
     example = text.split("```json", 1)[1].split("```", 1)[0]
     layout = layout_from_json(json.loads(example))
     assert len(layout.stations) >= 2

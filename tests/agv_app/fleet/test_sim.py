@@ -8,8 +8,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from agv_app.demo_layout import demo_warehouse
 from agv_app.fleet import Fleet, FleetConfig, demo_source
+from agv_app.layout.demo import demo_warehouse
 
 SEED = int(os.environ.get("OP_SEED", "1"))
 

@@ -5,7 +5,7 @@ like :class:`~agv_app.fleet.Fleet`) for ``objectplaces demo --processes N``. In 
 dashboard's process it runs an observer node (no position, hears every node) and one
 node per pick station (fixed nodes running the task-assignment initiator, as in the
 simulated fleet), and it spawns every AGV as its own process
-(:mod:`agv_app.agv_process`), all on 127.0.0.1. The mesh secret is generated per run
+(:mod:`agv_app.fleet.agv_process`), all on 127.0.0.1. The mesh secret is generated per run
 and handed to the children in a file only its owner can read, never on a command line.
 
 Everything the fleet reports about the AGVs comes from what the observer hears: the
@@ -37,15 +37,15 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from agv_app.collision import AGV_KIND
-from agv_app.demo_layout import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
-from agv_app.fleet import VehicleState
+from agv_app.fleet.metrics import FleetMetrics
+from agv_app.fleet.sim import VehicleState
 from agv_app.geometry import XY, Area, Pose, coords_to_polygon, hull
-from agv_app.layout import Layout
-from agv_app.metrics import FleetMetrics
-from agv_app.monitor import SafetyMonitor
-from agv_app.station import Station
-from agv_app.tasks import TaskSpec
+from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
+from agv_app.layout.graph import Layout
+from agv_app.tasks.auction import TaskSpec
+from agv_app.tasks.station import Station
+from agv_app.traffic.collision import AGV_KIND
+from agv_app.traffic.monitor import SafetyMonitor
 from objectplaces import Initiator, RoleActivator
 from objectplaces.mesh import MeshNode, start_node
 
@@ -58,7 +58,7 @@ _HOST = "127.0.0.1"
 _CHECK_INTERVAL_S = 0.25
 _SHRINK_M = 0.01  # more than the centimetre rounding of the wire form
 _POLL_S = 0.05
-_ROOT = str(Path(__file__).resolve().parents[1])
+_ROOT = str(Path(__file__).resolve().parents[2])
 
 
 def parking_points(layout: Layout, n: int) -> list[str]:
@@ -295,7 +295,7 @@ class MeshFleet:
         env["PYTHONPATH"] = os.pathsep.join(p for p in (_ROOT, env.get("PYTHONPATH")) if p)
         for i, (agv_id, home) in enumerate(zip(self.agv_ids, self.homes, strict=True)):
             command = [
-                self.python, "-m", "agv_app.agv_process",
+                self.python, "-m", "agv_app.fleet.agv_process",
                 "--id", agv_id,
                 "--listen", f"{_HOST}:0",
                 "--join", observer.address,

@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from agv_app.deadlock import DEFAULT_CLEARANCE_M, StopPlan, clearance_for
-from agv_app.demo_layout import demo_warehouse
 from agv_app.layout import Layout, Point, Segment
+from agv_app.layout.demo import demo_warehouse
+from agv_app.traffic.deadlock import DEFAULT_CLEARANCE_M, StopPlan, clearance_for
 
 
 def corridor() -> Layout:

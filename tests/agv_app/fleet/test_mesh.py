@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 from starlette.exceptions import StarletteDeprecationWarning
 
-from agv_app.mesh_fleet import OBSERVER_ID, MeshFleet
+from agv_app.fleet.mesh import OBSERVER_ID, MeshFleet
 from dashboard.app import create_app
 
 with warnings.catch_warnings():
