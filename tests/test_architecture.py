@@ -74,8 +74,9 @@ def test_transports_import_nothing_of_the_runtimes() -> None:
 CORE_LAYERS = [
     {"errors", "ids", "spatial"},
     {"messages", "groups", "events", "values"},
-    {"codec", "channel", "outbox", "roles"},
-    {"config", "timers", "observers", "intake"},
+    {"codec", "outbox", "roles"},
+    {"channel", "config"},
+    {"timers", "observers", "intake"},
     {"view", "own", "channels"},
     {"plumbing"},
     {"sessions", "participations"},

@@ -5,10 +5,11 @@ what is unacknowledged, what arrived early. This part adds the three things ever
 owner of a channel needs the same way, so neither the initiator side nor the
 participant side repeats them:
 
-* ``send``: number a frame, encode it, queue it, and arm the channel's retransmission
-  timer if the channel was idle. One timer per channel, not per frame: a burst of a
-  thousand messages costs one heap entry, re-armed at the next due frame each time it
-  fires.
+* ``send``: number a frame, encode it (a bad payload fails here, nothing queued),
+  transmit what the window allows, and arm the channel's retransmission timer. One
+  timer per channel, not per frame: a burst of a thousand messages costs one heap
+  entry, re-armed at the next due frame each time it fires.
+* ``on_ack``: the window moves; frames waiting in the send buffer go out.
 * ``acknowledge``: acks are cumulative and sent after every data frame, duplicates
   included, because a lost ack is repaired only by the next duplicate.
 * ``retransmit``: resend what is due; report a channel whose retries ran out as broken.
@@ -37,7 +38,7 @@ class Channels:
     """Opens channels and moves their frames through the outbox.
 
     Args:
-        config: retransmission timeout and limit.
+        config: retransmission timeout and limit, send buffer, frame limit.
         outbox: where frames and counters go.
         timers: where retransmission timers go.
     """
@@ -51,37 +52,76 @@ class Channels:
 
     def open(self, *, to_participant: bool, session: int, epoch: int) -> Channel:
         """A new channel; ``to_participant``: this end is the initiator's."""
+        config = self._config
         return Channel(
             outbound_to_participant=to_participant,
             session=session,
             epoch=epoch,
-            rto=self._config.retransmit_timeout,
-            max_tries=self._config.max_retransmissions,
+            rto=config.retransmit_timeout,
+            max_tries=config.max_retransmissions,
+            send_buffer=config.send_buffer,
+            max_frame=config.max_frame,
         )
 
     def send(
-        self, target: str, channel: Channel, kind: FrameKind, payload: Any, now: float
-    ) -> None:
-        """Send one reliable frame to ``target`` on ``channel``."""
-        was_idle = channel.idle
-        frame = channel.send(kind, payload, now)
-        self._outbox.send(target, codec.encode(frame), "channel")
-        if was_idle:
-            self._timers.push(now + self._config.retransmit_timeout, Retransmit(target, channel))
+        self,
+        target: str,
+        channel: Channel,
+        kind: FrameKind,
+        payload: Any,
+        now: float,
+        *,
+        limited: bool = False,
+    ) -> bool:
+        """Send one reliable frame to ``target`` on ``channel`` (now, or when the window
+        opens); False when ``limited`` and the channel's send buffer is full.
+
+        Raises:
+            NotPlainDataError: the payload is not plain data (nothing is queued).
+            InvalidValueError: the frame would exceed the frame limit (nothing is queued).
+        """
+        if not channel.offer(kind, payload, limited=limited):
+            self._outbox.count("send_buffer_full")
+            return False
+        self._transmit(target, channel, now)
+        return True
+
+    def on_ack(self, target: str, channel: Channel, ack: int, now: float) -> None:
+        """``target`` acknowledged ``channel``'s frames up to ``ack``: the window moves."""
+        if not channel.on_ack(ack):
+            self._outbox.count("dropped_ack_beyond_sent")
+            return
+        self._transmit(target, channel, now)
 
     def acknowledge(self, target: str, ack: ChannelAck) -> None:
         """Send a cumulative ack to ``target``."""
         self._outbox.send(target, codec.encode(ack), "ack")
 
-    def retransmit(self, target: str, channel: Channel, now: float) -> bool:
-        """Resend the frames due at ``now``; return True when the channel just broke."""
-        for frame in channel.due(now):
-            self._outbox.count("retransmissions")
-            self._outbox.send(target, codec.encode(frame), "channel")
+    def retransmit(self, target: str, channel: Channel, at: float, now: float) -> bool:
+        """The timer armed for ``at`` fired: resend what is due; True when the channel broke."""
+        if channel.armed_at != at:
+            return False  # superseded by an earlier timer, which re-armed itself
+        channel.armed_at = None
+        outbox = self._outbox
+        for data in channel.due(now):
+            outbox.count("retransmissions")
+            outbox.send(target, data, "channel")
         if channel.broken:
-            self._outbox.count("channels_broken")
+            outbox.count("channels_broken")
             return True
-        deadline = channel.deadline()
-        if deadline is not None:
-            self._timers.push(deadline, Retransmit(target, channel))
+        self._arm(target, channel)
         return False
+
+    def _transmit(self, target: str, channel: Channel, now: float) -> None:
+        outbox = self._outbox
+        for data in channel.transmit(now):
+            outbox.send(target, data, "channel")
+        self._arm(target, channel)
+
+    def _arm(self, target: str, channel: Channel) -> None:
+        # One pending timer per channel, at its earliest deadline; a new frame may be
+        # due before the backed-off frames already in flight, and then gets its own.
+        deadline = channel.deadline()
+        if deadline is not None and (channel.armed_at is None or deadline < channel.armed_at):
+            channel.armed_at = deadline
+            self._timers.push(deadline, Retransmit(target, channel, deadline))

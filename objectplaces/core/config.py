@@ -30,6 +30,8 @@ class NodeConfig:
         max_retransmissions: tries before a channel counts as broken (its peer gone).
         tombstone_ttl: how long a closed channel is remembered to drop its late frames.
         max_frame: largest frame accepted, in bytes.
+        send_buffer: role messages a channel holds beyond its window of frames in
+            flight; when full, a role's ``send`` returns False (docs/protocol.md §4).
     """
 
     property_interval: float | None = None
@@ -40,6 +42,7 @@ class NodeConfig:
     max_retransmissions: int = 12
     tombstone_ttl: float = 10.0
     max_frame: int = codec.DEFAULT_MAX_FRAME
+    send_buffer: int = 10_000
 
     @property
     def effective_failure_timeout(self) -> float | None:

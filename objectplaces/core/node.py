@@ -196,7 +196,7 @@ class NodeMachine:
                 self._participations.on_ack(source, message, now)
             case ChannelAck():
                 self._view.heard(source, now)
-                self._sessions.on_ack(source, message)
+                self._sessions.on_ack(source, message, now)
             case Leave():
                 self._depart(source, "left")
             case Unusable(reason):
@@ -349,8 +349,8 @@ class NodeMachine:
                 if self._role_timers.fire(handle):
                     owner = handle.owner
                     self._outbox.call(handle.fn, (), "" if owner is None else owner.session_id)
-            case Retransmit(target, channel):
-                if not channel.closed and self._channels.retransmit(target, channel, now):
+            case Retransmit(target, channel, at):
+                if not channel.closed and self._channels.retransmit(target, channel, at, now):
                     if channel.outbound_to_participant:
                         self._sessions.channel_broken(target, channel)
                     else:

@@ -188,24 +188,31 @@ class ParticipationTable:
         if part is None or part.owner.epoch != ack.epoch:
             self._outbox.count("dropped_stray_ack")
             return
-        part.channel.on_ack(ack.ack)
+        self._channels.on_ack(source, part.channel, ack.ack, now)
         if part.declining and part.channel.idle:
             self._end(part, now)
 
     # ------------------------------------------------------------------ commands
 
     def send(self, owner: ParticipationOwner, message: Any, now: float) -> bool:
-        """Send a role message to the initiator; False once the role is inactive.
+        """Send a role message to the initiator.
+
+        Returns:
+            False, with nothing sent, once the role is inactive or when the channel's
+            send buffer is full (docs/protocol.md §4).
 
         Raises:
-            LocalProtocolError: ``message`` is not plain data.
+            NotPlainDataError, InvalidValueError: ``message`` is not plain data or too
+                large (checked even when nothing would be sent).
         """
         part = self._parts.get((owner.initiator, owner.session))
         if part is None or part.owner != owner or part.role is None:
             codec.encode_value(message)
             return False
-        self._channels.send(owner.initiator, part.channel, FrameKind.ROLE, message, now)
-        return True
+        channels = self._channels
+        return channels.send(
+            owner.initiator, part.channel, FrameKind.ROLE, message, now, limited=True
+        )
 
     def _end(self, part: _Participation, now: float) -> None:
         owner = part.owner

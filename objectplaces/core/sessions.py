@@ -154,12 +154,17 @@ class SessionTable:
                 self.stop(session.sid, now)
 
     def send(self, sid: str, participant: ParticipantRef, message: Any, now: float) -> bool:
-        """Send a role message to a joined member; False when it is none (nothing sent).
+        """Send a role message to a joined member.
+
+        Returns:
+            False, with nothing sent, when ``participant`` is no joined member or its
+            channel's send buffer is full (docs/protocol.md §4).
 
         Raises:
-            LocalProtocolError: ``participant`` belongs to another session, or
-                ``message`` is not plain data (checked even when nothing is sent, so a
-                bad message fails the same way whatever the membership).
+            LocalProtocolError: ``participant`` belongs to another session.
+            NotPlainDataError, InvalidValueError: ``message`` is not plain data or too
+                large; checked even when nothing would be sent, so a bad message fails
+                the same way whatever the membership.
         """
         if participant.session_id != sid:
             raise LocalProtocolError(f"{participant} is not a participant of {sid!r}")
@@ -168,8 +173,8 @@ class SessionTable:
         if session is None or member is None or not member.joined:
             codec.encode_value(message)
             return False
-        self._channels.send(member.node, member.channel, FrameKind.ROLE, message, now)
-        return True
+        channel = member.channel
+        return self._channels.send(member.node, channel, FrameKind.ROLE, message, now, limited=True)
 
     def members_of(self, sid: str) -> frozenset[ParticipantRef]:
         """The joined members of a session (empty once it stopped)."""
@@ -314,23 +319,22 @@ class SessionTable:
             case _:
                 self._outbox.count("dropped_unexpected_frame")
 
-    def on_ack(self, source: str, ack: ChannelAck) -> None:
+    def on_ack(self, source: str, ack: ChannelAck, now: float) -> None:
         """A participant acknowledged frames of one of our channels."""
         session = self._sessions.get(ack.session)
         member = None if session is None else session.members.get(source)
         if member is not None and member.epoch == ack.epoch:
-            member.channel.on_ack(ack.ack)
+            self._channels.on_ack(source, member.channel, ack.ack, now)
             return
         closing = None if session is None else session.closing.get((source, ack.epoch))
         if session is None or closing is None:
             self._outbox.count("dropped_stray_ack")
             return
-        if closing is not None:
-            closing.on_ack(ack.ack)
-            if closing.idle:
-                del session.closing[(source, ack.epoch)]
-                closing.closed = True
-                self._maybe_forget(session)
+        self._channels.on_ack(source, closing, ack.ack, now)
+        if closing.idle:
+            del session.closing[(source, ack.epoch)]
+            closing.closed = True
+            self._maybe_forget(session)
 
     def channel_broken(self, target: str, channel: Channel) -> None:
         """``target`` never acknowledged: it is gone from this channel's session."""

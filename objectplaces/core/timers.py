@@ -49,10 +49,12 @@ __all__ = [
 
 @dataclass(frozen=True, slots=True, eq=False)
 class Retransmit:
-    """Retransmit what is due on ``channel`` (one timer per channel, re-armed each time)."""
+    """Retransmit what is due on ``channel``: the one timer the channel has armed for
+    ``at`` (an earlier one replaces it when a new frame is due sooner)."""
 
     target: str
     channel: Channel
+    at: float
 
 
 @dataclass(frozen=True, slots=True)
@@ -122,7 +124,8 @@ def is_dead(action: TimerAction) -> bool:
     # Type checks, not a match: the driver asks this after every drain.
     kind = type(action)
     if kind is Retransmit:
-        return action.channel.closed  # type: ignore[union-attr]
+        channel = action.channel  # type: ignore[union-attr]
+        return channel.closed or channel.armed_at != action.at  # type: ignore[union-attr]
     if kind is RunTimer:
         return action.handle.cancelled  # type: ignore[union-attr]
     return False

@@ -137,7 +137,7 @@ def test_a_member_that_stops_matching_is_deactivated_and_its_late_frames_dropped
     assert called(side.outbox) == []  # guarantee 1: never delivered
     assert sent(side.outbox) == [("b", ChannelAck(True, 1, 1, 1))]  # but acked
     assert side.outbox.counters["dropped_non_member"] == 1
-    side.table.on_ack("b", ChannelAck(False, 1, 1, 1))
+    side.table.on_ack("b", ChannelAck(False, 1, 1, 1), now=0.0)
     assert side.table.counts()["closing_channels"] == 0
 
 
@@ -165,7 +165,7 @@ def test_stop_deactivates_everyone_and_the_session_goes_once_acked(side: Initiat
     assert side.table.role_of("a#1") is None
     with pytest.raises(LocalProtocolError, match="unknown session 'a#1'"):
         side.table.stop("a#1", now=1.0)
-    side.table.on_ack("b", ChannelAck(False, 1, 1, 1))
+    side.table.on_ack("b", ChannelAck(False, 1, 1, 1), now=0.0)
     assert side.table.counts() == {"sessions": 0, "members": 0, "closing_channels": 0}
 
 
