@@ -8,6 +8,9 @@ Frame layouts (type code first)::
     1  [1, seq, {name: value, ...}]                       property update, any values
     2  [2, seq, x_mm, y_mm(, hull_mm(, {name: value}))]   property update, compact
     3  [3]                                                leave
+    8  [8]                                                send me all your properties
+    9  like 1                                             property snapshot (all of them)
+    10 like 2                                             property snapshot, compact
     4  [4, session, epoch, seq, kind, payload]            channel data, to participant
     5  [5, session, epoch, seq, kind, payload]            channel data, to initiator
     6  [6, session, epoch, ack]                           ack of the to-participant stream
@@ -39,6 +42,7 @@ from objectplaces.core.messages import (
     FrameKind,
     Leave,
     Message,
+    PropertyRequest,
     PropertyUpdate,
     Unusable,
 )
@@ -73,10 +77,15 @@ MAX_COUNTER: Final = 2**53
 beyond any real run); a larger one is a hostile or broken peer's, refused on decode."""
 
 _PROPS, _COMPACT, _LEAVE, _TO_PART, _TO_INIT, _ACK_PART, _ACK_INIT = 1, 2, 3, 4, 5, 6, 7
+_REQUEST, _PROPS_FULL, _COMPACT_FULL = 8, 9, 10
+_FULL = {_PROPS: _PROPS_FULL, _COMPACT: _COMPACT_FULL}  # a snapshot's code, by layout
 _MM: Final = 1000.0
 _KIND_NAMES: Final = {
     _PROPS: "property",
     _COMPACT: "property",
+    _REQUEST: "property",
+    _PROPS_FULL: "property",
+    _COMPACT_FULL: "property",
     _LEAVE: "leave",
     _TO_PART: "channel",
     _TO_INIT: "channel",
@@ -129,9 +138,10 @@ def encode_value(value: Any) -> bytes:
 def _property_frame(update: PropertyUpdate) -> list[Any]:
     values = update.values
     position = _position_mm(values.get(POSITION))
+    full = update.full
     if position is None:
-        return [_PROPS, update.seq, dict(values)]
-    frame: list[Any] = [_COMPACT, update.seq, position[0], position[1]]
+        return [_PROPS_FULL if full else _PROPS, update.seq, dict(values)]
+    frame: list[Any] = [_COMPACT_FULL if full else _COMPACT, update.seq, position[0], position[1]]
     rest = {k: v for k, v in values.items() if k != POSITION}
     radius = _radius_mm(rest.get(RADIUS)) if RADIUS in rest else None
     if radius is not None:
@@ -160,6 +170,8 @@ def encode(message: Message) -> bytes:
             frame = [code, session, epoch, ack]
         case Leave():
             frame = [_LEAVE]
+        case PropertyRequest():
+            frame = [_REQUEST]
         case Unusable():
             raise InvalidValueError(f"a refused frame is never sent: {message!r}")
         case _:
@@ -218,7 +230,7 @@ def _names(values: Any) -> dict[str, Any]:
     return values
 
 
-def _decode_compact(frame: list[Any]) -> PropertyUpdate:
+def _decode_compact(frame: list[Any], full: bool) -> PropertyUpdate:
     if not 4 <= len(frame) <= 6:
         raise DecodeError(f"compact property frame has {len(frame)} fields, expected 4-6")
     values: dict[str, Any] = {}
@@ -227,7 +239,7 @@ def _decode_compact(frame: list[Any]) -> PropertyUpdate:
     values[POSITION] = (_mm(frame[2], "x"), _mm(frame[3], "y"))
     if len(frame) >= 5 and frame[4] is not None:
         values[RADIUS] = _mm(frame[4], "hull length")
-    return PropertyUpdate(_uint(frame[1], "seq"), values)
+    return PropertyUpdate(_uint(frame[1], "seq"), values, full)
 
 
 def _decode_channel(frame: list[Any]) -> ChannelData:
@@ -289,20 +301,21 @@ def decode(data: bytes, *, max_size: int = DEFAULT_MAX_FRAME) -> Message:
     """
     frame = unpack_frame(data, max_size=max_size)
     match frame[0]:
-        case 1 | 2:
+        case 1 | 2 | 9 | 10:
+            full = frame[0] >= _PROPS_FULL
             try:
-                if frame[0] == 2:
-                    return _decode_compact(frame)
+                if frame[0] in (_COMPACT, _COMPACT_FULL):
+                    return _decode_compact(frame, full)
                 if len(frame) != 3:
                     raise DecodeError(f"property frame has {len(frame)} fields, expected 3")
-                return PropertyUpdate(_uint(frame[1], "seq"), _names(frame[2]))
+                return PropertyUpdate(_uint(frame[1], "seq"), _names(frame[2]), full)
             except InvalidValueError as exc:
                 # Well-formed, but unusable: refused whole, without closing a link.
                 return Unusable(str(exc))
-        case 3:
+        case 3 | 8:
             if len(frame) != 1:
-                raise DecodeError(f"leave frame has {len(frame)} fields, expected 1")
-            return Leave()
+                raise DecodeError(f"frame of type {frame[0]} has {len(frame)} fields, expected 1")
+            return Leave() if frame[0] == _LEAVE else PropertyRequest()
         case 4 | 5:
             return _decode_channel(frame)
         case 6 | 7:

@@ -2,7 +2,8 @@
 
 Two families travel between nodes:
 
-* property dissemination (unreliable, newest wins): ``PropertyUpdate`` and ``Leave``;
+* property dissemination (unreliable, newest wins): ``PropertyUpdate``,
+  ``PropertyRequest`` and ``Leave``;
 * session channels (reliable, FIFO per initiator-participant pair): ``ChannelData``
   carrying a ``FrameKind`` and ``ChannelAck``.
 
@@ -25,6 +26,7 @@ __all__ = [
     "FrameKind",
     "Leave",
     "Message",
+    "PropertyRequest",
     "PropertyUpdate",
     "Unusable",
     "kind_of",
@@ -49,10 +51,19 @@ class PropertyUpdate:
         seq: the sender's publication counter; per property, the highest seq wins.
         values: property name -> value (only the names that changed, or all of them
             when republished).
+        full: a snapshot: ``values`` holds every property the sender has. A receiver
+            that holds a node from deltas only asks it for a snapshot
+            (``PropertyRequest``), so it never computes with half a node.
     """
 
     seq: int
     values: Mapping[str, Any]
+    full: bool = False
+
+
+@dataclass(frozen=True, slots=True)
+class PropertyRequest:
+    """ "Send me all your properties": the answer is a snapshot, to the asker alone."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -111,7 +122,7 @@ class ChannelAck:
     ack: int
 
 
-Message: TypeAlias = PropertyUpdate | Leave | ChannelData | ChannelAck | Unusable
+Message: TypeAlias = PropertyUpdate | PropertyRequest | Leave | ChannelData | ChannelAck | Unusable
 
 
 KIND_NAMES: Final[Mapping[type, str]] = {
@@ -120,6 +131,7 @@ KIND_NAMES: Final[Mapping[type, str]] = {
     ChannelAck: "ack",
     Leave: "leave",
     Unusable: "property",
+    PropertyRequest: "property",
 }
 """Message type -> its family's name in statistics (a dict: it is read for every frame)."""
 

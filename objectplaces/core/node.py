@@ -47,6 +47,7 @@ from objectplaces.core.messages import (
     ChannelData,
     Leave,
     Message,
+    PropertyRequest,
     PropertyUpdate,
     Unusable,
 )
@@ -98,16 +99,15 @@ class NodeMachine:
         self.config = config = config or NodeConfig()
         self.space = space
         self._now = now
-        self._plumbing = plumbing = Plumbing.build(node_id, config)
+        plumbing = Plumbing.build(node_id, config)
         self._outbox = outbox = plumbing.outbox
         self._timers = timers = plumbing.timers
         self._role_timers = plumbing.role_timers
         self._channels = plumbing.channels
         self._own = OwnProperties(config)
-        self._observers = observers = Observers(outbox)
-        self._view = PropertyView(
-            node_id, cell_size=config.cell_size, outbox=outbox, observers=observers
-        )
+        #: Where the application registers property and departure observers.
+        self.observers = observers = Observers(outbox)
+        self._view = PropertyView(plumbing, observers=observers)
         self._sessions = SessionTable(
             plumbing,
             view=self._view,
@@ -197,6 +197,9 @@ class NodeMachine:
             case ChannelAck():
                 self._view.heard(source, now)
                 self._sessions.on_ack(source, message, now)
+            case PropertyRequest():
+                self._view.heard(source, now)
+                self.send_properties_to(source, now)
             case Leave():
                 self._depart(source, "left")
             case Unusable(reason):
@@ -243,7 +246,7 @@ class NodeMachine:
         """
         value = self._own.set(name, value)
         self._now = now
-        self._observers.property_changed(self.node_id, name, value)
+        self.observers.property_changed(self.node_id, name, value)
         if name == POSITION:
             cells = self._own.new_subscription()
             if cells is not None:
@@ -264,11 +267,6 @@ class NodeMachine:
     def view_group(self, definition: DefinitionLike) -> frozenset[str]:
         """Resolve ``definition`` over the local view, without sending anything."""
         return self._view.group(definition, self._own.unwrapped)
-
-    @property
-    def observers(self) -> Observers:
-        """Where the application registers property and departure observers."""
-        return self._observers
 
     def _on_properties(self, source: str, update: PropertyUpdate, now: float) -> None:
         view = self._view
@@ -292,7 +290,7 @@ class NodeMachine:
         self._participations.initiator_gone(node, self._now)
         if known:
             self._outbox.count(f"departed_{reason}")
-            self._observers.departed(node, last or {})
+            self.observers.departed(node, last or {})
 
     # ------------------------------------------------------------------ sessions
 

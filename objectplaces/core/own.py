@@ -7,7 +7,8 @@ hull length set together cost one ~14-byte compact frame (§1), not two.
 
 Every frame carries a fresh per-node sequence number, including a frame sent to one
 peer only (``full_update_for``): receivers keep per property the highest number seen,
-so numbers must never repeat within a run.
+so numbers must never repeat within a run. A frame that carries every property is
+marked a *snapshot*: a receiver holding a node from deltas only asks for one (§5).
 
 Where a frame goes depends on dissemination (§5). Without an interest radius it is
 broadcast. With one, it is published to the cell the node is in; when the node has just
@@ -124,29 +125,38 @@ class OwnProperties:
         return value
 
     def take_update(self) -> Output | None:
-        """The frame that publishes every pending change (None when nothing is pending)."""
+        """The frame that publishes every pending change (None when nothing is pending).
+
+        It is a snapshot (every value, marked full) when it carries everything anyway,
+        and when it goes to a cell this node was not publishing in: that cell's
+        subscribers may never have heard of it, and must not hold half of it (§5).
+        """
         if not self._dirty:
             return None
         dirty, self._dirty = self._dirty, {}
         self.pending = False
-        return self._publication(dirty)
+        scoped = self._config.interest_radius is not None
+        if len(dirty) == len(self._values) or (scoped and self._cell() != self._published_cell):
+            return self._publication(self._values, full=True)
+        return self._publication(dirty, full=False)
 
     def republish(self) -> Output | None:
-        """The heartbeat: a frame with every value (pending changes included)."""
+        """The heartbeat: a snapshot of every value (pending changes included)."""
         self._dirty = {}
         self.pending = False
-        return self._publication(self._values) if self._values else None
+        return self._publication(self._values, full=True) if self._values else None
 
     def full_update_for(self, peer: str) -> Send | None:
-        """Every value, for one peer (a newcomer, or a new subscriber of our cell)."""
+        """A snapshot for one peer (a newcomer, a new subscriber of our cell, an asker)."""
         if not self._values:
             return None
         self._seq += 1
-        return Send(peer, codec.encode(PropertyUpdate(self._seq, dict(self._values))), "property")
+        update = PropertyUpdate(self._seq, dict(self._values), full=True)
+        return Send(peer, codec.encode(update), "property")
 
-    def _publication(self, values: Mapping[str, Any]) -> Output:
+    def _publication(self, values: Mapping[str, Any], *, full: bool) -> Output:
         self._seq += 1
-        data = codec.encode(PropertyUpdate(self._seq, dict(values)))
+        data = codec.encode(PropertyUpdate(self._seq, dict(values), full))
         cell = self._cell()
         if self._config.interest_radius is None or cell is None:
             return Broadcast(data, "property")

@@ -17,6 +17,11 @@ one part and are forgotten together:
 * **the scope** (§5): under scoped dissemination the node hears only the cells it
   subscribes to. A node seen moving out of those cells is forgotten at once, because
   no later update would ever correct its stale position.
+* **completeness** (§5): a node heard only in deltas may be missing properties that
+  did not change lately (its hull length, say: then ``circles_overlap`` takes it for a
+  point and misses a true member). Until a snapshot of it arrives, the view asks it
+  for one, at most once per ``SNAPSHOT_RETRY``; with or without a heartbeat, a node
+  newly heard is complete within one round trip.
 
 The view hands out read-only mappings (``mapping``): callers may keep and read them,
 never change the machine's state through them.
@@ -32,34 +37,42 @@ import logging
 import math
 from collections.abc import Iterable, Mapping
 from types import MappingProxyType
-from typing import Any
+from typing import Any, Final
 
+from objectplaces.core import codec
 from objectplaces.core.groups import DefinitionLike, GroupDefinition
-from objectplaces.core.messages import PropertyUpdate
+from objectplaces.core.messages import PropertyRequest, PropertyUpdate
 from objectplaces.core.observers import Observers
-from objectplaces.core.outbox import Outbox
+from objectplaces.core.plumbing import Plumbing
 from objectplaces.core.spatial import GridIndex, RunningMax
 from objectplaces.core.values import POSITION
 
-__all__ = ["Cell", "PropertyView"]
+__all__ = ["SNAPSHOT_RETRY", "Cell", "PropertyView"]
 
 log = logging.getLogger("objectplaces")
 
 Cell = tuple[int, int]
+
+_REQUEST: Final = codec.encode(PropertyRequest())
+
+SNAPSHOT_RETRY: Final = 1.0
+"""Seconds before an incomplete node is asked for a snapshot again (the first ask, and
+the answer, cost one round trip; a lost one is repaired by the next delta after this)."""
 
 
 class PropertyView:
     """The latest known properties of every other node this node hears.
 
     Args:
-        node_id: the owning node's id (for log lines).
-        cell_size: side of the index's and the scope's grid cells.
-        outbox: where counters go.
+        plumbing: the node's id (for log lines), cell size (of the index and the
+            scope), and the outbox counters and snapshot requests go to.
         observers: told of every changed property.
     """
 
     __slots__ = (
+        "_asked",
         "_cell_size",
+        "_complete",
         "_heard",
         "_indexes",
         "_maxima",
@@ -74,12 +87,10 @@ class PropertyView:
         "scoped",
     )
 
-    def __init__(
-        self, node_id: str, *, cell_size: float, outbox: Outbox, observers: Observers
-    ) -> None:
-        self._node_id = node_id
-        self._cell_size = cell_size
-        self._outbox = outbox
+    def __init__(self, plumbing: Plumbing, *, observers: Observers) -> None:
+        self._node_id = plumbing.node_id
+        self._cell_size = plumbing.config.cell_size
+        self._outbox = plumbing.outbox
         self._observers = observers
         self._props: dict[str, dict[str, Any]] = {}
         # One read-only proxy per node, made once: handing out the view costs O(1).
@@ -90,6 +101,8 @@ class PropertyView:
         self._indexes: dict[str, GridIndex] = {}
         self._maxima: dict[str, RunningMax] = {}
         self._scope: frozenset[Cell] | None = None
+        self._complete: set[str] = set()  # nodes heard in a snapshot since they came in
+        self._asked: dict[str, float] = {}  # when each incomplete node was last asked
         #: Whether this node hears only some cells (a plain attribute: read per update).
         self.scoped = False
 
@@ -137,6 +150,10 @@ class PropertyView:
             props = self._props[source] = {}
             self._proxies[source] = MappingProxyType(props)
             self._seqs[source] = {}
+        if update.full:
+            self._complete.add(source)
+        elif source not in self._complete:
+            self._want_snapshot(source, now)
         seqs = self._seqs[source]
         seq = update.seq
         changed = False
@@ -155,6 +172,14 @@ class PropertyView:
                 observers.property_changed(source, name, value)
         return changed
 
+    def _want_snapshot(self, node: str, now: float) -> None:
+        # Heard only in deltas: some of its properties may be missing (§5). Ask, but
+        # not again within SNAPSHOT_RETRY: the answer may simply still be on its way.
+        asked = self._asked.get(node)
+        if asked is None or now - asked >= SNAPSHOT_RETRY:
+            self._asked[node] = now
+            self._outbox.send(node, _REQUEST, "property")
+
     def _index(self, node: str, name: str, value: Any) -> None:
         index = self._indexes.get(name)
         if index is not None:
@@ -172,6 +197,8 @@ class PropertyView:
         self._proxies.pop(node, None)
         self._seqs.pop(node, None)
         self._heard.pop(node, None)
+        self._complete.discard(node)
+        self._asked.pop(node, None)
         for index in self._indexes.values():
             index.remove(node)
         for maximum in self._maxima.values():

@@ -18,6 +18,7 @@ from objectplaces.core.messages import (
     ChannelData,
     FrameKind,
     Leave,
+    PropertyRequest,
     PropertyUpdate,
     Unusable,
 )
@@ -68,6 +69,9 @@ def test_position_is_rounded_to_millimetres_and_normalising_matches_the_wire() -
         ChannelAck(True, 5, 1, 17),
         ChannelAck(False, 5, 1, 0),
         PropertyUpdate(0, {"a": [1, 2], "b": None}),
+        PropertyUpdate(3, {"a": 1}, full=True),
+        PropertyUpdate(4, {"position": (1.0, 2.0), "hull_length": 0.5}, full=True),
+        PropertyRequest(),
     ],
 )
 def test_round_trip(message: object) -> None:

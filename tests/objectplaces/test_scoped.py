@@ -75,3 +75,36 @@ def test_a_newcomer_learns_its_neighbourhood_within_one_delay(radius: float | No
     place(new, 8.0, 3.0)
     net.run_for(0.05)
     assert new.view()["old"]["position"] == (3.0, 3.0)
+
+
+def final_members(interest_radius: float | None, seed: int) -> dict[str, frozenset[str]]:
+    """The random walk of ``scenario`` with a 10 m interest radius, no heartbeat; each
+    session's members at the end, from the initiators' own introspection."""
+    rng = random.Random(seed)
+    net = SimulatedNetwork(seed=seed, delay=0.01, cell_size=5.0)
+    names = [f"n{i:02d}" for i in range(60)]
+    pos = {n: [rng.uniform(0, 80), rng.uniform(0, 80)] for n in names}
+    radius = {n: rng.uniform(1.0, 5.0) for n in names}
+    nodes = {n: net.add_node(n, interest_radius=interest_radius) for n in names}
+    for n, node in nodes.items():
+        node.set_participant_factory("voter", lambda: RecordingParticipant([]))
+        place(node, pos[n][0], pos[n][1], radius[n])
+    net.run_for(0.5)
+    for n in names[::5]:
+        nodes[n].start_interaction(RecordingInitiator(), groups.circles_overlap(), "voter")
+    for _ in range(100):
+        for n in names:
+            pos[n][0] = min(80.0, max(0.0, pos[n][0] + rng.uniform(-1.5, 1.5)))
+            pos[n][1] = min(80.0, max(0.0, pos[n][1] + rng.uniform(-1.5, 1.5)))
+            nodes[n].update_node_property("position", tuple(pos[n]))
+        net.run_for(0.2)
+    net.run_for(1.0)
+    return {n: nodes[n].sessions()[0].members for n in names[::5]}
+
+
+def test_without_a_heartbeat_scoped_dissemination_still_finds_every_member() -> None:
+    print(f"OP_SEED={SEED}")
+    full = final_members(None, SEED)
+    scoped = final_members(10.0, SEED)
+    assert sum(len(m) for m in full.values()) >= 5  # the scenario exercises groups
+    assert scoped == full

@@ -11,7 +11,14 @@ from objectplaces.core import codec
 from objectplaces.core.config import NodeConfig
 from objectplaces.core.errors import LocalProtocolError
 from objectplaces.core.events import Broadcast, Send, Subscribe
-from objectplaces.core.messages import ChannelAck, ChannelData, FrameKind, Leave, PropertyUpdate
+from objectplaces.core.messages import (
+    ChannelAck,
+    ChannelData,
+    FrameKind,
+    Leave,
+    PropertyRequest,
+    PropertyUpdate,
+)
 from objectplaces.core.node import NodeMachine
 
 from .wire import Wire
@@ -75,7 +82,7 @@ def test_a_property_update_is_one_compact_frame_with_a_fresh_sequence_number() -
     [frame] = a.messages_to_send()
     assert isinstance(frame, Broadcast)
     assert codec.decode(frame.data) == PropertyUpdate(
-        1, {"position": (1.0, 2.0), "hull_length": 2.5}
+        1, {"position": (1.0, 2.0), "hull_length": 2.5}, full=True
     )
     assert len(frame.data) <= 16  # the paper's budget for a position update
     assert a.messages_to_send() == []
@@ -85,7 +92,7 @@ def test_a_frame_in_moves_the_view_and_queues_observer_callbacks() -> None:
     a = NodeMachine("a")
     seen: Log = []
     a.observers.add_property(lambda *args: seen.append(args))
-    a.receive("b", codec.encode(PropertyUpdate(3, {"status": "idle"})), now=1.0)
+    a.receive("b", codec.encode(PropertyUpdate(3, {"status": "idle"}, full=True)), now=1.0)
     assert seen == []  # observers are application code: they run when the driver drains
     for event in a.events_received():
         event.fn(*event.args)
@@ -258,4 +265,51 @@ def test_send_properties_to_a_newcomer_carries_everything() -> None:
     [sent] = a.messages_to_send()
     assert isinstance(sent, Send)
     assert sent.target == "late"
-    assert codec.decode(sent.data) == PropertyUpdate(2, {"status": "idle", "position": (3.0, 4.0)})
+    assert codec.decode(sent.data) == PropertyUpdate(
+        2, {"status": "idle", "position": (3.0, 4.0)}, full=True
+    )
+
+
+def test_a_node_heard_only_in_deltas_is_asked_for_a_snapshot_once_per_retry() -> None:
+    a = NodeMachine("a")
+    a.messages_to_send()
+    a.receive("b", codec.encode(PropertyUpdate(5, {"position": (1.0, 0.0)})), now=1.0)
+    [ask] = a.messages_to_send()
+    assert ask == Send("b", codec.encode(PropertyRequest()), "property")
+    a.receive("b", codec.encode(PropertyUpdate(6, {"position": (2.0, 0.0)})), now=1.5)
+    assert a.messages_to_send() == []  # the answer may still be on its way
+    a.receive("b", codec.encode(PropertyUpdate(7, {"position": (3.0, 0.0)})), now=2.0)
+    assert a.messages_to_send() == [ask]  # SNAPSHOT_RETRY (1 s) later: ask again
+    a.receive("b", codec.encode(PropertyUpdate(4, {"hull_length": 2.0}, full=True)), now=2.1)
+    a.receive("b", codec.encode(PropertyUpdate(9, {"position": (4.0, 0.0)})), now=5.0)
+    assert a.messages_to_send() == []  # complete now: deltas are enough
+    assert a.view()["b"] == {"position": (4.0, 0.0), "hull_length": 2.0}
+
+
+def test_a_request_is_answered_with_a_snapshot_to_the_asker_alone() -> None:
+    b = NodeMachine("b")
+    b.update_property("status", "idle", now=0.0)
+    b.update_property("hull_length", 2.0, now=0.0)
+    b.messages_to_send()
+    b.receive("a", codec.encode(PropertyRequest()), now=1.0)
+    [answer] = b.messages_to_send()
+    assert isinstance(answer, Send)
+    assert answer.target == "a"
+    assert codec.decode(answer.data) == PropertyUpdate(
+        2, {"status": "idle", "hull_length": 2.0}, full=True
+    )
+
+
+def test_a_missed_hull_length_is_repaired_within_one_round_trip_without_heartbeat() -> None:
+    a, b = NodeMachine("a"), NodeMachine("b")
+    wire = Wire(a, b)
+    wire.cut.add(("b", "a"))
+    b.update_property("position", (1.0, 0.0), now=0.0)
+    b.update_property("hull_length", 2.5, now=0.0)
+    wire.settle()  # lost on the way: a never heard of b
+    wire.cut.clear()
+    b.update_property("position", (1.5, 0.0), now=1.0)  # a delta: position only
+    wire.settle()
+    assert a.view()["b"] == {"position": (1.5, 0.0), "hull_length": 2.5}
+    asks = wire.frames("a", "b", PropertyRequest)
+    assert asks == [PropertyRequest()]

@@ -25,7 +25,8 @@ def test_changes_in_one_instant_leave_as_one_frame() -> None:
     assert own.pending
     update = own.take_update()
     assert isinstance(update, Broadcast)
-    assert decoded(update) == PropertyUpdate(1, {"status": "busy", "kind": "agv"})
+    # Everything there is: a snapshot, which spares receivers a request (§5).
+    assert decoded(update) == PropertyUpdate(1, {"status": "busy", "kind": "agv"}, full=True)
     assert not own.pending
     assert own.take_update() is None
 
@@ -35,11 +36,13 @@ def test_every_frame_gets_a_new_sequence_number_and_republish_sends_everything()
     own.set("a", 1)
     own.take_update()
     own.set("b", 2)
-    assert decoded(own.full_update_for("x")) == PropertyUpdate(2, {"a": 1, "b": 2})
-    assert decoded(own.republish()) == PropertyUpdate(3, {"a": 1, "b": 2})
+    assert decoded(own.full_update_for("x")) == PropertyUpdate(2, {"a": 1, "b": 2}, full=True)
+    assert decoded(own.republish()) == PropertyUpdate(3, {"a": 1, "b": 2}, full=True)
+    own.set("b", 3)
+    assert decoded(own.take_update()) == PropertyUpdate(4, {"b": 3})  # a delta
     assert not own.pending  # the republication carried the pending change
     assert own.take_update() is None
-    assert decoded(own.republish()).seq == 4
+    assert decoded(own.republish()).seq == 5
 
 
 def test_nothing_to_republish_or_sync_before_any_property() -> None:
@@ -54,14 +57,20 @@ def test_a_move_to_another_cell_is_published_to_both_cells() -> None:
     first = own.take_update()
     assert isinstance(first, Publish)
     assert first.cells == ((0, 0),)
+    own.set("status", "idle")
+    own.take_update()
     own.set("position", (15.0, 5.0))
     moved = own.take_update()
     assert isinstance(moved, Publish)
     assert moved.cells == ((1, 0), (0, 0))  # the old cell's subscribers learn it left
+    # and the new cell's may never have heard of it: they get everything.
+    assert decoded(moved).full
+    assert dict(decoded(moved).values) == {"position": (15.0, 5.0), "status": "idle"}
     own.set("position", (16.0, 5.0))
     same = own.take_update()
     assert isinstance(same, Publish)
     assert same.cells == ((1, 0),)
+    assert decoded(same) == PropertyUpdate(4, {"position": (16.0, 5.0)})
 
 
 def test_without_a_position_a_scoped_node_broadcasts() -> None:

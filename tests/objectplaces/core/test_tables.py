@@ -64,11 +64,9 @@ class Host:
 
 class InitiatorSide:
     def __init__(self) -> None:
-        self.plumbing = Plumbing.build("a", NodeConfig())
+        self.plumbing = Plumbing.build("a", NodeConfig(cell_size=10.0))
         self.outbox, self.timers = self.plumbing.outbox, self.plumbing.timers
-        self.view = PropertyView(
-            "a", cell_size=10.0, outbox=self.outbox, observers=Observers(self.outbox)
-        )
+        self.view = PropertyView(self.plumbing, observers=Observers(self.outbox))
         self.own = {"position": (0.0, 0.0)}
         self.host = Host(self.plumbing)
         self.table = SessionTable(
@@ -79,7 +77,7 @@ class InitiatorSide:
         )
 
     def place(self, node: str, seq: int, x: float) -> None:
-        self.view.apply(node, PropertyUpdate(seq, {"position": (x, 0.0)}), now=0.0)
+        self.view.apply(node, PropertyUpdate(seq, {"position": (x, 0.0)}, full=True), now=0.0)
         self.table.node_changed(node, now=0.0)
 
     def answer(self, node: str, seq: int, kind: FrameKind, epoch: int = 1) -> None:
@@ -89,8 +87,8 @@ class InitiatorSide:
 @pytest.fixture
 def side() -> InitiatorSide:
     s = InitiatorSide()
-    s.view.apply("b", PropertyUpdate(1, {"position": (1.0, 0.0)}), now=0.0)
-    s.view.apply("c", PropertyUpdate(1, {"position": (50.0, 0.0)}), now=0.0)
+    s.view.apply("b", PropertyUpdate(1, {"position": (1.0, 0.0)}, full=True), now=0.0)
+    s.view.apply("c", PropertyUpdate(1, {"position": (50.0, 0.0)}, full=True), now=0.0)
     return s
 
 

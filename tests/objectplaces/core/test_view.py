@@ -9,23 +9,25 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from objectplaces import groups
+from objectplaces.core.config import NodeConfig
 from objectplaces.core.messages import PropertyUpdate
 from objectplaces.core.observers import Observers
-from objectplaces.core.outbox import Outbox
+from objectplaces.core.plumbing import Plumbing
 from objectplaces.core.view import PropertyView
 
 
-def view() -> PropertyView:
-    outbox = Outbox()
-    return PropertyView("me", cell_size=10.0, outbox=outbox, observers=Observers(outbox))
+def view(plumbing: Plumbing | None = None) -> PropertyView:
+    plumbing = plumbing or Plumbing.build("me", NodeConfig(cell_size=10.0))
+    return PropertyView(plumbing, observers=Observers(plumbing.outbox))
 
 
 def test_newest_wins_per_property_not_per_frame_and_observers_hear_each_change() -> None:
-    outbox = Outbox()
+    plumbing = Plumbing.build("me", NodeConfig(cell_size=10.0))
+    outbox = plumbing.outbox
     observers = Observers(outbox)
     seen: list[tuple[str, str, Any]] = []
     observers.add_property(lambda *args: seen.append(args))
-    v = PropertyView("me", cell_size=10.0, outbox=outbox, observers=observers)
+    v = PropertyView(plumbing, observers=observers)
     assert v.apply("b", PropertyUpdate(5, {"status": "busy"}), now=1.0)
     # An older republication carries every property: only the ones not newer count.
     assert v.apply("b", PropertyUpdate(4, {"status": "idle", "kind": "agv"}), now=2.0)
@@ -94,8 +96,9 @@ def test_a_radius_grows_the_reach_of_circles_overlap() -> None:
 
 
 def test_a_raising_definition_counts_as_no_match_and_is_counted() -> None:
-    outbox = Outbox()
-    v = PropertyView("me", cell_size=10.0, outbox=outbox, observers=Observers(outbox))
+    plumbing = Plumbing.build("me", NodeConfig(cell_size=10.0))
+    outbox = plumbing.outbox
+    v = view(plumbing)
     v.apply("b", PropertyUpdate(1, {"status": "idle"}), now=0.0)
 
     def broken(mine: Any, theirs: Any) -> bool:
