@@ -13,13 +13,15 @@ import sys
 import time
 from pathlib import Path
 
-from agv_app.fleet.sim import Fleet, FleetConfig, parking_capacity
+from agv_app.fleet.parking import parking_capacity
+from agv_app.fleet.sim import Fleet, FleetConfig
 from agv_app.layout.graph import Layout, LayoutError
 from agv_app.layout.json_format import load_any
 
 __all__ = ["DEFAULT_AGVS", "SAFETY_KEYS", "fleet_size", "register", "run_sim"]
 
 SAFETY_KEYS = ("collisions", "lock_overlaps", "deadlocks")
+"""Figures that must all be zero for a run to pass."""
 DEFAULT_AGVS = 20
 
 
@@ -46,9 +48,6 @@ def fleet_size(layout: Layout | None, asked: int | None) -> int:
             "fewer, or add parking stations"
         )
     return asked
-
-
-"""Figures that must all be zero for a run to pass."""
 
 
 def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:

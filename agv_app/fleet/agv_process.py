@@ -35,15 +35,15 @@ import time
 from pathlib import Path
 from typing import Any
 
+from agv_app.fleet.parking import home_heading
 from agv_app.geometry import Area, polygon_to_coords
 from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
-from agv_app.layout.graph import Layout
 from agv_app.vehicle.controller import AgvConfig, AgvController
 from agv_app.vehicle.kinematics import VehicleSpec
 from objectplaces.core.errors import LocalProtocolError
 from objectplaces.mesh import MeshNode, start_node
 
-__all__ = ["DisplayPublisher", "home_heading", "main", "parse_args", "run"]
+__all__ = ["DisplayPublisher", "main", "parse_args", "run"]
 
 _PARENT_CHECK_S = 1.0
 _MAX_LAG_S = 1.0
@@ -54,19 +54,6 @@ def _emit(event: str, **fields: Any) -> None:
     record = {"event": event, "t": time.monotonic(), **fields}
     sys.stdout.write(json.dumps(record, default=repr) + "\n")
     sys.stdout.flush()
-
-
-def home_heading(layout: Layout, point: str) -> float:
-    """The heading of a vehicle parked at ``point``: along the way into it.
-
-    The simulated fleet parks its vehicles the same way, so both look alike.
-    """
-    p = layout.point(point)
-    preds = [q for q in layout.neighbours(point) if point in layout.successors(q)]
-    if not preds:
-        return 0.0
-    q = layout.point(preds[0])
-    return math.atan2(p.y - q.y, p.x - q.x)
 
 
 def _area_coords(areas: list[Area]) -> list[list[list[float]]]:

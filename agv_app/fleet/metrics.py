@@ -1,42 +1,31 @@
 """Fleet figures: throughput, task times, shares of idle and waiting time, traffic.
 
-Collected by :class:`~agv_app.fleet.Fleet` while it runs; :meth:`FleetMetrics.summary`
-turns them into the flat dictionary that ``objectplaces sim`` prints and writes.
+Collected by :class:`~agv_app.fleet.Fleet` while it runs (the task figures come from its
+:class:`~agv_app.tasks.book.TaskBook`); :meth:`FleetMetrics.summary` turns them into the
+flat dictionary that ``objectplaces sim`` prints and writes. Lock waits are
+:class:`~agv_app.samples.Samples`: memory stays bounded however long the run.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-__all__ = ["FleetMetrics", "percentile"]
+from agv_app.samples import Samples
+from agv_app.tasks.book import TaskBook
 
-
-def percentile(values: list[float], q: float) -> float:
-    """The ``q``-th percentile (0..100) by linear interpolation; 0 for no values."""
-    if not values:
-        return 0.0
-    xs = sorted(values)
-    k = (len(xs) - 1) * q / 100
-    lo, hi = math.floor(k), math.ceil(k)
-    return xs[lo] + (xs[hi] - xs[lo]) * (k - lo)
+__all__ = ["FleetMetrics"]
 
 
 @dataclass(slots=True)
 class FleetMetrics:
     """Raw counters of one run (times in simulated seconds)."""
 
-    tasks_created: int = 0
-    tasks_completed: int = 0
-    tasks_returned: int = 0
-    double_assignments: int = 0
-    task_times: list[float] = field(default_factory=list)
-    lock_waits: list[float] = field(default_factory=list)
+    lock_waits: Samples = field(default_factory=Samples)
+    """Seconds each granted lock request waited."""
     agv_seconds: float = 0.0
     idle_seconds: float = 0.0
     waiting_seconds: float = 0.0
-    deadlocks: int = 0
     protocol: dict[str, list[int]] = field(default_factory=dict)
     """Role message type -> [messages, bytes of payload]."""
 
@@ -49,6 +38,9 @@ class FleetMetrics:
     def summary(
         self,
         *,
+        tasks: TaskBook,
+        tasks_returned: int,
+        deadlocks: int,
         agvs: int,
         sim_seconds: float,
         wall_seconds: float,
@@ -63,41 +55,39 @@ class FleetMetrics:
         ``messages`` and ``bytes`` count every frame on the network (stations and
         observer included); the ``*_per_agv_per_s`` figures count what the AGVs' nodes
         sent (``agv_sent``: wire kind -> (frames, bytes)), per AGV and simulated second.
+        Means and maxima cover the whole run; percentiles the most recent values.
         """
         per = max(agvs, 1) * max(sim_seconds, 1e-9)
+        done, times, waits = tasks.counts["done"], tasks.durations, self.lock_waits
         out: dict[str, float] = {
             "agvs": agvs,
             "sim_seconds": round(sim_seconds, 3),
             "wall_seconds": round(wall_seconds, 3),
             "sim_speed": round(sim_seconds / wall_seconds, 2) if wall_seconds > 0 else 0.0,
-            "tasks_created": self.tasks_created,
-            "tasks_completed": self.tasks_completed,
-            "tasks_returned": self.tasks_returned,
-            "tasks_per_hour": round(self.tasks_completed * 3600 / max(sim_seconds, 1e-9), 2),
-            "task_time_mean": round(sum(self.task_times) / len(self.task_times), 2)
-            if self.task_times
-            else 0.0,
-            "task_time_p95": round(percentile(self.task_times, 95), 2),
+            "tasks_created": tasks.counts["created"],
+            "tasks_completed": done,
+            "tasks_returned": tasks_returned,
+            "tasks_per_hour": round(done * 3600 / max(sim_seconds, 1e-9), 2),
+            "task_time_mean": round(times.mean, 2),
+            "task_time_p95": round(times.percentile(95), 2),
             "idle_share": round(self.idle_seconds / self.agv_seconds, 4)
             if self.agv_seconds
             else 0.0,
             "waiting_share": round(self.waiting_seconds / self.agv_seconds, 4)
             if self.agv_seconds
             else 0.0,
-            "lock_wait_mean": round(sum(self.lock_waits) / len(self.lock_waits), 3)
-            if self.lock_waits
-            else 0.0,
-            "lock_wait_p95": round(percentile(self.lock_waits, 95), 3),
-            "lock_wait_max": round(max(self.lock_waits, default=0.0), 3),
-            "locks_granted": len(self.lock_waits),
+            "lock_wait_mean": round(waits.mean, 3),
+            "lock_wait_p95": round(waits.percentile(95), 3),
+            "lock_wait_max": round(waits.maximum, 3),
+            "locks_granted": waits.count,
             "messages": messages,
             "bytes": bytes_,
             "messages_per_agv_per_s": round(sum(v[0] for v in agv_sent.values()) / per, 3),
             "bytes_per_agv_per_s": round(sum(v[1] for v in agv_sent.values()) / per, 2),
             "collisions": collisions,
             "lock_overlaps": lock_overlaps,
-            "deadlocks": self.deadlocks,
-            "double_assignments": self.double_assignments,
+            "deadlocks": deadlocks,
+            "double_assignments": tasks.double_assignments,
         }
         for kind, (n, b) in sorted(agv_sent.items()):
             out[f"wire_{kind}_messages_per_agv_per_s"] = round(n / per, 3)

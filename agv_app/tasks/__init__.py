@@ -1,4 +1,6 @@
-"""Transport tasks: the auction among idle AGVs and the stations that run it."""
+"""Transport tasks: the auction among idle AGVs, the stations that run it, the task
+book that follows every task, and the desk that creates them.
+"""
 
 from __future__ import annotations
 
@@ -9,17 +11,35 @@ from agv_app.tasks.auction import (
     TaskSpec,
     bidder_group,
 )
+from agv_app.tasks.book import (
+    DEFAULT_HISTORY,
+    TASK_STATES,
+    TaskBook,
+    TaskRecord,
+    TaskState,
+)
+from agv_app.tasks.desk import (
+    TaskDesk,
+    drop_stations,
+    pick_stations,
+)
 from agv_app.tasks.station import (
-    STATION_KIND,
     Station,
 )
 
 __all__ = [
-    "STATION_KIND",
+    "DEFAULT_HISTORY",
+    "TASK_STATES",
     "Bidder",
     "Station",
     "TaskAgent",
     "TaskAnnouncer",
+    "TaskBook",
+    "TaskDesk",
+    "TaskRecord",
     "TaskSpec",
+    "TaskState",
     "bidder_group",
+    "drop_stations",
+    "pick_stations",
 ]

@@ -20,9 +20,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Protocol
 
-from agv_app.traffic.collision import AGV_KIND, MessageTally
+from agv_app.protocol import AGV_KIND, MessageTally, tally_send
 from objectplaces import Initiator, Participant, ParticipantRef, groups
-from objectplaces.core.codec import encode_value
 from objectplaces.groups import GroupDefinition
 from tuplespace import ANY
 
@@ -70,11 +69,6 @@ class TaskAgent(Protocol):
         ...
 
 
-def _tally_send(tally: MessageTally | None, kind: str, message: Any) -> None:
-    if tally is not None:
-        tally(kind, len(encode_value(message)))
-
-
 class TaskAnnouncer(Initiator):
     """Auctions one task among the session's members.
 
@@ -113,7 +107,7 @@ class TaskAnnouncer(Initiator):
         self._members[participant.node_id] = participant
         message = self.task.to_message()
         self.send(participant, message)
-        _tally_send(self._tally, "task", message)
+        tally_send(self._tally, "task", message)
 
     def out_group(self, participant: ParticipantRef) -> None:
         """A member left (busy, out of range or failed): its bid is void."""
@@ -137,7 +131,7 @@ class TaskAnnouncer(Initiator):
             ref = self._members.get(node_id)
             message = {"t": "award", "id": self.task.id}
             if ref is not None and self.send(ref, message):
-                _tally_send(self._tally, "award", message)
+                tally_send(self._tally, "award", message)
                 self.winner = node_id
                 # The award travels before the deactivation on the same FIFO channel.
                 self.stop()
@@ -200,4 +194,4 @@ class Bidder(Participant):
         self._bid = True
         message = {"t": "bid", "c": round(cost, 2)}
         self.send(message)
-        _tally_send(self._tally, "bid", message)
+        tally_send(self._tally, "bid", message)

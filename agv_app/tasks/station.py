@@ -15,14 +15,11 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 from agv_app.geometry import XY
+from agv_app.protocol import STATION_KIND, MessageTally
 from agv_app.tasks.auction import TaskAnnouncer, TaskSpec, bidder_group
-from agv_app.traffic.collision import MessageTally
 from objectplaces import RoleActivator, Session
 
-__all__ = ["STATION_KIND", "Station"]
-
-STATION_KIND = "station"
-"""Value of the ``kind`` property stations publish."""
+__all__ = ["Station"]
 
 
 class Station:
@@ -36,6 +33,8 @@ class Station:
         window: bidding window, seconds.
         widen_after: seconds without a bid before the range doubles.
         on_assigned: called with ``(task, agv)`` on every award.
+        on_returned: called with ``(task, agv)`` when a task comes back because its
+            AGV failed.
         tally: counts protocol messages.
     """
 
@@ -49,6 +48,7 @@ class Station:
         window: float = 1.5,
         widen_after: float = 10.0,
         on_assigned: Callable[[TaskSpec, str], None] | None = None,
+        on_returned: Callable[[TaskSpec, str], None] | None = None,
         tally: MessageTally | None = None,
     ) -> None:
         self.node = node
@@ -58,6 +58,7 @@ class Station:
         self.window = window
         self.widen_after = widen_after
         self._on_assigned = on_assigned
+        self._on_returned = on_returned
         self._tally = tally
         self.queue: deque[TaskSpec] = deque()
         self.assigned: dict[str, tuple[TaskSpec, str]] = {}
@@ -82,6 +83,26 @@ class Station:
         """Queue a task that appeared here; its auction starts when it is first in line."""
         self.queue.append(task)
         self._next()
+
+    def cancel(self, task_id: str) -> bool:
+        """Withdraw a queued task before its award (its auction stops if it runs).
+
+        Returns:
+            False if no task ``task_id`` is queued here (awarded already, or unknown).
+        """
+        task = next((t for t in self.queue if t.id == task_id), None)
+        if task is None:
+            return False
+        self.queue.remove(task)
+        announcer, session = self._announcer, self._session
+        if announcer is not None and session is not None and announcer.task.id == task_id:
+            # Stopping the session cancels its timers: no award can follow.
+            self.node.stop_interaction(session)
+            self._session = None
+            self._announcer = None
+            self._generation += 1
+            self._next()
+        return True
 
     def _next(self) -> None:
         if self._session is not None or not self.queue:
@@ -132,4 +153,6 @@ class Station:
                 del self.assigned[task_id]
                 self.returned += 1
                 self.queue.appendleft(task)
+                if self._on_returned is not None:
+                    self._on_returned(task, agv)
         self._next()

@@ -3,10 +3,8 @@
 from __future__ import annotations
 
 from agv_app.traffic.collision import (
-    AGV_KIND,
     LockBook,
     LockEntry,
-    MessageTally,
     Priority,
     RequestEntry,
     Requester,
@@ -29,11 +27,9 @@ from agv_app.traffic.monitor import (
 )
 
 __all__ = [
-    "AGV_KIND",
     "DEFAULT_CLEARANCE_M",
     "LockBook",
     "LockEntry",
-    "MessageTally",
     "Priority",
     "RequestEntry",
     "Requester",

@@ -53,16 +53,14 @@ from dataclasses import dataclass
 from typing import Any
 
 from agv_app.geometry import Area, coords_to_polygon, hull_length, overlaps, polygon_to_coords
+from agv_app.protocol import AGV_KIND, MessageTally, tally_send
 from objectplaces import Initiator, Participant, ParticipantRef, groups
-from objectplaces.core.codec import encode_value
 from objectplaces.groups import GroupDefinition
 from tuplespace import ANY, NotifyHandle, TupleSpace
 
 __all__ = [
-    "AGV_KIND",
     "LockBook",
     "LockEntry",
-    "MessageTally",
     "Priority",
     "RequestEntry",
     "Requester",
@@ -75,14 +73,8 @@ __all__ = [
     "stale_area",
 ]
 
-AGV_KIND = "agv"
-"""Value of the ``kind`` property every AGV publishes (stations publish others)."""
-
 Priority = tuple[float, str]
 """``(request start time, node id)``: smaller is higher; ties impossible across nodes."""
-
-MessageTally = Callable[[str, int], None]
-"""Counts one protocol message of a type and its encoded size in bytes."""
 
 
 def collision_group() -> GroupDefinition:
@@ -294,11 +286,6 @@ def _covers(circle: tuple[float, float, float] | None, area: Area) -> bool:
     return hull_length((x, y), [area]) <= r + _WIRE_GROWTH_M + 0.05
 
 
-def _tally_send(tally: MessageTally | None, kind: str, message: Any) -> None:
-    if tally is not None:
-        tally(kind, len(encode_value(message)))
-
-
 class Requester(Initiator):
     """Asks the collision group to allow one hull projection, then locks it.
 
@@ -353,7 +340,7 @@ class Requester(Initiator):
         """A new member (late joiners too) gets the request; the lock waits for its vote."""
         self._votes[participant.node_id] = False
         self.send(participant, self._message)
-        _tally_send(self._tally, "request", self._message)
+        tally_send(self._tally, "request", self._message)
 
     def out_group(self, participant: ParticipantRef) -> None:
         """A member left: its vote no longer counts.
@@ -507,7 +494,7 @@ class Voter(Participant):
             book.note_allowed(self.session_id, self._area, self._priority, keep=self._keep)
             message: dict[str, Any] = {"t": "allow"}
             self.send(message)
-            _tally_send(self._tally, "vote", message)
+            tally_send(self._tally, "vote", message)
             return
         if not self._watches:
             space: TupleSpace = self.space
@@ -524,7 +511,7 @@ class Voter(Participant):
             self._said = verdict
             message = {"t": "defer", "why": verdict}
             self.send(message)
-            _tally_send(self._tally, "vote", message)
+            tally_send(self._tally, "vote", message)
 
     def _schedule_recheck(self) -> None:
         def again() -> None:

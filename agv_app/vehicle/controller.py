@@ -24,12 +24,11 @@ from typing import Any
 
 from agv_app.geometry import Area, Polyline, Pose, hull_length, hull_projection, projection_ahead
 from agv_app.layout.graph import Layout
+from agv_app.protocol import AGV_KIND, MessageTally
 from agv_app.tasks.auction import Bidder, TaskSpec
 from agv_app.traffic.collision import (
-    AGV_KIND,
     LockBook,
     LockEntry,
-    MessageTally,
     RequestEntry,
     Requester,
     StaleRecord,
@@ -81,6 +80,7 @@ class AgvController:
         heading_rad: its heading where it starts.
         config: tunables.
         tally: counts protocol messages.
+        on_task_started: called with the task id when the AGV sets off with a task.
         on_task_done: called with the task id when a task is finished.
         on_lock_wait: called with the seconds a granted request waited.
         relocate: asked for another parking point when the idle AGV stands in someone's
@@ -98,6 +98,7 @@ class AgvController:
         heading_rad: float = 0.0,
         config: AgvConfig | None = None,
         tally: MessageTally | None = None,
+        on_task_started: Callable[[str], None] | None = None,
         on_task_done: Callable[[str], None] | None = None,
         on_lock_wait: Callable[[float], None] | None = None,
         relocate: Callable[[AgvController], str | None] | None = None,
@@ -107,6 +108,7 @@ class AgvController:
         self.home = home
         self.config = config or AgvConfig()
         self.tally = tally
+        self._on_task_started = on_task_started
         self._on_task_done = on_task_done
         self._on_lock_wait = on_lock_wait
         self._relocate = relocate
@@ -131,7 +133,7 @@ class AgvController:
         self._retry_at = 0.0
         self._next_release = 0.0
         self._released_at_s = 0.0
-        self._waiting_since: float | None = None
+        self._stalled = False
         self._first_try: tuple[float, float] | None = None
         self.node = node
         self.attach(node)
@@ -279,7 +281,7 @@ class AgvController:
     def _route_to(self, dest: str | None) -> None:
         """Start driving to point ``dest`` (None: stay), from the point we rest on."""
         self._dest = dest
-        self._waiting_since = None
+        self._stalled = False
         self._first_try = None
         if dest is None or dest == self.point:
             self._plan = None
@@ -312,10 +314,7 @@ class AgvController:
         if self._dest is not None:
             limit = self.book.lock_end(default=vehicle.s)
             moved = vehicle.step(dt, limit)
-            if moved > 0.0:
-                self._waiting_since = None
-            elif self._waiting_since is None:
-                self._waiting_since = now
+            self._stalled = moved == 0.0
             self._request_ahead(now)
             if now >= self._next_release:
                 self._next_release = now + self.config.t_update
@@ -327,12 +326,13 @@ class AgvController:
                 self._release()
                 self._arrived(now)
         else:
-            self._waiting_since = None
+            self._stalled = False
             self._idle(now)
 
-    def stalled_for(self, now: float) -> float:
-        """Seconds the AGV has wanted to move without moving (0 if moving or resting)."""
-        return 0.0 if self._waiting_since is None else now - self._waiting_since
+    @property
+    def stalled(self) -> bool:
+        """True while the AGV wants to move and did not move in its last step."""
+        return self._stalled
 
     def _request_ahead(self, now: float) -> None:
         if self._requester is not None or self._plan is None or now < self._retry_at:
@@ -438,6 +438,8 @@ class AgvController:
         elif self.pending_task is not None:
             self.task, self.pending_task = self.pending_task, None
             self.phase = "to_pick"
+            if self._on_task_started is not None:
+                self._on_task_started(self.task.id)
             self._route_to(self.layout.station(self.task.pick).point)
         elif self.phase != "home" or self.point != self.home:
             self._go_home()

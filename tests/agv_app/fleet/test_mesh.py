@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 from starlette.exceptions import StarletteDeprecationWarning
 
-from agv_app.fleet.mesh import OBSERVER_ID, MeshFleet
+from agv_app.fleet import OBSERVER_ID, MeshFleet
 from dashboard.app import create_app
 
 with warnings.catch_warnings():
@@ -85,6 +85,10 @@ async def test_agv_processes_take_a_task_and_are_reaped() -> None:
                 if math.dist(start, (now.x, now.y)) > 1.0:
                     break
                 await asyncio.sleep(0.1)
+        record = fleet.desk.book.get(task)
+        assert record is not None
+        assert record.vehicle == taken.id
+        assert record.state in ("driving", "done"), "seen setting off through the observer"
         fleet.check()
         metrics = fleet.metrics()
         assert metrics["tasks_created"] == 1

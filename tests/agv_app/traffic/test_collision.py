@@ -77,7 +77,7 @@ def test_head_on_on_a_bidirectional_lane_never_deadlocks(loss: float) -> None:
     cfg = config(loss=loss, reorder=0.1 if loss else 0.0)
     fleet = Fleet(head_on_lane(), cfg, homes=["B2", "A2"], starts=["A1", "B1"])
     run_until_home(fleet, 300.0)
-    assert fleet.metrics_raw.deadlocks == 0
+    assert fleet.stalls.deadlocks == 0
 
 
 def test_the_passage_through_a_two_way_lane_is_one_request() -> None:

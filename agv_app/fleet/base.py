@@ -1,0 +1,79 @@
+"""What both fleets answer alike for the dashboard's ``FleetSource`` protocol.
+
+:class:`FleetSourceBase` holds the floor plan, the :class:`~agv_app.tasks.desk.TaskDesk`
+and the pause flag, and answers from them; the simulated fleet and the mesh fleet add
+what differs (vehicles, nodes, time, metrics, creating tasks).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from typing import Any
+
+from agv_app.fleet.view import OBSERVER_ID
+from agv_app.layout.graph import Layout
+from agv_app.tasks.desk import TaskDesk
+from agv_app.tasks.station import Station
+from objectplaces import Initiator
+
+__all__ = ["FleetSourceBase"]
+
+
+class FleetSourceBase:
+    """The floor plan, the task desk and pausing, shared by both fleets.
+
+    Args:
+        layout: the floor plan.
+        desk: where the fleet's tasks are created and followed.
+    """
+
+    def __init__(self, layout: Layout, desk: TaskDesk) -> None:
+        self.layout = layout
+        self.desk = desk
+        self._paused = False
+
+    def layout_view(self) -> Layout:
+        """The floor plan."""
+        return self.layout
+
+    @property
+    def observer_id(self) -> str:
+        """The dashboard's observer node (no position)."""
+        return OBSERVER_ID
+
+    def initiator_roles(self) -> Mapping[str, Callable[[Mapping[str, Any]], Initiator]]:
+        """None: locks and awards belong to the fleet's own components, not to HTTP users."""
+        return {}
+
+    @property
+    def stations(self) -> Mapping[str, Station]:
+        """The pick stations' task-assignment components, by station id."""
+        return self.desk.stations
+
+    def cancel_task(self, task_id: str) -> None:
+        """Withdraw a task that no AGV holds yet.
+
+        Raises:
+            KeyError: no open task has that id.
+            ValueError: an AGV holds it.
+        """
+        self.desk.cancel(task_id)
+
+    @property
+    def open_tasks(self) -> list[str]:
+        """Ids of tasks created and not finished, oldest first."""
+        return self.desk.book.open_ids()
+
+    def pause(self) -> None:
+        """Pause: the simulated fleet stops its clock; the mesh fleet, whose AGV
+        processes run in real time, stops issuing automatic tasks."""
+        self._paused = True
+
+    def resume(self) -> None:
+        """Undo ``pause()``."""
+        self._paused = False
+
+    @property
+    def paused(self) -> bool:
+        """True between ``pause()`` and ``resume()``."""
+        return self._paused

@@ -1,0 +1,35 @@
+"""What every node of the AGV application agrees on, whichever role it plays.
+
+The ``kind`` property tells AGVs from stations (group definitions select on it), and
+every role counts the messages it sends through one :data:`MessageTally`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from objectplaces.core.codec import encode_value
+
+__all__ = ["AGV_KIND", "STATION_KIND", "MessageTally", "tally_send"]
+
+AGV_KIND = "agv"
+"""Value of the ``kind`` property every AGV publishes."""
+
+STATION_KIND = "station"
+"""Value of the ``kind`` property stations publish."""
+
+MessageTally = Callable[[str, int], None]
+"""Counts one protocol message of a type and its encoded size in bytes."""
+
+
+def tally_send(tally: MessageTally | None, kind: str, message: Any) -> None:
+    """Count ``message`` as one sent message of ``kind`` with its encoded size.
+
+    Args:
+        tally: the counter (None: nothing is counted).
+        kind: the message type, as the figures name it.
+        message: the plain-data message as sent.
+    """
+    if tally is not None:
+        tally(kind, len(encode_value(message)))

@@ -1,0 +1,141 @@
+"""The task desk: a fleet's stations and its task book, behind one ``create_task``.
+
+Both fleets (simulated and on the mesh) run a station node at every usable pick
+station and create tasks the same way: at a pick station, to a drop station drawn at
+random unless given, numbered by the :class:`~agv_app.tasks.book.TaskBook`. The desk
+does that once for both; the stations report awards and returns into the book, and the
+fleet reports starts and deliveries, which it learns from its vehicles.
+"""
+
+from __future__ import annotations
+
+import random
+from collections.abc import Callable
+
+from agv_app.layout.graph import Layout
+from agv_app.protocol import MessageTally
+from agv_app.tasks.auction import TaskSpec
+from agv_app.tasks.book import DEFAULT_HISTORY, TaskBook
+from agv_app.tasks.station import Station
+from objectplaces import RoleActivator
+
+__all__ = ["TaskDesk", "drop_stations", "pick_stations"]
+
+
+def pick_stations(layout: Layout) -> list[str]:
+    """Ids of the usable stations where loads are picked up (``pick``, ``pickdrop``)."""
+    return [s for s in layout.usable_stations() if layout.station(s).kind in ("pick", "pickdrop")]
+
+
+def drop_stations(layout: Layout) -> list[str]:
+    """Ids of the usable stations where loads are dropped (``drop``, ``pickdrop``)."""
+    return [s for s in layout.usable_stations() if layout.station(s).kind in ("drop", "pickdrop")]
+
+
+class TaskDesk:
+    """Creates a fleet's tasks at its stations and keeps them in one book.
+
+    Args:
+        layout: the floor plan.
+        rng: draws drop stations and the pick stations of random tasks.
+        clock: the fleet's time, seconds.
+        station_range: first auction range of the stations.
+        tally: counts the stations' protocol messages.
+        history: finished tasks the book keeps in detail.
+    """
+
+    def __init__(
+        self,
+        layout: Layout,
+        *,
+        rng: random.Random,
+        clock: Callable[[], float],
+        station_range: float = 30.0,
+        tally: MessageTally | None = None,
+        history: int = DEFAULT_HISTORY,
+    ) -> None:
+        self.layout = layout
+        self.rng = rng
+        self.clock = clock
+        self.station_range = station_range
+        self.tally = tally
+        self.book = TaskBook(history=history)
+        self.stations: dict[str, Station] = {}
+        """The open stations, by station id."""
+        self._drops = drop_stations(layout)
+
+    def open_station(self, station_id: str, node: RoleActivator) -> Station:
+        """Run the task-assignment component of ``station_id`` on ``node``."""
+        point = self.layout.point(self.layout.station(station_id).point)
+        station = Station(
+            node,
+            station_id,
+            (point.x, point.y),
+            range_m=self.station_range,
+            on_assigned=self._assigned,
+            on_returned=self._returned,
+            tally=self.tally,
+        )
+        self.stations[station_id] = station
+        return station
+
+    @property
+    def returned(self) -> int:
+        """Tasks the stations put back in line because their AGV failed."""
+        return sum(s.returned for s in self.stations.values())
+
+    def create(self, station_id: str, drop: str | None = None) -> str:
+        """Create a task at pick station ``station_id``; its station auctions it.
+
+        Args:
+            station_id: where the load is picked up.
+            drop: where it goes (default: a drop station drawn at random).
+
+        Returns:
+            The new task's id.
+
+        Raises:
+            KeyError: the layout has no station ``station_id``.
+            ValueError: the station hands out no loads (or has no open station node).
+        """
+        if station_id not in self.layout.stations:
+            raise KeyError(f"unknown station {station_id!r}")
+        station = self.stations.get(station_id)
+        if station is None:
+            raise ValueError(f"station {station_id!r} is not a pick station")
+        if drop is None:
+            choices = [d for d in self._drops if d != station_id]
+            drop = choices[self.rng.randrange(len(choices))]
+        task = self.book.create(station_id, drop, now=self.clock())
+        station.add_task(task)
+        return task.id
+
+    def create_random(self) -> str | None:
+        """Create a task at a pick station drawn at random; None without stations."""
+        if not self.stations:
+            return None
+        ids = sorted(self.stations)
+        return self.create(ids[self.rng.randrange(len(ids))])
+
+    def cancel(self, task_id: str) -> None:
+        """Withdraw a task that no vehicle holds yet.
+
+        Raises:
+            KeyError: no open task has that id.
+            ValueError: a vehicle holds it (it was awarded and has not come back).
+        """
+        record = self.book.get(task_id)
+        if record is None or record.state in ("done", "cancelled"):
+            raise KeyError(f"no open task {task_id!r}")
+        if not self.stations[record.task.pick].cancel(task_id):
+            raise ValueError(
+                f"task {task_id!r} is {record.state} to {record.vehicle!r}: only a task no "
+                "vehicle holds can be cancelled"
+            )
+        self.book.cancel(task_id, now=self.clock())
+
+    def _assigned(self, task: TaskSpec, agv: str) -> None:
+        self.book.assign(task.id, agv, now=self.clock())
+
+    def _returned(self, task: TaskSpec, agv: str) -> None:
+        self.book.fail(task.id, now=self.clock())
