@@ -15,7 +15,8 @@ from pathlib import Path
 
 from agv_app.fleet.parking import parking_capacity
 from agv_app.fleet.sim import Fleet, FleetConfig
-from agv_app.layout.graph import Layout, LayoutError
+from agv_app.layout.elements import LayoutError
+from agv_app.layout.graph import Layout
 from agv_app.layout.json_format import load_any
 
 __all__ = ["DEFAULT_AGVS", "SAFETY_KEYS", "fleet_size", "register", "run_sim"]

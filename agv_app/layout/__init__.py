@@ -7,9 +7,8 @@ from agv_app.layout.demo import (
     DEMO_VEHICLE_WIDTH_M,
     demo_warehouse,
 )
-from agv_app.layout.graph import (
+from agv_app.layout.elements import (
     STATION_KINDS,
-    Layout,
     LayoutError,
     LayoutFileError,
     NoRouteError,
@@ -19,6 +18,9 @@ from agv_app.layout.graph import (
     Segment,
     Station,
     StationKind,
+)
+from agv_app.layout.graph import (
+    Layout,
 )
 from agv_app.layout.json_format import (
     FORMAT,
@@ -42,6 +44,11 @@ from agv_app.layout.opentcs import (
     plant_model_to_layout,
     read_plant_model,
 )
+from agv_app.layout.search import (
+    Arc,
+    shortest_paths,
+    strong_components,
+)
 
 __all__ = [
     "DEMO_VEHICLE_LENGTH_M",
@@ -49,6 +56,7 @@ __all__ = [
     "FORMAT",
     "STATION_KINDS",
     "VERSION",
+    "Arc",
     "Layout",
     "LayoutError",
     "LayoutFileError",
@@ -76,4 +84,6 @@ __all__ = [
     "plant_model_to_layout",
     "read_plant_model",
     "save_layout",
+    "shortest_paths",
+    "strong_components",
 ]

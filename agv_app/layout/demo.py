@@ -26,7 +26,8 @@ from __future__ import annotations
 
 import itertools
 
-from agv_app.layout.graph import Layout, Point, Segment, Station, StationKind
+from agv_app.layout.elements import Point, Segment, Station, StationKind
+from agv_app.layout.graph import Layout
 
 __all__ = ["DEMO_VEHICLE_LENGTH_M", "DEMO_VEHICLE_WIDTH_M", "demo_warehouse"]
 

@@ -27,192 +27,35 @@ A station in the middle of a corridor is *not* a passing place: a vehicle waitin
 there still blocks the corridor. :meth:`Layout.passing_extent` tells how far a
 lock request on a bidirectional segment must reach.
 
-Errors (one base class; messages name the offending element)::
-
-    LayoutError (ValueError)        a layout is inconsistent, or a query is impossible
-     +-- LayoutFileError            a file cannot be read or parsed; .where says where
-     +-- NoRouteError               no directed route between two points
+The elements and errors are in :mod:`agv_app.layout.elements`; the graph searches in
+:mod:`agv_app.layout.search`.
 """
 
 from __future__ import annotations
 
-import heapq
 import itertools
 import math
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Literal, get_args
 
 from agv_app.geometry import XY, Polyline
+from agv_app.layout.elements import (
+    STATION_KINDS,
+    LayoutError,
+    NoRouteError,
+    PassingExtent,
+    Point,
+    Route,
+    Segment,
+    Station,
+    StationKind,
+)
+from agv_app.layout.search import Arc, shortest_paths, strong_components
 
-__all__ = [
-    "STATION_KINDS",
-    "Layout",
-    "LayoutError",
-    "LayoutFileError",
-    "NoRouteError",
-    "PassingExtent",
-    "Point",
-    "Route",
-    "Segment",
-    "Station",
-    "StationKind",
-]
+__all__ = ["Layout"]
 
-StationKind = Literal["pick", "drop", "pickdrop", "parking", "charging"]
-"""What a station is for."""
-
-STATION_KINDS: tuple[StationKind, ...] = get_args(StationKind)
-"""All station kinds, in a fixed order."""
 
 _MIN_SEGMENT_M = 1e-6
-
-
-class LayoutError(ValueError):
-    """A layout is inconsistent, or a query on it cannot be answered."""
-
-
-class LayoutFileError(LayoutError):
-    """A layout file cannot be read or parsed.
-
-    Attributes:
-        where: location in the file: a JSON path (``$.segments[3].start``) or
-            ``line N`` for XML; ``""`` if unknown.
-    """
-
-    def __init__(self, message: str, *, where: str = "") -> None:
-        super().__init__(f"{where}: {message}" if where else message)
-        self.where = where
-
-
-class NoRouteError(LayoutError):
-    """There is no directed route between two points."""
-
-
-@dataclass(frozen=True, slots=True)
-class Point:
-    """A named position on the floor.
-
-    Attributes:
-        id: unique among points.
-        x: metres.
-        y: metres.
-        passing: force this point to count as a passing place.
-    """
-
-    id: str
-    x: float
-    y: float
-    passing: bool = False
-
-    @property
-    def xy(self) -> XY:
-        """``(x, y)``."""
-        return (self.x, self.y)
-
-
-@dataclass(frozen=True, slots=True)
-class Segment:
-    """A drivable path between two points.
-
-    Attributes:
-        id: unique among segments.
-        start: point id where it begins.
-        end: point id where it ends.
-        bidirectional: drivable ``end -> start`` too.
-        via: intermediate vertices ``(x, y)`` from ``start`` to ``end`` (curves).
-    """
-
-    id: str
-    start: str
-    end: str
-    bidirectional: bool = False
-    via: tuple[XY, ...] = ()
-
-
-@dataclass(frozen=True, slots=True)
-class Station:
-    """A place where vehicles work or wait.
-
-    Attributes:
-        id: unique among stations.
-        point: the point a vehicle stands on to serve it.
-        kind: one of :data:`STATION_KINDS`.
-    """
-
-    id: str
-    point: str
-    kind: StationKind = "pickdrop"
-
-
-@dataclass(frozen=True, slots=True)
-class Route:
-    """A drivable sequence of points, with its geometry.
-
-    Attributes:
-        points: point ids, from start to destination (one point: already there).
-        segments: segment ids between consecutive points (one fewer).
-        polyline: the path driven, including ``via`` vertices.
-        offsets: arc length along ``polyline`` at each entry of ``points``.
-    """
-
-    points: tuple[str, ...]
-    segments: tuple[str, ...]
-    polyline: Polyline
-    offsets: tuple[float, ...]
-
-    @property
-    def length(self) -> float:
-        """Total length in metres."""
-        return self.offsets[-1]
-
-    @property
-    def start(self) -> str:
-        """First point id."""
-        return self.points[0]
-
-    @property
-    def end(self) -> str:
-        """Destination point id."""
-        return self.points[-1]
-
-    def index_at(self, s: float) -> int:
-        """Index of the last route point at or before arc length ``s``."""
-        lo, hi = 0, len(self.offsets) - 1
-        while lo < hi:
-            mid = (lo + hi + 1) // 2
-            if self.offsets[mid] <= s:
-                lo = mid
-            else:
-                hi = mid - 1
-        return lo
-
-
-@dataclass(frozen=True, slots=True)
-class PassingExtent:
-    """How far a lock request entering a route's segment must reach.
-
-    Attributes:
-        index: route point index where the request may end.
-        s: arc length of that point along the route.
-        bidirectional: whether the entered segment is bidirectional (if not, the
-            extent is just the end of that segment).
-    """
-
-    index: int
-    s: float
-    bidirectional: bool
-
-
-@dataclass(frozen=True, slots=True)
-class _Arc:
-    """A directed, drivable edge of the routing graph."""
-
-    segment: str
-    target: str
-    length: float
-    coords: tuple[XY, ...] = field(repr=False)  # from source to target, inclusive
 
 
 class Layout:
@@ -273,7 +116,7 @@ class Layout:
         self._segments: dict[str, Segment] = {}
         self._segment_coords: dict[str, tuple[XY, ...]] = {}
         self._segment_length: dict[str, float] = {}
-        self._arcs: dict[str, list[_Arc]] = {pid: [] for pid in self._points}
+        self._arcs: dict[str, list[Arc]] = {pid: [] for pid in self._points}
         joined: dict[tuple[str, str], str] = {}
         for seg in segments:
             self._add_segment(seg, joined)
@@ -358,9 +201,9 @@ class Layout:
         self._segments[seg.id] = seg
         self._segment_coords[seg.id] = coords
         self._segment_length[seg.id] = length
-        self._arcs[seg.start].append(_Arc(seg.id, seg.end, length, coords))
+        self._arcs[seg.start].append(Arc(seg.id, seg.end, length, coords))
         if seg.bidirectional:
-            self._arcs[seg.end].append(_Arc(seg.id, seg.start, length, coords[::-1]))
+            self._arcs[seg.end].append(Arc(seg.id, seg.start, length, coords[::-1]))
 
     # -- elements ---------------------------------------------------------------
 
@@ -487,29 +330,9 @@ class Layout:
 
     def _search(self, source: str) -> tuple[dict[str, float], dict[str, tuple[str, str]]]:
         cached = self._dist_cache.get(source)
-        if cached is not None:
-            return cached
-        dist: dict[str, float] = {source: 0.0}
-        prev: dict[str, tuple[str, str]] = {}
-        done: set[str] = set()
-        heap: list[tuple[float, str]] = [(0.0, source)]
-        while heap:
-            d, u = heapq.heappop(heap)
-            if u in done:
-                continue
-            done.add(u)
-            for arc in self._arcs[u]:
-                nd = d + arc.length
-                old = dist.get(arc.target)
-                # Strictly shorter wins; on an exact tie the predecessor settled first
-                # (lowest distance, then lowest id) is kept, so routes are reproducible.
-                if old is None or nd < old:
-                    dist[arc.target] = nd
-                    prev[arc.target] = (u, arc.segment)
-                    heapq.heappush(heap, (nd, arc.target))
-        result = (dist, prev)
-        self._dist_cache[source] = result
-        return result
+        if cached is None:
+            cached = self._dist_cache[source] = shortest_paths(self._arcs, source)
+        return cached
 
     def distances_from(self, source: str) -> Mapping[str, float]:
         """Shortest driving distance from ``source`` to every reachable point (cached)."""
@@ -626,49 +449,9 @@ class Layout:
 
     # -- station connectivity -------------------------------------------------------
 
-    def _components(self) -> dict[str, int]:
-        """Strongly connected component number of every point (Kosaraju, iterative)."""
-        order: list[str] = []
-        seen: set[str] = set()
-        for root in self._points:
-            if root in seen:
-                continue
-            seen.add(root)
-            stack: list[tuple[str, int]] = [(root, 0)]
-            while stack:
-                u, i = stack.pop()
-                arcs = self._arcs[u]
-                if i < len(arcs):
-                    stack.append((u, i + 1))
-                    v = arcs[i].target
-                    if v not in seen:
-                        seen.add(v)
-                        stack.append((v, 0))
-                else:
-                    order.append(u)
-        reverse: dict[str, list[str]] = {pid: [] for pid in self._points}
-        for u, arcs in self._arcs.items():
-            for arc in arcs:
-                reverse[arc.target].append(u)
-        comp: dict[str, int] = {}
-        n = -1
-        for root in reversed(order):
-            if root in comp:
-                continue
-            n += 1
-            comp[root] = n
-            todo = [root]
-            while todo:
-                u = todo.pop()
-                for v in reverse[u]:
-                    if v not in comp:
-                        comp[v] = n
-                        todo.append(v)
-        return comp
-
     def _largest_station_component(self) -> tuple[str, ...]:
         """Stations in the largest mutually reachable group (ties: smallest ids first)."""
-        comp = self._components()
+        comp = strong_components(self._points, self._arcs)
         groups: dict[int, list[str]] = {}
         for sid, st in self._stations.items():
             groups.setdefault(comp[st.point], []).append(sid)

@@ -22,8 +22,7 @@ from typing import Any, cast
 
 import jsonschema
 
-from agv_app.layout.graph import (
-    Layout,
+from agv_app.layout.elements import (
     LayoutError,
     LayoutFileError,
     Point,
@@ -31,6 +30,7 @@ from agv_app.layout.graph import (
     Station,
     StationKind,
 )
+from agv_app.layout.graph import Layout
 
 __all__ = [
     "FORMAT",

@@ -45,8 +45,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from agv_app.geometry import XY
-from agv_app.layout.graph import (
-    Layout,
+from agv_app.layout.elements import (
     LayoutError,
     LayoutFileError,
     Point,
@@ -54,6 +53,7 @@ from agv_app.layout.graph import (
     Station,
     StationKind,
 )
+from agv_app.layout.graph import Layout
 
 __all__ = [
     "PlantBlock",

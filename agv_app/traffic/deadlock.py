@@ -30,7 +30,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from agv_app.layout.graph import Layout, Route
+from agv_app.layout.elements import Route
+from agv_app.layout.graph import Layout
 
 __all__ = ["DEFAULT_CLEARANCE_M", "StopPlan", "clearance_for"]
 
