@@ -13,7 +13,9 @@ from objectplaces.activator import NodeStats, ObserverHandle, RoleActivator, Ses
 from objectplaces.core.config import NodeConfig, ParticipationInfo, SessionInfo
 from objectplaces.core.errors import (
     DecodeError,
+    InvalidValueError,
     LocalProtocolError,
+    NotPlainDataError,
     ObjectPlacesError,
     RemoteProtocolError,
 )
@@ -24,9 +26,11 @@ __all__ = [
     "DecodeError",
     "Initiator",
     "InitiatorRef",
+    "InvalidValueError",
     "LocalProtocolError",
     "NodeConfig",
     "NodeStats",
+    "NotPlainDataError",
     "ObjectPlacesError",
     "ObserverHandle",
     "Participant",

@@ -30,6 +30,7 @@ __all__ = [
     "Within",
     "circles_overlap",
     "definition_from_json",
+    "describe",
     "distance",
     "property_equals",
     "within",
@@ -206,6 +207,11 @@ class AnyOf(GroupDefinition):
         if len({r.position for r in bounded}) != 1:
             return None
         return max(bounded, key=lambda r: r.radius)
+
+
+def describe(definition: DefinitionLike) -> Any:
+    """A declarative definition's JSON form; any other callable's ``repr``."""
+    return definition.to_json() if isinstance(definition, GroupDefinition) else repr(definition)
 
 
 def circles_overlap(position: str = "position", radius: str = "hull_length") -> CirclesOverlap:

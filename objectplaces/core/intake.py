@@ -24,15 +24,18 @@ from typing import Final
 
 from objectplaces.core import codec
 from objectplaces.core.errors import DecodeError
-from objectplaces.core.messages import Message
+from objectplaces.core.messages import KIND_NAMES, Message
 from objectplaces.core.outbox import Outbox
 
-__all__ = ["LOG_INTERVAL", "MAX_PEERS", "Intake"]
+__all__ = ["LOG_BUDGET", "LOG_INTERVAL", "MAX_PEERS", "Intake"]
 
 log = logging.getLogger("objectplaces")
 
 LOG_INTERVAL: Final = 60.0
 """Seconds between two log lines about the same peer's bad frames."""
+LOG_BUDGET: Final = 10
+"""Log lines about bad frames per ``LOG_INTERVAL`` for all peers together: a peer that
+keeps inventing names must not flood the log either."""
 MAX_PEERS: Final = 1024
 """Peers whose dropped frames are counted one by one; beyond, the oldest is forgotten."""
 
@@ -46,14 +49,25 @@ class Intake:
         outbox: where counters go.
     """
 
-    __slots__ = ("_by_peer", "_logged", "_max_frame", "_node_id", "_outbox")
+    __slots__ = (
+        "_by_peer",
+        "_logged",
+        "_max_frame",
+        "_node_id",
+        "_outbox",
+        "_window",
+        "received_by_kind",
+    )
 
     def __init__(self, node_id: str, *, max_frame: int, outbox: Outbox) -> None:
         self._node_id = node_id
         self._max_frame = max_frame
         self._outbox = outbox
+        #: kind -> [frames, bytes] received, whatever became of them.
+        self.received_by_kind: dict[str, list[int]] = {}
         self._by_peer: dict[str, int] = {}  # frames dropped, per peer
         self._logged: dict[str, float] = {}  # when each peer was last logged about
+        self._window = [-LOG_INTERVAL, 0]  # start of the current log window, lines in it
 
     def decode(self, source: str, data: bytes, now: float) -> Message | None:
         """The message in ``data``, or None when it is refused (counted, maybe logged)."""
@@ -63,6 +77,17 @@ class Intake:
             self.drop(source, "dropped_malformed", str(exc), now)
             return None
 
+    def admit(self, source: str, message: Message, size: int) -> bool:
+        """Tally a decoded frame of ``size`` bytes; whether the machine should act on it
+        (not when it claims to come from this node: a transport loop, or a spoofer)."""
+        tally = self.received_by_kind.setdefault(KIND_NAMES[type(message)], [0, 0])
+        tally[0] += 1
+        tally[1] += size
+        if source == self._node_id:
+            self._outbox.count("dropped_own")
+            return False
+        return True
+
     def drop(self, source: str, reason: str, detail: str, now: float) -> None:
         """Count one frame from ``source`` dropped for ``reason``; log it unless logged lately."""
         self._outbox.count(reason)
@@ -71,7 +96,12 @@ class Intake:
         if len(by_peer) > MAX_PEERS:
             del by_peer[next(iter(by_peer))]
         last = self._logged.get(source)
-        if last is None or now - last >= LOG_INTERVAL:
+        if last is not None and now - last < LOG_INTERVAL:
+            return
+        if now - self._window[0] >= LOG_INTERVAL:
+            self._window = [now, 0]
+        self._window[1] += 1
+        if self._window[1] <= LOG_BUDGET:
             self._logged.pop(source, None)
             self._logged[source] = now
             if len(self._logged) > MAX_PEERS:
@@ -91,3 +121,7 @@ class Intake:
     def dropped_by_peer(self) -> Mapping[str, int]:
         """Frames dropped per peer (read-only; the ``MAX_PEERS`` most recent peers)."""
         return MappingProxyType(self._by_peer)
+
+    def footprint(self) -> dict[str, int]:
+        """Sizes of the per-peer tables (each at most ``MAX_PEERS``)."""
+        return {"dropped_peers": len(self._by_peer), "logged_peers": len(self._logged)}

@@ -3,17 +3,14 @@
 ``NodeMachine`` is a router: each input goes to the parts that own the state it
 concerns, in an order fixed here and nowhere else (§ are docs/protocol.md sections):
 
-======================  =====================================================
-part                    owns
-======================  =====================================================
-``OwnProperties``       this node's values, coalescing, publication routing (§2, §5)
-``PropertyView``        the others' values, liveness, spatial index, scope (§2, §5, §6)
-``SessionTable``        sessions this node initiated, members, closing channels (§3)
-``ParticipationTable``  roles this node plays for others, tombstones (§3)
-``Channels``            reliable frames on the wire, retransmission (§4)
-``TimerQueue``          what is due when (typed ``TimerAction`` values)
-``Outbox``              frames, callbacks and counters for the driver
-======================  =====================================================
+* ``OwnProperties``: this node's values, coalescing, publication routing (§2, §5);
+* ``PropertyView``: the others' values, liveness, spatial index, scope (§2, §5, §6);
+* ``SessionTable``: sessions this node initiated, members, closing channels (§3);
+* ``ParticipationTable``: roles this node plays for others, tombstones (§3);
+* ``Channels``: reliable frames on the wire, flow control, retransmission (§4);
+* ``Intake``: frames refused at the boundary, counted per peer (§7);
+* ``TimerQueue``: what is due when (typed ``TimerAction`` values);
+* ``Outbox``: frames, callbacks and counters for the driver.
 
 The driver contract (STYLE.md §1): inputs are commands (``update_property``,
 ``start_session`` ...), frames from peers (``receive``) and the passing of time
@@ -42,7 +39,6 @@ from objectplaces.core.groups import DefinitionLike
 from objectplaces.core.ids import SessionId
 from objectplaces.core.intake import Intake
 from objectplaces.core.messages import (
-    KIND_NAMES,
     ChannelAck,
     ChannelData,
     Leave,
@@ -119,8 +115,8 @@ class NodeMachine:
             binder=lambda owner, ref: ParticipantContext(self, self._participations, owner, ref),
         )
         self._intake = Intake(node_id, max_frame=config.max_frame, outbox=outbox)
-        self.sent_by_kind = outbox.sent_by_kind  # kind -> [frames, bytes]; and received:
-        self.received_by_kind: dict[str, list[int]] = {}  # tallied inline (every frame)
+        self.sent_by_kind = outbox.sent_by_kind  # kind -> [frames, bytes], and received:
+        self.received_by_kind = self._intake.received_by_kind
         if config.interest_radius is None:
             outbox.emit(Subscribe(None))
         if config.property_interval is not None:
@@ -176,29 +172,21 @@ class NodeMachine:
     def receive_message(self, source: str, message: Message, now: float, *, size: int = 0) -> None:
         """Take one already decoded message from ``source`` (``size``: its frame's bytes)."""
         self._now = now
-        tally = self.received_by_kind.setdefault(KIND_NAMES[type(message)], [0, 0])
-        tally[0] += 1
-        tally[1] += size
-        if source == self.node_id:
-            self._outbox.count("dropped_own")  # a transport loop or a spoofing peer
+        if not self._intake.admit(source, message, size):
             return
+        accepted = False
         match message:
             case PropertyUpdate():
                 self._on_properties(source, message, now)
             case ChannelData(to_participant=True):
-                self._view.heard(source, now)  # any frame proves the peer alive (§2)
-                self._participations.on_frame(source, message, now)
+                accepted = self._participations.on_frame(source, message, now)
             case ChannelData():
-                self._view.heard(source, now)
-                self._sessions.on_frame(source, message, now)
+                accepted = self._sessions.on_frame(source, message, now)
             case ChannelAck(of_participant_stream=True):
-                self._view.heard(source, now)
-                self._participations.on_ack(source, message, now)
+                accepted = self._participations.on_ack(source, message, now)
             case ChannelAck():
-                self._view.heard(source, now)
-                self._sessions.on_ack(source, message, now)
+                accepted = self._sessions.on_ack(source, message, now)
             case PropertyRequest():
-                self._view.heard(source, now)
                 self.send_properties_to(source, now)
             case Leave():
                 self._depart(source, "left")
@@ -206,6 +194,10 @@ class NodeMachine:
                 self._intake.drop(source, "dropped_invalid_property", reason, now)
             case _:
                 assert_never(message)
+        if accepted:
+            # A frame of one of our channels proves its peer alive (§2). Only such a
+            # frame: a stray one, of any claimed sender, must not add to the table.
+            self._view.heard(source, now)
 
     def peer_restarted(self, peer: str, now: float) -> None:
         """``peer`` is back as a new run: forget the old run's groups, sequence numbers
@@ -388,6 +380,13 @@ class NodeMachine:
     def counters(self) -> Mapping[str, int]:
         """What this node dropped, broke, retransmitted ... and how often (read-only)."""
         return MappingProxyType(self._outbox.counters)
+
+    def footprint(self) -> dict[str, int]:
+        """Sizes of everything the node keeps, sessions or not: memory bounds are tested
+        on this (``state_counts`` are the per-session structures alone)."""
+        parts = (self._view, self._intake, self._own)
+        counts = {k: v for part in parts for k, v in part.footprint().items()}
+        return {**counts, **self.state_counts(), "timers": len(self._timers)}
 
     def state_counts(self) -> dict[str, int]:
         """Sizes of every per-session structure, to check that nothing is left behind."""

@@ -176,6 +176,10 @@ class OwnProperties:
         size = self._config.cell_size
         return (math.floor(position[0] / size), math.floor(position[1] / size))
 
+    def footprint(self) -> dict[str, int]:
+        """Sizes of what this node keeps of its own properties."""
+        return {"own": len(self._values), "pending": len(self._dirty)}
+
     def new_subscription(self) -> frozenset[Cell] | None:
         """The cells to subscribe to, when they changed since last asked (else None)."""
         radius = self._config.interest_radius

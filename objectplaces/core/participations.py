@@ -111,8 +111,9 @@ class ParticipationTable:
 
     # ------------------------------------------------------------------ frames
 
-    def on_frame(self, source: str, frame: ChannelData, now: float) -> None:
-        """A frame from an initiator to a participant role (to be) on this node."""
+    def on_frame(self, source: str, frame: ChannelData, now: float) -> bool:
+        """A frame from an initiator to a participant role (to be) on this node; False
+        when it belongs to no channel here and opens none (dropped and counted)."""
         key = (source, frame.session)
         tomb = self._tombstones.get(key)
         if tomb is not None and frame.epoch <= tomb[0]:
@@ -121,12 +122,12 @@ class ParticipationTable:
                 source, ChannelAck(False, frame.session, frame.epoch, frame.seq)
             )
             self._outbox.count("dropped_stale")
-            return
+            return True
         part = self._parts.get(key)
         if part is not None and part.owner.epoch != frame.epoch:
             if frame.epoch < part.owner.epoch:
                 self._outbox.count("dropped_stale")
-                return
+                return True
             self._end(part, now)  # a newer activation supersedes the old one
             part = None
         if part is None:
@@ -134,7 +135,7 @@ class ParticipationTable:
                 # Only an activation opens a participation: a stray frame must not
                 # make state appear (a reordered one is retransmitted after the ACTIVATE).
                 self._outbox.count("dropped_unknown_session")
-                return
+                return False
             owner = ParticipationOwner(source, frame.session, frame.epoch)
             channel = self._channels.open(
                 to_participant=False, session=frame.session, epoch=frame.epoch
@@ -147,6 +148,7 @@ class ParticipationTable:
             if self._parts.get(key) is not part:
                 break  # ended by an earlier frame of this batch (DEACTIVATE)
             self._on_initiator_said(part, item, now)
+        return True
 
     def _on_initiator_said(self, part: _Participation, frame: ChannelData, now: float) -> None:
         match frame.kind:
@@ -182,15 +184,17 @@ class ParticipationTable:
         self._channels.send(initiator, part.channel, FrameKind.ACTIVATED, None, now)
         self._outbox.call(role.in_group_of, (part.ref,), part.ref.session_id)
 
-    def on_ack(self, source: str, ack: ChannelAck, now: float) -> None:
-        """An initiator acknowledged frames of our stream to it."""
+    def on_ack(self, source: str, ack: ChannelAck, now: float) -> bool:
+        """An initiator acknowledged frames of our stream to it; False when it was no
+        channel of ours (dropped and counted)."""
         part = self._parts.get((source, ack.session))
         if part is None or part.owner.epoch != ack.epoch:
             self._outbox.count("dropped_stray_ack")
-            return
+            return False
         self._channels.on_ack(source, part.channel, ack.ack, now)
         if part.declining and part.channel.idle:
             self._end(part, now)
+        return True
 
     # ------------------------------------------------------------------ commands
 

@@ -116,10 +116,14 @@ class Initiator(Role):
         """Send ``message`` to one participant, reliably and in order.
 
         Returns:
-            False when ``participant`` is no longer a member (nothing is sent).
+            False, with nothing sent, when ``participant`` is no longer a member or its
+            channel's send buffer is full (``NodeConfig.send_buffer`` messages wait
+            beyond the window in flight).
 
         Raises:
-            LocalProtocolError: ``message`` is not plain data.
+            NotPlainDataError: ``message`` is not plain data (a ``TypeError``).
+            InvalidValueError: ``message`` would not fit in a frame (a ``ValueError``).
+            LocalProtocolError: ``participant`` belongs to another session.
         """
         return self._bound().send(participant, message)  # type: ignore[no-any-return]
 
@@ -149,7 +153,12 @@ class Participant(Role):
         """Send ``message`` to the initiator, reliably and in order.
 
         Returns:
-            False when the role is no longer active (nothing is sent).
+            False, with nothing sent, when the role is no longer active or its channel's
+            send buffer is full.
+
+        Raises:
+            NotPlainDataError: ``message`` is not plain data (a ``TypeError``).
+            InvalidValueError: ``message`` would not fit in a frame (a ``ValueError``).
         """
         return self._bound().send(message)  # type: ignore[no-any-return]
 

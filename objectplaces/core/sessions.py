@@ -38,7 +38,7 @@ from objectplaces.core import codec
 from objectplaces.core.channel import Channel
 from objectplaces.core.config import SessionInfo
 from objectplaces.core.errors import LocalProtocolError
-from objectplaces.core.groups import DefinitionLike, GroupDefinition
+from objectplaces.core.groups import DefinitionLike, describe
 from objectplaces.core.ids import ParticipantRef, SessionId, session_id_for
 from objectplaces.core.messages import ChannelAck, ChannelData, FrameKind
 from objectplaces.core.plumbing import Plumbing
@@ -270,16 +270,16 @@ class SessionTable:
 
     # ------------------------------------------------------------------ frames
 
-    def on_frame(self, source: str, frame: ChannelData, now: float) -> None:
-        """A frame from a participant to one of our sessions."""
+    def on_frame(self, source: str, frame: ChannelData, now: float) -> bool:
+        """A frame from a participant to one of our sessions; False when it was not one
+        of our channels' (dropped and counted)."""
         session = self._sessions.get(frame.session)
         if session is None:
             self._outbox.count("dropped_unknown_session")
-            return
+            return False
         member = session.members.get(source)
         if member is None or member.epoch != frame.epoch:
-            self._on_stray_frame(session, source, frame)
-            return
+            return self._on_stray_frame(session, source, frame)
         deliver, ack = member.channel.on_data(frame)
         self._channels.acknowledge(source, ack)
         for item in deliver:
@@ -287,21 +287,24 @@ class SessionTable:
                 self._outbox.count("dropped_non_member")
                 continue
             self._on_member_said(session, member, item)
+        return True
 
-    def _on_stray_frame(self, session: _Session, source: str, frame: ChannelData) -> None:
+    def _on_stray_frame(self, session: _Session, source: str, frame: ChannelData) -> bool:
         closing = session.closing.get((source, frame.epoch))
         if closing is not None:
             # Guarantee 1: a removed participant's late frames are acked, never delivered.
             _, ack = closing.on_data(frame)
             self._channels.acknowledge(source, ack)
             self._outbox.count("dropped_non_member")
-        elif source in session.declined and session.epochs.get(source) == frame.epoch:
+            return True
+        if source in session.declined and session.epochs.get(source) == frame.epoch:
             # Our ack of its DECLINED was lost: ack again so it can forget us.
             self._channels.acknowledge(
                 source, ChannelAck(True, frame.session, frame.epoch, frame.seq)
             )
-        else:
-            self._outbox.count("dropped_unknown_session")
+            return True
+        self._outbox.count("dropped_unknown_session")
+        return False
 
     def _on_member_said(self, session: _Session, member: _Member, frame: ChannelData) -> None:
         ref = ParticipantRef(member.node, session.sid)
@@ -319,22 +322,24 @@ class SessionTable:
             case _:
                 self._outbox.count("dropped_unexpected_frame")
 
-    def on_ack(self, source: str, ack: ChannelAck, now: float) -> None:
-        """A participant acknowledged frames of one of our channels."""
+    def on_ack(self, source: str, ack: ChannelAck, now: float) -> bool:
+        """A participant acknowledged frames of one of our channels; False when it was
+        no channel of ours (dropped and counted)."""
         session = self._sessions.get(ack.session)
         member = None if session is None else session.members.get(source)
         if member is not None and member.epoch == ack.epoch:
             self._channels.on_ack(source, member.channel, ack.ack, now)
-            return
+            return True
         closing = None if session is None else session.closing.get((source, ack.epoch))
         if session is None or closing is None:
             self._outbox.count("dropped_stray_ack")
-            return
+            return False
         self._channels.on_ack(source, closing, ack.ack, now)
         if closing.idle:
             del session.closing[(source, ack.epoch)]
             closing.closed = True
             self._maybe_forget(session)
+        return True
 
     def channel_broken(self, target: str, channel: Channel) -> None:
         """``target`` never acknowledged: it is gone from this channel's session."""
@@ -369,12 +374,6 @@ class SessionTable:
         for s in self._sessions.values():
             if s.stopped:
                 continue
-            definition = s.definition
-            described = (
-                definition.to_json()
-                if isinstance(definition, GroupDefinition)
-                else repr(definition)
-            )
             infos.append(
                 SessionInfo(
                     s.sid,
@@ -384,7 +383,7 @@ class SessionTable:
                     frozenset(n for n, m in s.members.items() if m.joined),
                     frozenset(n for n, m in s.members.items() if not m.joined),
                     s.started_at,
-                    described,
+                    describe(s.definition),
                 )
             )
         return infos

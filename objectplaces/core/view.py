@@ -119,6 +119,15 @@ class PropertyView:
     def __len__(self) -> int:
         return len(self._props)
 
+    def footprint(self) -> dict[str, int]:
+        """Sizes of the per-node tables (bounded by the nodes heard, and failure detection)."""
+        return {
+            "view": len(self._props),
+            "heard": len(self._heard),
+            "asked": len(self._asked),
+            "indexed": sum(len(index) for index in self._indexes.values()),
+        }
+
     def props_of(self, node: str) -> Mapping[str, Any] | None:
         """``node``'s properties (read-only), or None when it is not in the view."""
         return self._proxies.get(node)
@@ -151,7 +160,9 @@ class PropertyView:
             self._proxies[source] = MappingProxyType(props)
             self._seqs[source] = {}
         if update.full:
-            self._complete.add(source)
+            if source not in self._complete:
+                self._complete.add(source)
+                self._asked.pop(source, None)
         elif source not in self._complete:
             self._want_snapshot(source, now)
         seqs = self._seqs[source]

@@ -13,6 +13,7 @@ import pytest
 from objectplaces import LocalProtocolError, groups
 from objectplaces.core import codec
 from objectplaces.core.config import NodeConfig
+from objectplaces.core.intake import LOG_BUDGET
 from objectplaces.core.messages import ChannelAck, ChannelData, FrameKind, PropertyUpdate
 from objectplaces.core.node import NodeMachine
 from objectplaces.core.values import MAX_DEPTH
@@ -196,3 +197,20 @@ def test_a_hostile_peer_does_not_stop_an_honest_group() -> None:
     assert ("b", "receive", "hi") in log
     assert a.view()["b"]["position"] == (1.5, 0.0)
     assert net.stats().dropped["failed"] == 0
+
+
+def test_a_peer_inventing_names_cannot_flood_the_log(caplog: pytest.LogCaptureFixture) -> None:
+    net = SimulatedNetwork(seed=4)
+    a = net.add_node("a")
+    with caplog.at_level(logging.WARNING, logger="objectplaces"):
+        for i in range(500):
+            net.inject(f"name-{i}", "a", b"garbage")
+        net.run_for(30.0)
+        within_a_minute = len(caplog.records)
+        net.run_for(40.0)
+        net.inject("yet-another", "a", b"garbage")
+        net.run_for(1.0)
+    assert within_a_minute == LOG_BUDGET
+    assert len(caplog.records) == LOG_BUDGET + 1  # a new minute, a new budget
+    assert a.stats().counters["dropped_malformed"] == 501  # every one counted all the same
+    assert len(a.stats().dropped_by_peer) == 501
