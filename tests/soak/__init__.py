@@ -1,0 +1,1 @@
+"""The deterministic randomized simulation suite: seeded workloads, invariants, a runner."""

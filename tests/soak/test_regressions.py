@@ -1,0 +1,128 @@
+"""Bugs the simulation suite found in the core, each as the smallest run that shows it.
+
+Marked ``xfail(strict=True)``: they fail today, and the day the core is fixed they pass
+and the marker must go (strict turns the unexpected pass into a failure). Each names
+the seeds that found it; ``python -m tests.soak.runner --seed N`` replays one.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import msgpack
+import pytest
+
+from objectplaces import Initiator, InitiatorRef, Participant, ParticipantRef, groups
+from objectplaces.sim import SimulatedNetwork
+
+HOSTILE = "x-hostile"
+
+
+class Greeter(Initiator):
+    """Records its members and what it hears."""
+
+    def __init__(self) -> None:
+        self.heard: list[tuple[str, Any]] = []
+
+    def receive(self, participant: ParticipantRef, message: Any) -> None:
+        self.heard.append((participant.node_id, message))
+
+
+class Listener(Participant):
+    """Records what its initiator sends and whether it is active."""
+
+    def __init__(self) -> None:
+        self.heard: list[Any] = []
+        self.active = False
+
+    def in_group_of(self, initiator: InitiatorRef) -> None:
+        self.active = True
+
+    def out_group_of(self, initiator: InitiatorRef) -> None:
+        self.active = False
+
+    def receive(self, message: Any) -> None:
+        self.heard.append(message)
+
+
+def _pair(seed: int) -> tuple[SimulatedNetwork, Greeter, list[Listener], str]:
+    """Initiator ``a`` with participant ``b`` in one session, both settled."""
+    net = SimulatedNetwork(seed=seed, property_interval=0.5, failure_timeout=1.5)
+    a, b = net.add_node("a"), net.add_node("b")
+    a.update_node_property("position", (0.0, 0.0))
+    b.update_node_property("position", (1.0, 0.0))
+    roles: list[Listener] = []
+
+    def make() -> Listener:
+        roles.append(Listener())
+        return roles[-1]
+
+    b.set_participant_factory("listener", make)
+    greeter = Greeter()
+    session = a.start_interaction(greeter, groups.within(5.0), "listener")
+    net.run_for(1.0)
+    assert greeter.members == {ParticipantRef("b", session.session_id)}
+    return net, greeter, roles, session.session_id
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="codec: a finite position or hull length too large for millimetres raises "
+    "OverflowError out of decode instead of DecodeError (soak seeds 69, 82)",
+)
+@pytest.mark.parametrize(
+    "values",
+    [{"position": [1e308, 0.0]}, {"position": [0.0, -1e308]}, {"hull_length": 1e308}],
+)
+def test_a_position_too_large_for_millimetres_is_refused_like_any_bad_value(
+    values: dict[str, Any],
+) -> None:
+    net = SimulatedNetwork(seed=1)
+    a = net.add_node("a")
+    net.inject(HOSTILE, "a", bytes(msgpack.packb([1, 1, values])))
+    net.inject(HOSTILE, "a", bytes(msgpack.packb([1, 2, {"team": "red"}])))
+    net.run_for(1.0)
+    assert net.stats().dropped.get("failed", 0) == 0
+    assert a.view()[HOSTILE] == {"team": "red"}  # the bad frame refused whole, the next one kept
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="a participant that timed out its initiator drops its role, but the initiator, "
+    "which still hears it, keeps it as a member for good: the tombstone acks and drops "
+    "every later frame, so the initiator's sends are lost (soak seeds 17, 52, 67)",
+)
+def test_a_participant_that_timed_out_its_initiator_does_not_stay_a_member() -> None:
+    net, greeter, roles, sid = _pair(seed=3)
+    a, b = net.node("a"), net.node("b")
+    net.set_link("a", "b", both_ways=False, loss=1.0)  # b hears nothing of a; a hears b
+    net.run_for(3.0)
+    assert not roles[-1].active  # b's failure detector dropped a's session
+    net.set_link("a", "b", both_ways=False, loss=0.0)
+    net.run_for(10.0)  # many property intervals and failure timeouts
+    for member in sorted(greeter.members, key=str):
+        greeter.send(member, "hello")
+    net.run_for(5.0)
+    members = {info.session_id: info.members for info in a.sessions()}[sid]
+    playing = [p for p in b.participations() if p.session_id == sid]
+    assert ("b" in members) == bool(playing)
+    assert all(role.heard == ["hello"] for role in roles if role.active)
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="an initiator that timed out a participant drops it without a DEACTIVATE; the "
+    "participant, which still hears the initiator, keeps its role for good, after the "
+    "session stopped too (soak seeds 21, 94)",
+)
+def test_a_stopped_session_leaves_no_role_where_the_initiator_timed_out_the_participant() -> None:
+    net, greeter, roles, sid = _pair(seed=4)
+    a, b = net.node("a"), net.node("b")
+    net.set_link("b", "a", both_ways=False, loss=1.0)  # a hears nothing of b; b hears a
+    net.run_for(3.0)
+    assert greeter.members == frozenset()  # a's failure detector dropped b
+    a.stop_interaction(sid)
+    net.set_link("b", "a", both_ways=False, loss=0.0)
+    net.run_for(60.0)  # beyond every retransmission, failure timeout and tombstone
+    assert [p.session_id for p in b.participations()] == []
+    assert not any(role.active for role in roles)
