@@ -33,15 +33,17 @@ from agv_app.layout.json_format import (
     save_layout,
 )
 from agv_app.layout.opentcs import (
+    import_notes,
+    load_opentcs,
+    plant_model_to_layout,
+)
+from agv_app.layout.plant_model import (
     PlantBlock,
     PlantLocation,
     PlantModel,
     PlantPath,
     PlantPoint,
-    import_notes,
-    load_opentcs,
     parse_plant_model,
-    plant_model_to_layout,
     read_plant_model,
 )
 from agv_app.layout.search import (

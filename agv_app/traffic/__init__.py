@@ -1,25 +1,29 @@
-"""Traffic rules: collision avoidance, deadlock avoidance and the safety monitor."""
+"""Traffic rules: collision avoidance (the lock book and the requester and voter roles),
+deadlock avoidance and the safety monitor.
+"""
 
 from __future__ import annotations
 
 from agv_app.traffic.collision import (
-    LockBook,
-    LockEntry,
-    Priority,
-    RequestEntry,
     Requester,
-    StaleRecord,
     Voter,
     broadcast_group,
     collision_group,
     decide_vote,
     request_coords,
-    stale_area,
 )
 from agv_app.traffic.deadlock import (
     DEFAULT_CLEARANCE_M,
     StopPlan,
     clearance_for,
+)
+from agv_app.traffic.lockbook import (
+    LockBook,
+    LockEntry,
+    Priority,
+    RequestEntry,
+    StaleRecord,
+    stale_area,
 )
 from agv_app.traffic.monitor import (
     SafetyMonitor,

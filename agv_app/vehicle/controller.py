@@ -26,17 +26,9 @@ from agv_app.geometry import Area, Polyline, Pose, hull_length, hull_projection,
 from agv_app.layout.graph import Layout
 from agv_app.protocol import AGV_KIND, MessageTally
 from agv_app.tasks.auction import Bidder, TaskSpec
-from agv_app.traffic.collision import (
-    LockBook,
-    LockEntry,
-    RequestEntry,
-    Requester,
-    StaleRecord,
-    Voter,
-    broadcast_group,
-    collision_group,
-)
+from agv_app.traffic.collision import Requester, Voter, broadcast_group, collision_group
 from agv_app.traffic.deadlock import StopPlan, clearance_for
+from agv_app.traffic.lockbook import LockBook, LockEntry, RequestEntry, StaleRecord
 from agv_app.vehicle.kinematics import Vehicle, VehicleSpec
 from objectplaces import RoleActivator
 from objectplaces.groups import GroupDefinition

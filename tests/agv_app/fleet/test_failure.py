@@ -7,7 +7,7 @@ import math
 from agv_app.fleet import Fleet, FleetConfig
 from agv_app.geometry import overlaps
 from agv_app.layout import Layout, Point, Segment
-from agv_app.traffic.collision import stale_area
+from agv_app.traffic import stale_area
 
 
 def lane() -> Layout:

@@ -7,15 +7,15 @@ from pathlib import Path
 
 import pytest
 
-from agv_app.layout import LayoutFileError
-from agv_app.layout.json_format import load_any
-from agv_app.layout.opentcs import (
+from agv_app.layout import (
+    LayoutFileError,
     import_notes,
     load_opentcs,
     parse_plant_model,
     plant_model_to_layout,
     read_plant_model,
 )
+from agv_app.layout.json_format import load_any
 
 DATA = Path(str(resources.files("agv_app").joinpath("data", "opentcs")))
 DEMO = DATA / "Demo-01.xml"

@@ -7,7 +7,7 @@ import pytest
 from agv_app.fleet import Fleet, FleetConfig
 from agv_app.geometry import Area, Polyline, hull_projection
 from agv_app.layout import Layout, Point, Segment
-from agv_app.traffic.collision import (
+from agv_app.traffic import (
     LockBook,
     LockEntry,
     RequestEntry,

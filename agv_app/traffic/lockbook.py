@@ -1,0 +1,165 @@
+"""The collision bookkeeping of one node, kept in its tuplespace.
+
+The driving component, the requester and every voter on a node share it through the
+node's tuplespace (:class:`LockBook` is typed access to these tuples):
+
+* ``("lock", key, end_s, area)``: a locked projection (``end_s`` is the arc length of
+  the route the lock reaches);
+* ``("request", key, end_s, area, priority)``: the pending request;
+* ``("stale", node_id, x, y, radius)``: the last known circle of a failed AGV, which
+  nobody may lock into;
+* ``("in_the_way", requester)``: a voter deferred a request because of a lock
+  (leased), so an idle AGV knows to move off;
+* ``("allowed", session, area, priority)``: a request this node's voter allowed
+  (leased: kept ``keep_allowed`` seconds).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from agv_app.geometry import Area, overlaps
+from tuplespace import ANY, TupleSpace
+
+__all__ = ["LockBook", "LockEntry", "Priority", "RequestEntry", "StaleRecord", "stale_area"]
+
+
+Priority = tuple[float, str]
+"""``(request start time, node id)``: smaller is higher; ties impossible across nodes."""
+
+
+@dataclass(frozen=True, slots=True)
+class LockEntry:
+    """A locked hull projection reaching arc length ``end_s`` of the route."""
+
+    key: int
+    end_s: float
+    area: Area
+
+
+@dataclass(frozen=True, slots=True)
+class RequestEntry:
+    """The pending request of this node's AGV."""
+
+    key: int
+    end_s: float
+    area: Area
+    priority: Priority
+
+
+@dataclass(frozen=True, slots=True)
+class StaleRecord:
+    """What a failed AGV may still cover: its last published circle."""
+
+    node_id: str
+    x: float
+    y: float
+    radius: float
+
+
+def stale_area(record: StaleRecord) -> Area:
+    """The circle of a stale record as an area (polygon drawn outside the circle)."""
+    import shapely
+
+    # 64 segments drawn from a radius grown by 1/cos(pi/64) circumscribe the circle.
+    r = record.radius / 0.9988 + 0.01
+    return Area(shapely.Point(record.x, record.y).buffer(r, quad_segs=16))
+
+
+class LockBook:
+    """Typed access to the collision tuples of one node's tuplespace.
+
+    Args:
+        space: the node's tuplespace.
+    """
+
+    __slots__ = ("space",)
+
+    def __init__(self, space: TupleSpace) -> None:
+        self.space = space
+
+    def locks(self) -> list[LockEntry]:
+        """Locked projections, oldest first."""
+        return [LockEntry(t[1], t[2], t[3]) for t in self.space.rd_all(("lock", ANY, ANY, ANY))]
+
+    def request(self) -> RequestEntry | None:
+        """The pending request, if any."""
+        t = self.space.rdp(("request", ANY, ANY, ANY, ANY))
+        return None if t is None else RequestEntry(t[1], t[2], t[3], t[4])
+
+    def lock_end(self, default: float = 0.0) -> float:
+        """The furthest arc length any lock reaches (``default`` without locks)."""
+        return max((e.end_s for e in self.locks()), default=default)
+
+    def add_request(self, entry: RequestEntry) -> None:
+        """Record the pending request (there is at most one)."""
+        self.space.out(("request", entry.key, entry.end_s, entry.area, entry.priority))
+
+    def grant(self, key: int) -> LockEntry | None:
+        """Turn the request ``key`` into a lock (written before the request is taken)."""
+        t = self.space.rdp(("request", key, ANY, ANY, ANY))
+        if t is None:
+            return None
+        entry = LockEntry(key, t[2], t[3])
+        self.space.out(("lock", key, entry.end_s, entry.area))
+        self.space.inp(("request", key, ANY, ANY, ANY))
+        return entry
+
+    def withdraw(self, key: int) -> bool:
+        """Drop the request ``key``; False if it was not pending."""
+        return self.space.inp(("request", key, ANY, ANY, ANY)) is not None
+
+    def set_locks(self, entry: LockEntry) -> None:
+        """Replace every lock by ``entry`` (the release: new lock written first)."""
+        old = self.space.rd_all(("lock", ANY, ANY, ANY))
+        self.space.out(("lock", entry.key, entry.end_s, entry.area))
+        for t in old:
+            self.space.inp(t)
+
+    def clear(self) -> None:
+        """Drop every lock and request (the node restarts from nothing)."""
+        self.space.in_all(("lock", ANY, ANY, ANY))
+        self.space.in_all(("request", ANY, ANY, ANY, ANY))
+
+    def note_allowed(self, session_id: str, area: Area, priority: Priority, *, keep: float) -> None:
+        """Remember for ``keep`` seconds that this node allowed a request.
+
+        Not forgotten when the voter leaves the session: the request may still be
+        pending (our vote merely stopped counting), and remembering too long only
+        lowers our own priority, which is always safe.
+        """
+        self.space.in_all(("allowed", session_id, ANY, ANY))
+        self.space.out(("allowed", session_id, area, priority), lease=keep)
+
+    def next_priority(self, wanted: float, node_id: str, area: Area) -> Priority:
+        """A priority for a new request over ``area``, at time ``wanted`` if it may.
+
+        It is lower than that of every pending request this node allowed that overlaps
+        ``area``.
+        """
+        mine: Priority = (wanted, node_id)
+        for t in self.space.rd_all(("allowed", ANY, ANY, ANY)):
+            theirs: Priority = t[3]
+            if mine <= theirs and overlaps(area, t[2]):
+                mine = (theirs[0] + 1e-6, node_id)
+        return mine
+
+    def stale(self) -> list[StaleRecord]:
+        """Stale-node records, oldest first."""
+        return [
+            StaleRecord(t[1], t[2], t[3], t[4])
+            for t in self.space.rd_all(("stale", ANY, ANY, ANY, ANY))
+        ]
+
+    def add_stale(self, record: StaleRecord) -> None:
+        """Record a failed AGV's circle (replacing an older record of the same node)."""
+        self.drop_stale(record.node_id)
+        self.space.out(("stale", record.node_id, record.x, record.y, record.radius))
+
+    def drop_stale(self, node_id: str) -> bool:
+        """Forget the record of ``node_id`` (it came back); False if there was none."""
+        return bool(self.space.in_all(("stale", node_id, ANY, ANY, ANY)))
+
+    def hits_stale(self, area: Area) -> bool:
+        """True if ``area`` overlaps the circle of any stale record."""
+        return any(overlaps(area, stale_area(r), tolerance_m2=0.0) for r in self.stale())
