@@ -6,7 +6,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test lint bench chromium clean
+.PHONY: demo test lint bench chromium clean soak
 
 $(STAMP): pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -34,6 +34,12 @@ BENCHMARKS := tuplespace groups mesh fleet dashboard
 
 bench: $(STAMP) chromium
 	for name in $(BENCHMARKS); do $(BIN)/python -m bench.$$name || exit 1; done
+
+# The simulation suite (docs/soak.md): SEEDS seeds from 1, on two worker processes; a
+# failing seed prints its replay command and the target fails.
+SEEDS ?= 200
+soak: $(STAMP)
+	$(BIN)/python -m tests.soak.runner --seeds 1-$(SEEDS) --jobs 2
 
 clean:
 	rm -rf $(VENV) .pytest_cache .mypy_cache .ruff_cache .hypothesis

@@ -42,6 +42,7 @@ __all__ = [
     "only_members_heard",
     "participant_channel_in_order",
     "roles_only_where_registered",
+    "state_within_bounds",
     "stopped_sessions_forgotten",
 ]
 
@@ -341,6 +342,43 @@ def nothing_left(world: World) -> list[str]:
         left = {name: n for name, n in state_counts().items() if n}
         if left:
             found.append(f"memory: {node} keeps {left} after every session ended")
+    return found
+
+
+def state_within_bounds(world: World) -> list[str]:
+    """Memory, mid-run: a node's per-session state is explained by the sessions that run
+    or ended within ``forget_deadline``, however long the run has gone on (probes set no
+    role timers, so none may exist). Tombstones expire on their own clock and are checked
+    at the end (``nothing_left``)."""
+    found = []
+    recent = [
+        s
+        for s in world.sessions.values()
+        if s.running
+        or world.now
+        < min(t for t in (s.stopped_at, s.ended_at) if t is not None) + forget_deadline(world)
+    ]
+    peers = len(world.scenario.roles) + 1  # every id the run may use, and the hostile peer
+    for node in world.live:
+        state_counts = getattr(world.node(node).machine, "state_counts", None)
+        if state_counts is None:
+            return []
+        counts = state_counts()
+        own = sum(1 for s in recent if s.node == node)
+        limits = {
+            "sessions": own,
+            "members": own * peers,
+            "closing_channels": own * peers,
+            "participations": len(recent),
+            "role_timers": 0,
+        }
+        over = {
+            name: (counts[name], limit)
+            for name, limit in limits.items()
+            if counts.get(name, 0) > limit
+        }
+        if over:
+            found.append(f"memory t={world.now:.3f}: {node} holds (count, bound) {over}")
     return found
 
 

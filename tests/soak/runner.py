@@ -38,6 +38,7 @@ from tests.soak.invariants import (
     memory_bounded,
     no_exception_escaped,
     nothing_left,
+    state_within_bounds,
     stopped_sessions_forgotten,
 )
 from tests.soak.probes import AppFault
@@ -122,7 +123,8 @@ def _settle(world: World, result: RunResult, *, final: bool) -> list[str]:
         if final:
             found = nothing_left(world) + memory_bounded(world)
         else:
-            found = membership_converged(world) + channels_complete(world) + memory_bounded(world)
+            found = membership_converged(world) + channels_complete(world)
+            found += memory_bounded(world) + state_within_bounds(world)
         if not found:
             if not final:
                 result.convergence.append(round(world.now - start, 3))

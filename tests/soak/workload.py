@@ -373,7 +373,7 @@ class _Builder:
         self.add(Settle())
 
 
-def generate(seed: int, *, chaos_steps: tuple[int, int] = (30, 80), phases: int = 3) -> Scenario:
+def generate(seed: int, *, chaos_steps: tuple[int, int] = (40, 100), phases: int = 3) -> Scenario:
     """The scenario of ``seed``.
 
     Args:
@@ -382,7 +382,7 @@ def generate(seed: int, *, chaos_steps: tuple[int, int] = (30, 80), phases: int 
         phases: chaos phases, each followed by a calm checkpoint.
     """
     rng = random.Random(seed)
-    count = rng.randint(3, 8)
+    count = rng.randint(3, 10)
     ids = [f"n{i}" for i in range(count + 3)]
     roles: dict[str, frozenset[str]] = {}
     for node in ids:
