@@ -47,6 +47,7 @@ from objectplaces.core.messages import (
     Unusable,
 )
 from objectplaces.core.values import (
+    MAX_COORDINATE,
     POSITION,
     RADIUS,
     check_plain,
@@ -80,6 +81,7 @@ _PROPS, _COMPACT, _LEAVE, _TO_PART, _TO_INIT, _ACK_PART, _ACK_INIT = 1, 2, 3, 4,
 _REQUEST, _PROPS_FULL, _COMPACT_FULL = 8, 9, 10
 _FULL = {_PROPS: _PROPS_FULL, _COMPACT: _COMPACT_FULL}  # a snapshot's code, by layout
 _MM: Final = 1000.0
+_MAX_MM: Final = round(MAX_COORDINATE * _MM)
 _KIND_NAMES: Final = {
     _PROPS: "property",
     _COMPACT: "property",
@@ -210,6 +212,8 @@ def _uint(value: Any, what: str) -> int:
 
 def _mm(value: Any, what: str) -> float:
     if isinstance(value, int) and not isinstance(value, bool):
+        if abs(value) > _MAX_MM:
+            raise InvalidValueError(f"{what} of {value} mm is beyond +-{MAX_COORDINATE:g} m")
         return value / _MM
     raise DecodeError(f"{what} must be integer millimetres, got {value!r}")
 

@@ -115,8 +115,9 @@ class NodeMachine:
             binder=lambda owner, ref: ParticipantContext(self, self._participations, owner, ref),
         )
         self._intake = Intake(node_id, max_frame=config.max_frame, outbox=outbox)
-        self.sent_by_kind = outbox.sent_by_kind  # kind -> [frames, bytes], and received:
-        self.received_by_kind = self._intake.received_by_kind
+        #: kind -> [frames, bytes] sent and received (read-only).
+        self.sent_by_kind: Mapping[str, list[int]] = MappingProxyType(outbox.sent_by_kind)
+        self.received_by_kind = MappingProxyType(self._intake.received_by_kind)
         if config.interest_radius is None:
             outbox.emit(Subscribe(None))
         if config.property_interval is not None:

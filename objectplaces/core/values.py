@@ -31,6 +31,7 @@ from typing import Any, Final
 from objectplaces.core.errors import InvalidValueError, NotPlainDataError
 
 __all__ = [
+    "MAX_COORDINATE",
     "MAX_DEPTH",
     "MAX_VALUE_SIZE",
     "POSITION",
@@ -43,6 +44,9 @@ __all__ = [
 
 POSITION: Final = "position"
 RADIUS: Final = "hull_length"
+MAX_COORDINATE: Final = 1e12
+"""Largest magnitude of a coordinate or hull length, in metres: positions travel as whole
+millimetres, which stay exact (below 2**53) up to about 9e12 m."""
 MAX_DEPTH: Final = 32
 """Deepest nesting of containers in one value (a position is depth 1)."""
 MAX_VALUE_SIZE: Final = 64 * 1024
@@ -58,20 +62,28 @@ def is_finite_number(value: object) -> bool:
     return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
 
 
+def _is_coordinate(value: Any) -> bool:
+    return is_finite_number(value) and -MAX_COORDINATE <= value <= MAX_COORDINATE
+
+
 def checked_position(value: Any) -> tuple[float, float]:
     """``value`` as a position: a pair of finite numbers, as floats.
 
     Raises:
-        InvalidValueError: not a list or tuple of exactly two finite numbers.
+        InvalidValueError: not a list or tuple of exactly two finite numbers within
+            ``MAX_COORDINATE``.
     """
     if (
         isinstance(value, tuple | list)
         and len(value) == 2
-        and is_finite_number(value[0])
-        and is_finite_number(value[1])
+        and _is_coordinate(value[0])
+        and _is_coordinate(value[1])
     ):
         return float(value[0]), float(value[1])
-    raise InvalidValueError(f"{POSITION!r} must be two finite numbers (x, y), got {value!r:.80}")
+    raise InvalidValueError(
+        f"{POSITION!r} must be two finite numbers (x, y) within +-{MAX_COORDINATE:g} m, "
+        f"got {value!r:.80}"
+    )
 
 
 def checked_radius(value: Any) -> float:
@@ -80,9 +92,11 @@ def checked_radius(value: Any) -> float:
     Raises:
         InvalidValueError: not a finite number >= 0.
     """
-    if is_finite_number(value) and value >= 0:
+    if _is_coordinate(value) and value >= 0:
         return float(value)
-    raise InvalidValueError(f"{RADIUS!r} must be a finite number >= 0, got {value!r:.80}")
+    raise InvalidValueError(
+        f"{RADIUS!r} must be a finite number >= 0 and <= {MAX_COORDINATE:g} m, got {value!r:.80}"
+    )
 
 
 def check_plain(value: Any, what: str = "value") -> None:

@@ -21,7 +21,7 @@ from objectplaces.sim import SimulatedNetwork
 
 from .recording import RecordingInitiator, RecordingParticipant, place
 
-UNUSABLE_POSITIONS = [["x", "y"], [math.nan, 0], [math.inf, -math.inf], [None, 1]]
+UNUSABLE_POSITIONS = [["x", "y"], [math.nan, 0], [math.inf, -math.inf], [None, 1], [1e308, 0]]
 
 
 def nested(depth: int) -> Any:
@@ -41,6 +41,8 @@ def nested(depth: int) -> Any:
         ("position", (1.0, 2.0, 3.0), ValueError, "two finite numbers"),
         ("position", None, ValueError, "two finite numbers"),
         ("position", (True, 1), ValueError, "two finite numbers"),
+        ("position", (1e308, 0.0), ValueError, "within"),  # no whole millimetres for it
+        ("hull_length", 1e300, ValueError, "finite number >= 0"),
         ("hull_length", -0.5, ValueError, "finite number >= 0"),
         ("hull_length", math.inf, ValueError, "finite number >= 0"),
         ("hull_length", "2", ValueError, "finite number >= 0"),
@@ -214,3 +216,11 @@ def test_a_peer_inventing_names_cannot_flood_the_log(caplog: pytest.LogCaptureFi
     assert len(caplog.records) == LOG_BUDGET + 1  # a new minute, a new budget
     assert a.stats().counters["dropped_malformed"] == 501  # every one counted all the same
     assert len(a.stats().dropped_by_peer) == 501
+
+
+def test_a_compact_frame_beyond_the_coordinate_range_is_refused_whole() -> None:
+    machine = NodeMachine("a")
+    machine.receive("b", msgpack.packb([2, 1, 2**62, 0, 1000, {"status": "x"}]), now=0.0)
+    machine.receive("b", msgpack.packb([10, 2, 0, 0, 2**62]), now=0.0)
+    assert machine.view() == {}
+    assert machine.counters["dropped_invalid_property"] == 2
