@@ -5,22 +5,30 @@ minutes each by default), once with collision groups and once with ``--broadcast
 (every AGV votes on every request), and records the measured figures in
 BENCHMARKS.md. Large sizes take long; ``--sizes`` and ``--minutes`` shorten the run.
 
-    python -m bench.fleet [--sizes 10,20,50] [--minutes 30] [--seed 1]
+``--against DIR`` runs every job a second time with the tree checked out at ``DIR``
+(``git worktree add DIR <commit>``), side by side in the same run, and adds a table
+of both trees' sim speed: a change to the fleet shows there whether it costs time.
+
+    python -m bench.fleet [--sizes 10,20,50] [--minutes 30] [--seed 1] [--against DIR]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
+import subprocess
+import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
 
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from agv_app.fleet import Fleet, FleetConfig
 from bench.report import markdown_table, publish
 
-__all__ = ["main", "run_one"]
+__all__ = ["main", "run_elsewhere", "run_one"]
 
 
 def run_one(agvs: int, minutes: float, seed: int, broadcast: bool) -> dict[str, float]:
@@ -29,6 +37,30 @@ def run_one(agvs: int, minutes: float, seed: int, broadcast: bool) -> dict[str, 
     started = time.process_time()
     fleet.run(minutes * 60)
     return fleet.summary(time.process_time() - started)
+
+
+_RUN_ONE = (
+    "import json, sys; from bench.fleet import run_one; "
+    "print(json.dumps(run_one(*json.loads(sys.argv[1]))))"
+)
+
+
+def run_elsewhere(
+    tree: Path, agvs: int, minutes: float, seed: int, broadcast: bool
+) -> dict[str, float]:
+    """:func:`run_one` with the code of another checkout ``tree``, in a child process."""
+    env = {**os.environ, "PYTHONPATH": str(tree)}
+    args = json.dumps([agvs, minutes, seed, broadcast])
+    done = subprocess.run(
+        [sys.executable, "-c", _RUN_ONE, args],
+        cwd=tree,
+        env=env,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    figures: dict[str, float] = json.loads(done.stdout.strip().splitlines()[-1])
+    return figures
 
 
 def _plan(sizes: list[int], minutes: str) -> list[tuple[int, float]]:
@@ -55,22 +87,34 @@ def main(argv: list[str] | None = None) -> None:
         default=os.cpu_count() or 1,
         help="runs in parallel (each run is one process on one core)",
     )
+    parser.add_argument(
+        "--against", type=Path, help="also run every job with the checkout in this directory"
+    )
     args = parser.parse_args(argv)
     sizes = [int(s) for s in args.sizes.split(",") if s]
     plan = _plan(sizes, args.minutes)
     jobs = [(n, m, broadcast) for n, m in plan for broadcast in (False, True)]
+    trees = ["this", "against"] if args.against else ["this"]
     results: dict[tuple[int, bool], dict[str, float]] = {}
+    baseline: dict[tuple[int, bool], dict[str, float]] = {}
     with (
         Progress(TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn()) as progress,
         ProcessPoolExecutor(max_workers=args.jobs) as pool,
     ):
-        bar = progress.add_task("fleet runs", total=len(jobs))
-        futures = {
-            pool.submit(run_one, n, m, args.seed, broadcast): (n, broadcast)
-            for n, m, broadcast in sorted(jobs, key=lambda j: -j[0] * j[1])
-        }
+        bar = progress.add_task("fleet runs", total=len(jobs) * len(trees))
+        futures = {}
+        # Largest first; a job's two trees side by side, so both see the same load.
+        for n, m, broadcast in sorted(jobs, key=lambda j: -j[0] * j[1]):
+            for tree in trees:
+                future = (
+                    pool.submit(run_one, n, m, args.seed, broadcast)
+                    if tree == "this"
+                    else pool.submit(run_elsewhere, args.against, n, m, args.seed, broadcast)
+                )
+                futures[future] = (tree, n, broadcast)
         for future in as_completed(futures):
-            results[futures[future]] = future.result()
+            tree, n, broadcast = futures[future]
+            (results if tree == "this" else baseline)[(n, broadcast)] = future.result()
             progress.advance(bar)
     rows = []
     for n, minutes in plan:
@@ -120,8 +164,49 @@ def main(argv: list[str] | None = None) -> None:
         + "\n\nGoals (issue 5): 0 violations at every size; bandwidth with groups <= 1/5 of "
         "broadcast at 50 AGVs; 100 AGVs at >= 10x real time on one core."
     )
+    if args.against:
+        body += "\n\n" + _comparison(plan, results, baseline, args.against)
     command = f".venv/bin/python -m bench.fleet --sizes {args.sizes} --minutes {args.minutes}"
+    if args.against:
+        command += f" --against {args.against}"
     publish("fleet", "AGV fleet: throughput, safety, bandwidth (bench/fleet.py)", body, command)
+
+
+def _comparison(
+    plan: list[tuple[int, float]],
+    results: dict[tuple[int, bool], dict[str, float]],
+    baseline: dict[tuple[int, bool], dict[str, float]],
+    against: Path,
+) -> str:
+    """The table of sim speed (and tasks done, which must agree) of both trees."""
+    rows = []
+    for n, minutes in plan:
+        for broadcast in (False, True):
+            new, old = results[(n, broadcast)], baseline[(n, broadcast)]
+            rows.append(
+                [
+                    n,
+                    "broadcast" if broadcast else "groups",
+                    f"{minutes:g}",
+                    f"{new['tasks_completed']} / {old['tasks_completed']}",
+                    new["sim_speed"],
+                    old["sim_speed"],
+                    f"{new['sim_speed'] / max(old['sim_speed'], 1e-9):.2f}",
+                ]
+            )
+    header = [
+        "AGVs",
+        "mode",
+        "sim minutes",
+        "tasks done (this / against)",
+        "sim s per CPU s, this tree",
+        f"sim s per CPU s, {against.name}",
+        "this / against",
+    ]
+    return (
+        f"Against the checkout in `{against}`, measured in the same run, each job's two "
+        "trees side by side:\n\n" + markdown_table(header, rows)
+    )
 
 
 if __name__ == "__main__":
