@@ -79,7 +79,7 @@ CORE_LAYERS = [
     {"timers", "observers", "intake"},
     {"own", "channels"},
     {"plumbing"},
-    {"view"},
+    {"view", "session_state"},
     {"sessions", "participations"},
     {"bindings"},
     {"node"},

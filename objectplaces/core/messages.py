@@ -41,6 +41,8 @@ class FrameKind(IntEnum):
     DECLINED = 2  # participant -> initiator: no factory for the role here
     DEACTIVATE = 3  # initiator -> participant: session stopped or node left the group
     ROLE = 4  # either way: an application message between roles
+    LEFT = 5  # participant -> initiator, out of band: the role ended on the participant's
+    #           side without the initiator's word (it took the initiator for failed)
 
 
 @dataclass(frozen=True, slots=True)

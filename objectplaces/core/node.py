@@ -277,10 +277,10 @@ class NodeMachine:
 
     def _depart(self, node: str, reason: str) -> None:
         """``node`` failed or left: it leaves every group, as initiator or participant."""
-        known = self._view.knows(node)
+        known, failed = self._view.knows(node), reason == "failed"
         last = self._view.forget(node)
-        self._sessions.peer_gone(node)
-        self._participations.initiator_gone(node, self._now)
+        self._sessions.peer_gone(node, self._now if failed else None)
+        self._participations.initiator_gone(node, self._now, failed=failed)
         if known:
             self._outbox.count(f"departed_{reason}")
             self.observers.departed(node, last or {})

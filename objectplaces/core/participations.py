@@ -23,6 +23,13 @@ remembers the closed (initiator, session, epoch) for ``tombstone_ttl``: late fra
 that channel are acknowledged (so the initiator stops retransmitting) and dropped,
 instead of being taken for a new activation. Tombstones expire on a timer, so memory
 stays bounded however many sessions a long run sees.
+
+Failure detection is local and links can fail one way: this node may take an
+initiator for failed while the initiator, hearing us, keeps us as a member. So a role
+ended on our own (initiator failed, channel broken) is reported to the initiator with
+an out-of-band ``LEFT``, at once and again for every later frame of that channel,
+instead of an ack: the initiator drops us as a member (and may activate us afresh),
+rather than send into a tombstone that would swallow every message.
 """
 
 from __future__ import annotations
@@ -81,7 +88,8 @@ class ParticipationTable:
         self._binder = binder
         self._factories: dict[str, ParticipantFactory] = {}
         self._parts: dict[tuple[str, int], _Participation] = {}
-        self._tombstones: dict[tuple[str, int], tuple[int, float]] = {}
+        # (initiator, session) -> (epoch, expires, ended on our own)
+        self._tombstones: dict[tuple[str, int], tuple[int, float, bool]] = {}
 
     # ------------------------------------------------------------------ factories
 
@@ -117,11 +125,13 @@ class ParticipationTable:
         key = (source, frame.session)
         tomb = self._tombstones.get(key)
         if tomb is not None and frame.epoch <= tomb[0]:
-            # A closed channel: ack so the initiator stops retransmitting, deliver nothing.
-            self._channels.acknowledge(
-                source, ChannelAck(False, frame.session, frame.epoch, frame.seq)
-            )
             self._outbox.count("dropped_stale")
+            if tomb[2] and frame.epoch == tomb[0]:
+                # We ended it on our own; the initiator, still talking, must learn it.
+                self._tell_left(source, frame.session, frame.epoch)
+            else:  # a closed channel: ack so the initiator stops retransmitting
+                ack = ChannelAck(False, frame.session, frame.epoch, frame.seq)
+                self._channels.acknowledge(source, ack)
             return True
         part = self._parts.get(key)
         if part is not None and part.owner.epoch != frame.epoch:
@@ -218,14 +228,19 @@ class ParticipationTable:
             owner.initiator, part.channel, FrameKind.ROLE, message, now, limited=True
         )
 
-    def _end(self, part: _Participation, now: float) -> None:
+    def _end(self, part: _Participation, now: float, *, on_our_own: bool = False) -> None:
+        """End a participation; ``on_our_own``: without the initiator's word (it seemed
+        to have failed, or never acknowledged), so it is told, in case it still lives."""
         owner = part.owner
         key = (owner.initiator, owner.session)
         if self._parts.get(key) is part:
             del self._parts[key]
         part.channel.closed = True
+        on_our_own = on_our_own and part.role is not None  # a declined one is no member
+        if on_our_own:
+            self._tell_left(owner.initiator, owner.session, owner.epoch)
         expires = now + self._config.tombstone_ttl
-        self._tombstones[key] = (owner.epoch, expires)
+        self._tombstones[key] = (owner.epoch, expires, on_our_own)
         self._timers.push(expires, ExpireTombstone(owner.initiator, owner.session))
         self._role_timers.cancel(owner)
         role = part.role
@@ -233,10 +248,16 @@ class ParticipationTable:
             part.role = None
             self._outbox.call(role.out_group_of, (part.ref,), part.ref.session_id)
 
-    def initiator_gone(self, node: str, now: float) -> None:
-        """``node`` failed or left: every role in its sessions ends."""
+    def _tell_left(self, initiator: str, session: int, epoch: int) -> None:
+        # Out of band (docs/protocol.md §3): best effort, repeated for every later frame
+        # of that channel while its tombstone lasts.
+        left = ChannelData(False, session, epoch, 0, FrameKind.LEFT, None)
+        self._outbox.send(initiator, codec.encode(left), "channel")
+
+    def initiator_gone(self, node: str, now: float, *, failed: bool) -> None:
+        """``node`` failed (``failed``) or left: every role in its sessions ends."""
         for part in [p for p in self._parts.values() if p.owner.initiator == node]:
-            self._end(part, now)
+            self._end(part, now, on_our_own=failed)
 
     def end_all(self, now: float) -> None:
         """End every participation (this node leaves)."""
@@ -261,7 +282,7 @@ class ParticipationTable:
         """The initiator never acknowledged: the participation ends."""
         part = self._parts.get((target, channel.session))
         if part is not None and part.channel is channel:
-            self._end(part, now)
+            self._end(part, now, on_our_own=True)
 
     # ------------------------------------------------------------------ introspection
 

@@ -1,75 +1,39 @@
-"""The initiator side: sessions this node started, and their members (docs/protocol.md §3).
+"""The initiator side: the sessions this node started, and their members (§3).
 
-A session is formed and kept up to date entirely by its initiator's middleware; the
-participants only answer. For each session the table keeps:
+The table decides; the state of each session, and why each part of it is kept, is in
+session_state.py. Membership follows the view: whenever a candidate's properties or the
+initiator's own change, the definition is evaluated again (``node_changed``,
+``reevaluate_all``), and the differences become ``ACTIVATE`` and ``DEACTIVATE``
+frames. A stopped session is forgotten once every member's deactivation is
+acknowledged or its channel broke (guarantee 4: nothing left behind).
 
-* ``members``: nodes sent ``ACTIVATE``, each with its own channel and epoch. A member is
-  *pending* until it answers ``ACTIVATED``; only then does the role hear ``in_group``,
-  and only joined members' messages ever reach the role (guarantee 1).
-* ``declined``: nodes that answered ``DECLINED`` (no factory for the role there). They
-  are not asked again while they keep matching, and the role never hears of them
-  (guarantee 3). A node that stops matching leaves this set, so it is asked afresh if
-  it matches again later (it may have registered the role since).
-* ``closing``: channels of removed members whose ``DEACTIVATE`` is not yet
-  acknowledged. They keep retransmitting until the peer acks or is declared gone; a
-  frame arriving on one is acked (so the peer stops retransmitting) but never
-  delivered: that is how "late messages of a removed participant are dropped"
-  (guarantee 1) is enforced without any timing assumption.
-* ``epochs``: how many times each node was activated in this session. Each activation
-  gets a new channel named by (session, epoch), so a node that leaves and rejoins can
-  never have an old frame taken for a new one (§4). Kept for the session's life: a
-  participant may still hold a tombstone for an old epoch, and a reused epoch would
-  be taken for that closed channel.
-
-Membership follows the view: whenever a candidate's properties or the initiator's own
-change, the definition is evaluated again (``node_changed``, ``reevaluate_all``). A
-stopped session is forgotten once every member's deactivation is acknowledged or its
-peer is gone (guarantee 4: nothing left behind).
+Failure detection is local and links can fail one way, so the two sides can disagree
+about a membership. The table resolves it toward "not a member", the state a message
+can never be lost in: a peer taken for failed is deactivated all the same (it may still
+hear us), and a participant that reports ``LEFT`` (it took us for failed) is dropped
+and, if it still matches, activated afresh.
 """
 
 from __future__ import annotations
 
 import itertools
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
 from typing import Any
 
 from objectplaces.core import codec
 from objectplaces.core.channel import Channel
 from objectplaces.core.config import SessionInfo
 from objectplaces.core.errors import LocalProtocolError
-from objectplaces.core.groups import DefinitionLike, describe
+from objectplaces.core.groups import DefinitionLike
 from objectplaces.core.ids import ParticipantRef, SessionId, session_id_for
 from objectplaces.core.messages import ChannelAck, ChannelData, FrameKind
 from objectplaces.core.plumbing import Plumbing
 from objectplaces.core.roles import Initiator, InitiatorBinding, bind, is_bound
+from objectplaces.core.session_state import MemberState, SessionState
 from objectplaces.core.timers import SessionOwner
 from objectplaces.core.view import PropertyView
 
 __all__ = ["SessionTable"]
-
-
-@dataclass(slots=True)
-class _Member:
-    node: str
-    epoch: int
-    channel: Channel
-    joined: bool = False  # False while pending: ACTIVATE sent, no answer yet
-
-
-@dataclass(slots=True)
-class _Session:
-    number: int
-    sid: SessionId
-    role: Initiator
-    definition: DefinitionLike
-    participant_role: str
-    started_at: float
-    members: dict[str, _Member] = field(default_factory=dict)
-    closing: dict[tuple[str, int], Channel] = field(default_factory=dict)
-    declined: set[str] = field(default_factory=set)
-    epochs: dict[str, int] = field(default_factory=dict)
-    stopped: bool = False
 
 
 class SessionTable:
@@ -98,7 +62,7 @@ class SessionTable:
         self._view = view
         self._own = own
         self._binder = binder
-        self._sessions: dict[int, _Session] = {}
+        self._sessions: dict[int, SessionState] = {}
         self._numbers = itertools.count(1)
 
     # ------------------------------------------------------------------ commands
@@ -123,7 +87,7 @@ class SessionTable:
             )
         number = next(self._numbers)
         sid = session_id_for(self._node_id, number)
-        session = _Session(number, sid, role, definition, participant_role, now)
+        session = SessionState(number, sid, role, definition, participant_role, now)
         self._sessions[number] = session
         bind(role, self._binder(sid))  # before any callback of the session runs
         self._outbox.call(role.started, (), sid)
@@ -204,50 +168,56 @@ class SessionTable:
             elif node in session.members or node in session.declined:
                 self._unmatched(session, node, now)
 
-    def peer_gone(self, node: str) -> None:
-        """``node`` failed or left: it leaves every session at once, nothing to deactivate."""
+    def peer_gone(self, node: str, failed_at: float | None) -> None:
+        """``node`` left (``failed_at`` None) or was found failed at ``failed_at``: it
+        leaves every session at once.
+
+        A node that left ended its roles itself. One found failed may only be cut off
+        one way (failure detection is local): it is deactivated all the same, and its
+        closing channels keep retransmitting, so if it still hears us its role ends too.
+        """
         for session in list(self._sessions.values()):
             member = session.members.get(node)
             if member is not None:
-                self._remove(session, member, deactivate_at=None)
-            for key in [k for k in session.closing if k[0] == node]:
-                session.closing.pop(key).closed = True
+                self._remove(session, member, deactivate_at=failed_at)
+            if failed_at is None:
+                session.close(node)
             session.declined.discard(node)
             self._maybe_forget(session)
 
-    def _reevaluate(self, session: _Session, now: float) -> None:
+    def _reevaluate(self, session: SessionState, now: float) -> None:
         nodes = set(self._view.candidates(session.definition, self._own))
         nodes.update(session.members)
         nodes.update(session.declined)
         for node in sorted(nodes):  # never set order (STYLE.md §7)
             self._evaluate(session, node, now)
 
-    def _evaluate(self, session: _Session, node: str, now: float) -> None:
+    def _evaluate(self, session: SessionState, node: str, now: float) -> None:
         if self._view.matches(session.definition, self._own, node, session.sid):
             if node not in session.members and node not in session.declined:
                 self._activate(session, node, now)
         elif node in session.members or node in session.declined:
             self._unmatched(session, node, now)
 
-    def _unmatched(self, session: _Session, node: str, now: float) -> None:
+    def _unmatched(self, session: SessionState, node: str, now: float) -> None:
         """``node`` does not (or no longer) satisfy the definition."""
         session.declined.discard(node)
         member = session.members.get(node)
         if member is not None:
             self._remove(session, member, deactivate_at=now)
 
-    def _activate(self, session: _Session, node: str, now: float) -> None:
+    def _activate(self, session: SessionState, node: str, now: float) -> None:
         epoch = session.epochs.get(node, 0) + 1
         session.epochs[node] = epoch
         channel = self._channels.open(to_participant=True, session=session.number, epoch=epoch)
-        session.members[node] = _Member(node, epoch, channel)
+        session.members[node] = MemberState(node, epoch, channel)
         payload = [session.participant_role, type(session.role).__name__]
         self._channels.send(node, channel, FrameKind.ACTIVATE, payload, now)
 
     def _remove(
         self,
-        session: _Session,
-        member: _Member,
+        session: SessionState,
+        member: MemberState,
         *,
         deactivate_at: float | None,
         notify: bool = True,
@@ -264,8 +234,8 @@ class SessionTable:
             ref = ParticipantRef(member.node, session.sid)
             self._outbox.call(session.role.out_group, (ref,), session.sid)
 
-    def _maybe_forget(self, session: _Session) -> None:
-        if session.stopped and not session.members and not session.closing:
+    def _maybe_forget(self, session: SessionState) -> None:
+        if session.done:
             self._sessions.pop(session.number, None)
 
     # ------------------------------------------------------------------ frames
@@ -277,6 +247,9 @@ class SessionTable:
         if session is None:
             self._outbox.count("dropped_unknown_session")
             return False
+        if frame.kind is FrameKind.LEFT:
+            self._on_left(session, source, frame.epoch, now)
+            return True
         member = session.members.get(source)
         if member is None or member.epoch != frame.epoch:
             return self._on_stray_frame(session, source, frame)
@@ -289,7 +262,17 @@ class SessionTable:
             self._on_member_said(session, member, item)
         return True
 
-    def _on_stray_frame(self, session: _Session, source: str, frame: ChannelData) -> bool:
+    def _on_left(self, session: SessionState, source: str, epoch: int, now: float) -> None:
+        """The participant ended its role on its own (it took us for failed)."""
+        member = session.members.get(source)
+        if member is not None and member.epoch == epoch:
+            self._remove(session, member, deactivate_at=None)
+            if not session.stopped:
+                self._evaluate(session, source, now)  # still matching: a fresh activation
+        session.close(source, epoch)
+        self._maybe_forget(session)
+
+    def _on_stray_frame(self, session: SessionState, source: str, frame: ChannelData) -> bool:
         closing = session.closing.get((source, frame.epoch))
         if closing is not None:
             # Guarantee 1: a removed participant's late frames are acked, never delivered.
@@ -306,7 +289,9 @@ class SessionTable:
         self._outbox.count("dropped_unknown_session")
         return False
 
-    def _on_member_said(self, session: _Session, member: _Member, frame: ChannelData) -> None:
+    def _on_member_said(
+        self, session: SessionState, member: MemberState, frame: ChannelData
+    ) -> None:
         ref = ParticipantRef(member.node, session.sid)
         match frame.kind:
             case FrameKind.ACTIVATED if not member.joined:
@@ -356,7 +341,7 @@ class SessionTable:
 
     # ------------------------------------------------------------------ introspection
 
-    def _live(self, sid: str) -> _Session | None:
+    def _live(self, sid: str) -> SessionState | None:
         prefix, _, number = str(sid).rpartition("#")
         if prefix != self._node_id or not number.isdigit():
             return None
@@ -370,23 +355,7 @@ class SessionTable:
 
     def infos(self) -> list[SessionInfo]:
         """Live sessions, oldest first."""
-        infos = []
-        for s in self._sessions.values():
-            if s.stopped:
-                continue
-            infos.append(
-                SessionInfo(
-                    s.sid,
-                    self._node_id,
-                    type(s.role).__name__,
-                    s.participant_role,
-                    frozenset(n for n, m in s.members.items() if m.joined),
-                    frozenset(n for n, m in s.members.items() if not m.joined),
-                    s.started_at,
-                    describe(s.definition),
-                )
-            )
-        return infos
+        return [s.info(self._node_id) for s in self._sessions.values() if not s.stopped]
 
     def counts(self) -> dict[str, int]:
         """Sizes of the per-session structures (all 0 once everything is stopped)."""

@@ -352,3 +352,48 @@ def test_a_restarted_node_counts_at_once_with_its_properties_and_sessions() -> N
     assert session.session_id == "b#1"  # the same number as the old run's session
     net.run_for(0.2)
     assert new.membership() == [("in", "a")]
+
+
+def one_way_pair(seed: int) -> tuple[SimulatedNetwork, RecordingInitiator, list[Event], str]:
+    net = SimulatedNetwork(seed=seed, property_interval=0.5, failure_timeout=1.5)
+    log: list[Event] = []
+    n = fleet(net, "ab", log)
+    place(n["b"], 1, 0)
+    role = RecordingInitiator()
+    session = n["a"].start_interaction(role, groups.within(5.0), "voter")
+    net.run_for(1.0)
+    assert role.membership() == [("in", "b")]
+    return net, role, log, session.session_id
+
+
+def test_a_participant_that_took_its_initiator_for_failed_does_not_stay_a_member() -> None:
+    net, role, log, sid = one_way_pair(seed=23)
+    a, b = net.node("a"), net.node("b")
+    net.set_link("a", "b", both_ways=False, loss=1.0)  # b hears nothing of a; a hears b
+    net.run_for(3.0)
+    assert ("b", "out_group_of", "a") in log  # b's failure detector ended the role
+    assert ("out", "b") in role.membership()  # and b said so (LEFT): a dropped it
+    net.set_link("a", "b", both_ways=False, loss=0.0)
+    net.run_for(5.0)  # b still matches: activated afresh once a reaches it again
+    assert role.membership()[-1] == ("in", "b")
+    assert [p.session_id for p in b.participations()] == [sid]
+    [member] = role.members
+    assert role.send(member, "hello")
+    net.run_for(1.0)
+    assert log[-1] == ("b", "receive", "hello")
+    assert {i.session_id: i.members for i in a.sessions()}[sid] == {"b"}
+
+
+def test_a_participant_taken_for_failed_is_deactivated_if_it_still_hears() -> None:
+    net, role, log, sid = one_way_pair(seed=24)
+    a, b = net.node("a"), net.node("b")
+    net.set_link("b", "a", both_ways=False, loss=1.0)  # a hears nothing of b; b hears a
+    net.run_for(3.0)
+    assert role.members == frozenset()  # a's failure detector dropped b
+    assert ("b", "out_group_of", "a") in log  # and the DEACTIVATE reached b all the same
+    a.stop_interaction(sid)
+    net.set_link("b", "a", both_ways=False, loss=0.0)
+    net.run_for(60.0)  # every retransmission, failure timeout and tombstone is over
+    assert b.participations() == []
+    assert set(a.machine.state_counts().values()) == {0}
+    assert set(b.machine.state_counts().values()) == {0}

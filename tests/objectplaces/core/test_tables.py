@@ -167,12 +167,41 @@ def test_stop_deactivates_everyone_and_the_session_goes_once_acked(side: Initiat
     assert side.table.counts() == {"sessions": 0, "members": 0, "closing_channels": 0}
 
 
-def test_a_gone_peer_leaves_at_once_without_deactivation(side: InitiatorSide) -> None:
+def test_a_peer_that_left_leaves_at_once_without_deactivation(side: InitiatorSide) -> None:
     side.table.open(Role(), groups.within(5.0), "voter", now=0.0)
     side.answer("b", 0, FrameKind.ACTIVATED)
     called(side.outbox), sent(side.outbox)
-    side.table.peer_gone("b")
+    side.table.peer_gone("b", failed_at=None)
     assert called(side.outbox) == [("out_group", (ParticipantRef("b", "a#1"),))]
+    assert sent(side.outbox) == []
+    assert side.table.counts()["closing_channels"] == 0
+
+
+def test_a_peer_taken_for_failed_is_deactivated_all_the_same(side: InitiatorSide) -> None:
+    side.table.open(Role(), groups.within(5.0), "voter", now=0.0)
+    side.answer("b", 0, FrameKind.ACTIVATED)
+    called(side.outbox), sent(side.outbox)
+    side.table.peer_gone("b", failed_at=2.0)  # it may only be cut off one way
+    assert called(side.outbox) == [("out_group", (ParticipantRef("b", "a#1"),))]
+    assert sent(side.outbox) == [("b", ChannelData(True, 1, 1, 1, FrameKind.DEACTIVATE, None))]
+    assert side.table.counts()["closing_channels"] == 1  # retransmitted until acked
+    side.table.on_ack("b", ChannelAck(False, 1, 1, 1), now=2.5)
+    assert side.table.counts()["closing_channels"] == 0
+
+
+def test_a_participant_that_left_on_its_own_is_dropped_and_asked_again(
+    side: InitiatorSide,
+) -> None:
+    side.table.open(Role(), groups.within(5.0), "voter", now=0.0)
+    side.answer("b", 0, FrameKind.ACTIVATED)
+    called(side.outbox), sent(side.outbox)
+    side.answer("b", 0, FrameKind.LEFT)  # out of band: its sequence number means nothing
+    assert called(side.outbox) == [("out_group", (ParticipantRef("b", "a#1"),))]
+    assert sent(side.outbox) == [  # b still matches: a fresh activation, a new epoch
+        ("b", ChannelData(True, 1, 2, 0, FrameKind.ACTIVATE, ["voter", "Role"]))
+    ]
+    side.answer("b", 0, FrameKind.LEFT)  # a repeat, of the old epoch: nothing more
+    assert called(side.outbox) == []
     assert sent(side.outbox) == []
 
 
@@ -350,3 +379,28 @@ def test_role_timers_die_with_their_participation(part: ParticipantSide) -> None
     assert role.initiator == InitiatorRef("a", "a#1")
     part.frame(1, FrameKind.DEACTIVATE)
     assert handle.cancelled
+
+
+def test_a_role_ended_on_our_own_is_reported_left_instead_of_acked(
+    part: ParticipantSide,
+) -> None:
+    part.table.set_factory("voter", Voter)
+    part.frame(0, FrameKind.ACTIVATE, ["voter", "Requester"])
+    called(part.outbox), sent(part.outbox)
+    part.table.initiator_gone("a", now=2.0, failed=True)  # we took it for failed
+    left = ("a", ChannelData(False, 1, 1, 0, FrameKind.LEFT, None))
+    assert sent(part.outbox) == [left]
+    assert [n for n, _ in called(part.outbox)] == ["out_group_of"]
+    part.frame(1, FrameKind.ROLE, "are you there?")  # it lives, and still talks to us
+    assert sent(part.outbox) == [left]  # told again, never acked into the void
+    assert called(part.outbox) == []
+
+
+def test_a_role_whose_initiator_left_is_not_reported(part: ParticipantSide) -> None:
+    part.table.set_factory("voter", Voter)
+    part.frame(0, FrameKind.ACTIVATE, ["voter", "Requester"])
+    sent(part.outbox)
+    part.table.initiator_gone("a", now=2.0, failed=False)
+    assert sent(part.outbox) == []
+    part.frame(1, FrameKind.ROLE, "late")
+    assert sent(part.outbox) == [("a", ChannelAck(False, 1, 1, 1))]
