@@ -382,11 +382,19 @@ def state_within_bounds(world: World) -> list[str]:
     return found
 
 
+PEER_TABLES = ("view", "heard", "indexed", "asked")
+"""``machine.footprint()`` tables kept per peer heard: after quiescence, live peers only."""
+PEER_LOGS = ("dropped_peers", "logged_peers")
+"""``machine.footprint()`` tables kept per peer that sent bad frames: any peer of the run."""
+
+
 def memory_bounded(world: World) -> list[str]:
-    """Memory: after quiescence a node's view holds only live nodes (departed ones and the
-    silent hostile peer are forgotten), and its counters are a fixed vocabulary."""
+    """Memory: after quiescence a node's view and its other per-peer tables hold only
+    live nodes (departed ones and the silent hostile peer are forgotten), its tables of
+    misbehaving peers at most every id of the run, and its counters a fixed vocabulary."""
     found = []
     live = set(world.live)
+    everyone = len(world.scenario.roles) + 1  # every id the run may use, and the hostile peer
     for node in world.live:
         activator = world.node(node)
         stale = sorted(set(activator.view()) - live)
@@ -395,4 +403,12 @@ def memory_bounded(world: World) -> list[str]:
         names = activator.stats().counters
         if len(names) > MAX_COUNTER_NAMES:
             found.append(f"memory: {node} keeps {len(names)} counters: {sorted(names)[:8]}...")
+        footprint = getattr(activator.machine, "footprint", None)
+        if footprint is None:
+            continue  # the core no longer offers it: reported, not guessed at
+        sizes = footprint()
+        limits = {name: len(live) for name in PEER_TABLES} | dict.fromkeys(PEER_LOGS, everyone)
+        over = {n: (sizes[n], limit) for n, limit in limits.items() if sizes.get(n, 0) > limit}
+        if over:
+            found.append(f"memory t={world.now:.3f}: {node} holds (size, bound) {over}")
     return found

@@ -134,15 +134,18 @@ def _settle(world: World, result: RunResult, *, final: bool) -> list[str]:
         world.net.run_for(SETTLE_STEP)
 
 
-def run_seed(seed: int, *, trace: Callable[[str], None] | None = None) -> RunResult:
+def run_seed(
+    seed: int, *, phases: int = 3, trace: Callable[[str], None] | None = None
+) -> RunResult:
     """Run the scenario of ``seed`` and check every invariant after every step.
 
     Args:
         seed: the seed.
+        phases: chaos phases, each ending in a calm checkpoint.
         trace: called with a line per step (replays print them).
     """
     started = time.perf_counter()
-    scenario = generate(seed)
+    scenario = generate(seed, phases=phases)
     result = RunResult(seed)
     world = World(scenario)
     seen = 0
