@@ -42,7 +42,7 @@ from tests.soak.invariants import (
     stopped_sessions_forgotten,
 )
 from tests.soak.probes import AppFault
-from tests.soak.workload import Settle, Step, Wait, generate
+from tests.soak.workload import Settle, Wait, generate
 from tests.soak.world import World
 
 __all__ = ["RunResult", "main", "parse_seeds", "replay_command", "run_seed"]
@@ -152,7 +152,7 @@ def run_seed(
     with _capture(world):
         for index, step in enumerate(scenario.steps):
             if trace is not None:
-                trace(f"{index:4d} t={world.now:8.3f}  {_describe(step)}")
+                trace(f"{index:4d} t={world.now:8.3f}  {step!r}")
             try:
                 if isinstance(step, Settle):
                     found = _settle(world, result, final=step.final)
@@ -171,7 +171,7 @@ def run_seed(
             result.steps = index + 1
             if found:
                 result.violations = list(dict.fromkeys(found))
-                result.failed_step = f"step {index} at t={world.now:.3f}: {_describe(step)}"
+                result.failed_step = f"step {index} at t={world.now:.3f}: {step!r}"
                 break
     result.virtual_seconds = round(world.now, 3)
     result.wall_seconds = time.perf_counter() - started
@@ -179,10 +179,6 @@ def run_seed(
     result.frames = world.net.stats().messages
     result.app_faults = world.ledger.app_faults
     return result
-
-
-def _describe(step: Step) -> str:
-    return repr(step)
 
 
 def parse_seeds(text: str) -> list[int]:

@@ -122,7 +122,8 @@ def test_a_stopped_session_leaves_no_role_where_the_initiator_timed_out_the_part
     reason="a participant that ends its role on its own says LEFT once, best effort, and "
     "again only when another frame of that channel arrives: if that one LEFT is lost and "
     "the initiator sends nothing more, the initiator keeps it as a member (or pending) for "
-    "good (soak seeds 27, 88, 225, 332)",
+    "good (soak seeds 27, 88, 225, 332, 503, 801, 1289, 1315, 1327, 1363, 1802, 1955, 2021, "
+    "2126, 2297)",
 )
 def test_a_lost_left_does_not_keep_a_gone_participant_a_member() -> None:
     net, _, roles, sid = _pair(seed=3)
@@ -140,3 +141,24 @@ def test_a_lost_left_does_not_keep_a_gone_participant_a_member() -> None:
     members = {info.session_id: info.members for info in a.sessions()}[sid]
     playing = [p for p in b.participations() if p.session_id == sid]
     assert ("b" in members) == bool(playing)
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="SimulatedNetwork.remove_node promises a crashed node loses what is in flight, "
+    "but its frames still arrive after it restarted under the same id: a peer applies the "
+    "old run's property update over the new run's (its sequence number is higher) and "
+    "keeps the old position until the new run's numbers catch up; an old run's ACTIVATE "
+    "leaves a role no initiator knows (soak seeds 597, 1428, 1771)",
+)
+def test_a_crashed_run_loses_what_it_had_in_flight() -> None:
+    net = SimulatedNetwork(seed=1, delay=0.05, property_interval=0.1)
+    a, b = net.add_node("a"), net.add_node("b")
+    b.update_node_property("position", (1.0, 1.0))
+    net.run_for(5.0)  # about fifty publications: b's sequence numbers are high
+    b.update_node_property("position", (2.0, 2.0))
+    net.run_for(0.01)  # that update is on the wire, 0.05 s of delay
+    net.remove_node("b")
+    net.add_node("b").update_node_property("position", (3.0, 3.0))
+    net.run_for(3.0)
+    assert a.view()["b"]["position"] == (3.0, 3.0)
