@@ -9,6 +9,7 @@ from __future__ import annotations
 import asyncio
 import time
 from collections.abc import Callable
+from functools import partial
 from typing import Any, Protocol
 
 from objectplaces import RoleActivator
@@ -114,9 +115,7 @@ class MeshHarness:
             await authenticate(ws, self.secret, node=f"intruder-{n}")
             before = _dropped(node)
             await ws.send(frame)
-            async with asyncio.timeout(10):
-                while _dropped(node) == before and ws.close_code is None:
-                    await asyncio.sleep(0.005)
+            await self.until(partial(_answered, node, before, ws))
             await ws.close()
 
     async def until(self, predicate: Callable[[], bool], within: float = 10.0) -> None:
@@ -134,3 +133,8 @@ class MeshHarness:
 def _dropped(node: RoleActivator) -> int:
     """Frames ``node`` has refused so far, whatever the reason."""
     return sum(v for k, v in node.stats().counters.items() if k.startswith("dropped"))
+
+
+def _answered(node: RoleActivator, dropped_before: int, ws: Any) -> bool:
+    """True once ``node`` counted a refused frame or closed the link ``ws``."""
+    return _dropped(node) != dropped_before or ws.close_code is not None
