@@ -23,6 +23,7 @@ from websockets.exceptions import ConnectionClosed
 from agv_app.fleet import demo_source
 from dashboard.app import create_app
 from dashboard.feed import ClientFeed
+from tests.dashboard.bodies import nested_definition, poll_body
 from tests.dashboard.conftest import FailingSource, NetworkSource, TestClient
 from tests.dashboard.served import Served
 
@@ -31,21 +32,8 @@ HUGE = 1.797e308
 
 
 def poll(definition: Any, **overrides: Any) -> dict[str, Any]:
-    body = {
-        "node": "agv-1",
-        "role": "poll",
-        "participant_role": "poll-responder",
-        "definition": definition,
-        "params": {"property": "status"},
-    }
-    body.update(overrides)
-    return body
-
-
-def nested(levels: int) -> str:
-    """A definition ``levels`` deep as JSON text (built flat: ``json`` would recurse)."""
-    leaf = '{"type": "within", "distance": 5.0}'
-    return '{"type": "and", "of": [' * (levels - 1) + leaf + "]}" * (levels - 1)
+    # ``overrides`` may replace the node itself, so they apply after the body is built.
+    return {**poll_body("agv-1", definition), **overrides}
 
 
 def post_json(client: TestClient, url: str, text: str) -> httpx.Response:
@@ -105,7 +93,7 @@ def test_distances_that_are_no_sane_number_are_refused(client: TestClient, dista
 
 @pytest.mark.parametrize("levels", [33, 200, 480, 5000])
 def test_deeply_nested_definitions_are_refused(running: TestClient, levels: int) -> None:
-    r = post_json(running, "/api/sessions", poll_text(nested(levels)))
+    r = post_json(running, "/api/sessions", poll_text(nested_definition(levels)))
     assert r.status_code in (413, 422), r.text
     assert re.search("at most|over", r.json()["detail"])
     assert running.get("/api/sessions").status_code == 200
@@ -115,7 +103,7 @@ def test_deeply_nested_definitions_are_refused(running: TestClient, levels: int)
 
 
 def test_thirty_two_levels_are_accepted(client: TestClient) -> None:
-    r = post_json(client, "/api/sessions", poll_text(nested(32)))
+    r = post_json(client, "/api/sessions", poll_text(nested_definition(32)))
     assert r.status_code == 201, r.text
     assert client.get("/api/nodes/agv-1").status_code == 200
 
@@ -124,7 +112,7 @@ def test_thirty_two_levels_are_accepted(client: TestClient) -> None:
     "definition",
     [
         "[" * 3000,
-        nested(200),
+        nested_definition(200),
         json.dumps({"type": "within", "distance": HUGE}),
         '{"type": "within", "distance": 1e999}',
         json.dumps({"type": "within", "distance": True}),

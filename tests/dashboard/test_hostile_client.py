@@ -19,57 +19,48 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from agv_app.fleet import demo_source
+from tests.dashboard.bodies import WITHIN, nested_definition, poll_body
 from tests.dashboard.conftest import TestClient
 from tests.dashboard.served import Served
 
 STORM_CLIENTS = 200  # each starts, reads and stops one session: 600 requests
 MEGABYTE = "x" * 1_000_000
-WITHIN = {"type": "within", "distance": 20.0}
 
 
 def session_path(session_id: str) -> str:
     return f"/api/sessions/{quote(session_id, safe='')}"
 
 
-def poll(node: str, definition: Any = WITHIN, **overrides: Any) -> dict[str, Any]:
-    body = {
-        "node": node,
-        "role": "poll",
-        "participant_role": "poll-responder",
-        "definition": definition,
-        "params": {"property": "status"},
-    }
-    body.update(overrides)
-    return body
-
-
-def deep(levels: int) -> str:
-    leaf = '{"type": "within", "distance": 5.0}'
-    return '{"type": "and", "of": [' * (levels - 1) + leaf + "]}" * (levels - 1)
-
-
 def hostile_requests(node: str) -> list[tuple[str, str, dict[str, Any]]]:
     """(method, url, httpx keywords) of requests that must each be refused with a 4xx."""
     as_json = {"content-type": "application/json"}
-    template = json.dumps(poll(node, None))
+    template = json.dumps(poll_body(node, None))
     out: list[tuple[str, str, dict[str, Any]]] = [
-        ("POST", "/api/sessions", {"json": poll(node, {"type": "within", "distance": 1.797e308})}),
-        ("POST", "/api/sessions", {"json": poll(node, {"type": "within", "distance": True})}),
-        ("POST", "/api/sessions", {"json": poll(node, {"type": "within", "distance": "2"})}),
-        ("POST", "/api/sessions", {"json": poll(node, {"type": "within", "distance": 10**400})}),
-        ("POST", "/api/sessions", {"json": poll(node, {"type": "within", "distance": -1})}),
-        ("POST", "/api/sessions", {"json": poll(MEGABYTE)}),
-        ("POST", "/api/sessions", {"json": poll(node, params={"property": MEGABYTE})}),
-        ("POST", "/api/sessions", {"json": poll(node, {"type": MEGABYTE})}),
-        ("POST", "/api/sessions", {"json": poll(node, role=7)}),
-        ("POST", "/api/sessions", {"json": poll(node, node_extra=1)}),
-        ("POST", "/api/sessions", {"json": [poll(node)]}),
+        (
+            "POST",
+            "/api/sessions",
+            {"json": poll_body(node, {"type": "within", "distance": 1.797e308})},
+        ),
+        ("POST", "/api/sessions", {"json": poll_body(node, {"type": "within", "distance": True})}),
+        ("POST", "/api/sessions", {"json": poll_body(node, {"type": "within", "distance": "2"})}),
+        (
+            "POST",
+            "/api/sessions",
+            {"json": poll_body(node, {"type": "within", "distance": 10**400})},
+        ),
+        ("POST", "/api/sessions", {"json": poll_body(node, {"type": "within", "distance": -1})}),
+        ("POST", "/api/sessions", {"json": poll_body(MEGABYTE)}),
+        ("POST", "/api/sessions", {"json": poll_body(node, params={"property": MEGABYTE})}),
+        ("POST", "/api/sessions", {"json": poll_body(node, {"type": MEGABYTE})}),
+        ("POST", "/api/sessions", {"json": poll_body(node, role=7)}),
+        ("POST", "/api/sessions", {"json": poll_body(node, node_extra=1)}),
+        ("POST", "/api/sessions", {"json": [poll_body(node)]}),
         ("POST", "/api/sessions", {"content": b"[" * 3000, "headers": as_json}),
         ("POST", "/api/sessions", {"content": b"{" * 50, "headers": as_json}),
         ("POST", "/api/sessions", {"content": b"\xff\xfe", "headers": as_json}),
         ("POST", "/api/sessions", {"content": "1" + "0" * 5000, "headers": as_json}),
         ("GET", "/api/groups/view", {"params": {"definition": "[" * 3000}}),
-        ("GET", "/api/groups/view", {"params": {"definition": deep(200)}}),
+        ("GET", "/api/groups/view", {"params": {"definition": nested_definition(200)}}),
         (
             "GET",
             "/api/groups/view",
@@ -89,13 +80,13 @@ def hostile_requests(node: str) -> list[tuple[str, str, dict[str, Any]]]:
         ("POST", "/api/sim/" + "r" * 1000, {}),
     ]
     for levels in (40, 200, 480):
-        text = template.replace('"definition": null', f'"definition": {deep(levels)}')
+        text = template.replace('"definition": null', f'"definition": {nested_definition(levels)}')
         out.append(("POST", "/api/sessions", {"content": text, "headers": as_json}))
     return out
 
 
 async def storm_client(http: httpx.AsyncClient, node: str, answers: list[tuple[str, int]]) -> str:
-    r = await http.post("/api/sessions", json=poll(node))
+    r = await http.post("/api/sessions", json=poll_body(node))
     answers.append(("start", r.status_code))
     if r.status_code != 201:
         return ""
