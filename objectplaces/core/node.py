@@ -56,6 +56,7 @@ from objectplaces.core.sessions import SessionTable
 from objectplaces.core.timers import (
     CheckLiveness,
     ExpireTombstone,
+    RepeatLeft,
     Republish,
     Retransmit,
     RoleOwner,
@@ -355,6 +356,8 @@ class NodeMachine:
                 self._timers.push(now + timeout / 3, action)
             case ExpireTombstone(initiator, session):
                 self._participations.expire_tombstone(initiator, session, now)
+            case RepeatLeft(initiator, session):
+                self._participations.repeat_left(initiator, session, now)
             case _:
                 assert_never(action)
 

@@ -27,9 +27,12 @@ stays bounded however many sessions a long run sees.
 Failure detection is local and links can fail one way: this node may take an
 initiator for failed while the initiator, hearing us, keeps us as a member. So a role
 ended on our own (initiator failed, channel broken) is reported to the initiator with
-an out-of-band ``LEFT``, at once and again for every later frame of that channel,
-instead of an ack: the initiator drops us as a member (and may activate us afresh),
-rather than send into a tombstone that would swallow every message.
+an out-of-band ``LEFT``, instead of an ack: the initiator drops us as a member (and may
+activate us afresh), rather than send into a tombstone that would swallow every message.
+The initiator may send nothing more, so ``LEFT`` is retransmitted with backoff until
+the initiator acknowledges it, the initiator is gone, or the tombstone expires. It
+carries the number after the last frame of our stream, and the initiator acks exactly
+that number, so no late ack of the stream is taken for it.
 """
 
 from __future__ import annotations
@@ -47,7 +50,7 @@ from objectplaces.core.ids import InitiatorRef, session_id_for
 from objectplaces.core.messages import ChannelAck, ChannelData, FrameKind
 from objectplaces.core.plumbing import Plumbing
 from objectplaces.core.roles import Participant, ParticipantBinding, bind
-from objectplaces.core.timers import ExpireTombstone, ParticipationOwner
+from objectplaces.core.timers import ExpireTombstone, ParticipationOwner, RepeatLeft
 
 __all__ = ["ParticipantFactory", "ParticipationTable"]
 
@@ -69,6 +72,14 @@ class _Participation:
     declining: bool = False  # DECLINED sent; kept until the initiator acks it
 
 
+@dataclass(slots=True)
+class _Tombstone:
+    epoch: int
+    expires: float
+    left_seq: int | None = None  # ended on our own: the number our LEFT carries
+    left_wait: float | None = None  # until the next LEFT; None once acked (or moot)
+
+
 class ParticipationTable:
     """Participant roles of this node, their channels, and tombstones of closed ones.
 
@@ -88,8 +99,7 @@ class ParticipationTable:
         self._binder = binder
         self._factories: dict[str, ParticipantFactory] = {}
         self._parts: dict[tuple[str, int], _Participation] = {}
-        # (initiator, session) -> (epoch, expires, ended on our own)
-        self._tombstones: dict[tuple[str, int], tuple[int, float, bool]] = {}
+        self._tombstones: dict[tuple[str, int], _Tombstone] = {}
 
     # ------------------------------------------------------------------ factories
 
@@ -124,15 +134,17 @@ class ParticipationTable:
         when it belongs to no channel here and opens none (dropped and counted)."""
         key = (source, frame.session)
         tomb = self._tombstones.get(key)
-        if tomb is not None and frame.epoch <= tomb[0]:
+        if tomb is not None and frame.epoch <= tomb.epoch:
             self._outbox.count("dropped_stale")
-            if tomb[2] and frame.epoch == tomb[0]:
+            if tomb.left_seq is not None and frame.epoch == tomb.epoch:
                 # We ended it on our own; the initiator, still talking, must learn it.
-                self._tell_left(source, frame.session, frame.epoch)
+                self._tell_left(source, frame.session, tomb)
             else:  # a closed channel: ack so the initiator stops retransmitting
                 ack = ChannelAck(False, frame.session, frame.epoch, frame.seq)
                 self._channels.acknowledge(source, ack)
             return True
+        if tomb is not None:
+            tomb.left_wait = None  # a newer epoch: the initiator has dropped the old one
         part = self._parts.get(key)
         if part is not None and part.owner.epoch != frame.epoch:
             if frame.epoch < part.owner.epoch:
@@ -199,6 +211,10 @@ class ParticipationTable:
         channel of ours (dropped and counted)."""
         part = self._parts.get((source, ack.session))
         if part is None or part.owner.epoch != ack.epoch:
+            tomb = self._tombstones.get((source, ack.session))
+            if tomb is not None and tomb.epoch == ack.epoch and tomb.left_seq == ack.ack:
+                tomb.left_wait = None  # the initiator has our LEFT
+                return True
             self._outbox.count("dropped_stray_ack")
             return False
         self._channels.on_ack(source, part.channel, ack.ack, now)
@@ -236,28 +252,44 @@ class ParticipationTable:
         if self._parts.get(key) is part:
             del self._parts[key]
         part.channel.closed = True
-        on_our_own = on_our_own and part.role is not None  # a declined one is no member
-        if on_our_own:
-            self._tell_left(owner.initiator, owner.session, owner.epoch)
         expires = now + self._config.tombstone_ttl
-        self._tombstones[key] = (owner.epoch, expires, on_our_own)
+        tomb = self._tombstones[key] = _Tombstone(owner.epoch, expires)
         self._timers.push(expires, ExpireTombstone(owner.initiator, owner.session))
+        if on_our_own and part.role is not None:  # a declined one is no member
+            tomb.left_seq = part.channel.sent_through + 1
+            tomb.left_wait = self._config.retransmit_timeout
+            self._tell_left(owner.initiator, owner.session, tomb)
+            self._timers.push(now + tomb.left_wait, RepeatLeft(owner.initiator, owner.session))
         self._role_timers.cancel(owner)
         role = part.role
         if role is not None:
             part.role = None
             self._outbox.call(role.out_group_of, (part.ref,), part.ref.session_id)
 
-    def _tell_left(self, initiator: str, session: int, epoch: int) -> None:
-        # Out of band (docs/protocol.md §3): best effort, repeated for every later frame
-        # of that channel while its tombstone lasts.
-        left = ChannelData(False, session, epoch, 0, FrameKind.LEFT, None)
+    def _tell_left(self, initiator: str, session: int, tomb: _Tombstone) -> None:
+        # Out of band (docs/protocol.md §3): numbered past our stream, so that its ack
+        # cannot be mistaken for a late ack of the stream.
+        left = ChannelData(False, session, tomb.epoch, tomb.left_seq or 0, FrameKind.LEFT, None)
         self._outbox.send(initiator, codec.encode(left), "channel")
+
+    def repeat_left(self, initiator: str, session: int, now: float) -> None:
+        """Send the ``LEFT`` of (initiator, session) again unless it was acknowledged,
+        with the channels' backoff (doubling up to 16 times ``retransmit_timeout``)."""
+        tomb = self._tombstones.get((initiator, session))
+        if tomb is None or tomb.left_wait is None:
+            return
+        self._tell_left(initiator, session, tomb)
+        tomb.left_wait = min(2 * tomb.left_wait, 16 * self._config.retransmit_timeout)
+        self._timers.push(now + tomb.left_wait, RepeatLeft(initiator, session))
 
     def initiator_gone(self, node: str, now: float, *, failed: bool) -> None:
         """``node`` failed (``failed``) or left: every role in its sessions ends."""
         for part in [p for p in self._parts.values() if p.owner.initiator == node]:
             self._end(part, now, on_our_own=failed)
+        if not failed:  # it left on purpose: no one is there to hear a LEFT
+            for (initiator, _), tomb in self._tombstones.items():
+                if initiator == node:
+                    tomb.left_wait = None
 
     def end_all(self, now: float) -> None:
         """End every participation (this node leaves)."""
@@ -273,7 +305,7 @@ class ParticipationTable:
         """Forget a tombstone whose time is up (a newer one for the same key stays)."""
         key = (initiator, session)
         tomb = self._tombstones.get(key)
-        if tomb is not None and tomb[1] <= now:
+        if tomb is not None and tomb.expires <= now:
             del self._tombstones[key]
 
     # ------------------------------------------------------------------ channels

@@ -249,6 +249,10 @@ class SessionTable:
             return False
         if frame.kind is FrameKind.LEFT:
             self._on_left(session, source, frame.epoch, now)
+            # Acked with its own number (past the stream), so its sender stops repeating it.
+            self._channels.acknowledge(
+                source, ChannelAck(True, frame.session, frame.epoch, frame.seq)
+            )
             return True
         member = session.members.get(source)
         if member is None or member.epoch != frame.epoch:

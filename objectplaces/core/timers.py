@@ -35,6 +35,7 @@ __all__ = [
     "CheckLiveness",
     "ExpireTombstone",
     "ParticipationOwner",
+    "RepeatLeft",
     "Republish",
     "Retransmit",
     "RoleOwner",
@@ -80,6 +81,14 @@ class ExpireTombstone:
     session: int
 
 
+@dataclass(frozen=True, slots=True)
+class RepeatLeft:
+    """Send the ``LEFT`` of (initiator, session) again if it is still unacknowledged."""
+
+    initiator: str
+    session: int
+
+
 @dataclass(frozen=True, slots=True, eq=False)
 class RunTimer:
     """Run a ``call_later`` callback (a role's or the application's)."""
@@ -87,7 +96,9 @@ class RunTimer:
     handle: TimerHandle
 
 
-TimerAction: TypeAlias = Retransmit | Republish | CheckLiveness | ExpireTombstone | RunTimer
+TimerAction: TypeAlias = (
+    Retransmit | Republish | CheckLiveness | ExpireTombstone | RepeatLeft | RunTimer
+)
 
 
 @dataclass(frozen=True, slots=True)

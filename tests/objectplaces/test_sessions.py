@@ -397,3 +397,32 @@ def test_a_participant_taken_for_failed_is_deactivated_if_it_still_hears() -> No
     assert b.participations() == []
     assert set(a.machine.state_counts().values()) == {0}
     assert set(b.machine.state_counts().values()) == {0}
+
+
+def test_a_lost_left_is_repeated_until_the_initiator_hears_it() -> None:
+    net = SimulatedNetwork(seed=25, property_interval=0.5)
+    log: list[Event] = []
+    a = net.add_node("a", failure_timeout=100.0)  # a never takes b for failed
+    b = net.add_node("b", failure_timeout=1.5)
+    b.set_participant_factory("voter", lambda: RecordingParticipant(log))
+    place(a, 0, 0)
+    place(b, 1, 0)
+    role = RecordingInitiator()
+    sid = a.start_interaction(role, groups.within(5.0), "voter").session_id
+    net.run_for(1.0)
+    assert role.membership() == [("in", "b")]
+    net.set_link("a", "b", loss=1.0)  # b takes a for failed; its first LEFT is lost
+    net.run_for(3.0)
+    assert ("b", "out_group_of", "a") in log
+    assert role.membership() == [("in", "b")]  # a, idle, sends nothing that b could answer
+    net.set_link("a", "b", loss=0.0)
+    net.run_for(5.0)  # a repeated LEFT arrives: a drops b and, as b matches, activates it
+    assert role.membership() == [("in", "b"), ("out", "b"), ("in", "b")]
+    assert [p.session_id for p in b.participations()] == [sid]
+
+    def sent_by_b() -> int:
+        return net.stats().per_node["b"].sent.get("channel", [0])[0]
+
+    before = sent_by_b()
+    net.run_for(4.0)  # longer than the longest backoff, within the tombstone's life
+    assert sent_by_b() == before  # b says LEFT no more

@@ -21,6 +21,7 @@ from objectplaces.core.sessions import SessionTable
 from objectplaces.core.timers import (
     ExpireTombstone,
     ParticipationOwner,
+    RepeatLeft,
     RoleOwner,
 )
 from objectplaces.core.view import PropertyView
@@ -195,14 +196,15 @@ def test_a_participant_that_left_on_its_own_is_dropped_and_asked_again(
     side.table.open(Role(), groups.within(5.0), "voter", now=0.0)
     side.answer("b", 0, FrameKind.ACTIVATED)
     called(side.outbox), sent(side.outbox)
-    side.answer("b", 0, FrameKind.LEFT)  # out of band: its sequence number means nothing
+    side.answer("b", 1, FrameKind.LEFT)  # out of band: numbered past b's stream
     assert called(side.outbox) == [("out_group", (ParticipantRef("b", "a#1"),))]
     assert sent(side.outbox) == [  # b still matches: a fresh activation, a new epoch
-        ("b", ChannelData(True, 1, 2, 0, FrameKind.ACTIVATE, ["voter", "Role"]))
+        ("b", ChannelData(True, 1, 2, 0, FrameKind.ACTIVATE, ["voter", "Role"])),
+        ("b", ChannelAck(True, 1, 1, 1)),  # and the LEFT acked with its own number
     ]
-    side.answer("b", 0, FrameKind.LEFT)  # a repeat, of the old epoch: nothing more
+    side.answer("b", 1, FrameKind.LEFT)  # a repeat, of the old epoch: acked, nothing more
     assert called(side.outbox) == []
-    assert sent(side.outbox) == []
+    assert sent(side.outbox) == [("b", ChannelAck(True, 1, 1, 1))]
 
 
 def test_a_rejoining_node_gets_a_new_epoch(side: InitiatorSide) -> None:
@@ -388,12 +390,51 @@ def test_a_role_ended_on_our_own_is_reported_left_instead_of_acked(
     part.frame(0, FrameKind.ACTIVATE, ["voter", "Requester"])
     called(part.outbox), sent(part.outbox)
     part.table.initiator_gone("a", now=2.0, failed=True)  # we took it for failed
-    left = ("a", ChannelData(False, 1, 1, 0, FrameKind.LEFT, None))
+    left = ("a", ChannelData(False, 1, 1, 1, FrameKind.LEFT, None))  # past our stream
     assert sent(part.outbox) == [left]
     assert [n for n, _ in called(part.outbox)] == ["out_group_of"]
     part.frame(1, FrameKind.ROLE, "are you there?")  # it lives, and still talks to us
     assert sent(part.outbox) == [left]  # told again, never acked into the void
     assert called(part.outbox) == []
+
+
+def repeat_lefts_due(part: ParticipantSide, now: float) -> None:
+    while (action := part.timers.pop_due(now)) is not None:
+        if isinstance(action, RepeatLeft):
+            part.table.repeat_left(action.initiator, action.session, now)
+
+
+def test_a_left_is_repeated_with_backoff_until_acked_with_its_own_number(
+    part: ParticipantSide,
+) -> None:
+    part.table.set_factory("voter", Voter)
+    part.frame(0, FrameKind.ACTIVATE, ["voter", "Requester"])
+    sent(part.outbox)
+    part.table.initiator_gone("a", now=2.0, failed=True)
+    left = ("a", ChannelData(False, 1, 1, 1, FrameKind.LEFT, None))
+    assert sent(part.outbox) == [left]
+    repeat_lefts_due(part, now=2.25)  # retransmit_timeout 0.2
+    assert sent(part.outbox) == [left]
+    repeat_lefts_due(part, now=2.5)  # backed off: the next one is due at 2.6
+    assert sent(part.outbox) == []
+    repeat_lefts_due(part, now=2.65)
+    assert sent(part.outbox) == [left]
+    assert not part.table.on_ack("a", ChannelAck(True, 1, 1, 0), now=2.7)  # a late stream ack
+    repeat_lefts_due(part, now=3.5)
+    assert sent(part.outbox) == [left]  # is not taken for the LEFT's
+    assert part.table.on_ack("a", ChannelAck(True, 1, 1, 1), now=3.6)
+    repeat_lefts_due(part, now=4.9)
+    assert sent(part.outbox) == []  # acked: no more
+
+
+def test_a_left_is_not_repeated_to_an_initiator_that_left(part: ParticipantSide) -> None:
+    part.table.set_factory("voter", Voter)
+    part.frame(0, FrameKind.ACTIVATE, ["voter", "Requester"])
+    part.table.initiator_gone("a", now=2.0, failed=True)
+    sent(part.outbox)
+    part.table.initiator_gone("a", now=2.1, failed=False)  # then its Leave arrived
+    repeat_lefts_due(part, now=4.9)
+    assert sent(part.outbox) == []
 
 
 def test_a_role_whose_initiator_left_is_not_reported(part: ParticipantSide) -> None:
