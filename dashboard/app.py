@@ -28,6 +28,7 @@ from dashboard.driver import FleetDriver
 from dashboard.errors import install_error_handlers
 from dashboard.limits import RequestLimits
 from dashboard.routes import ROUTERS
+from dashboard.routes.docs import DOCS_ASSETS_DIR, DOCS_ASSETS_URL
 from dashboard.source import FleetSource
 from dashboard.state import DashboardState
 
@@ -54,7 +55,7 @@ def create_app(
         static_dir: the page's files.
 
     Returns:
-        The FastAPI app (OpenAPI at ``/docs``).
+        The FastAPI app (OpenAPI at ``/docs`` and ``/redoc``, served with no internet).
     """
     state = DashboardState(source, token=token)
     state.ensure_responders()
@@ -82,6 +83,8 @@ def create_app(
         summary="Live fleet: nodes, sessions, groups, locks; start sessions and tasks.",
         version="0.1.0",
         lifespan=lifespan,
+        docs_url=None,
+        redoc_url=None,
     )
     app.state.dashboard = state
     app.state.driver = driver
@@ -91,4 +94,5 @@ def create_app(
     for router in ROUTERS:
         app.include_router(router)
     app.mount("/static", StaticFiles(directory=static_dir), name="static")
+    app.mount(DOCS_ASSETS_URL, StaticFiles(directory=DOCS_ASSETS_DIR), name="docs-assets")
     return app

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from fastapi import APIRouter
 
-from dashboard.routes import events, fleet, groups, nodes, page, sessions, sim
+from dashboard.routes import docs, events, fleet, groups, nodes, page, sessions, sim
 
 __all__ = ["ROUTERS"]
 
@@ -16,5 +16,6 @@ ROUTERS: tuple[APIRouter, ...] = (
     sim.router,
     events.router,
     page.router,
+    docs.router,
 )
 """Every router of the app, in the order the OpenAPI lists them."""
