@@ -208,20 +208,24 @@ class SimulatedNetwork:
         Raises:
             LocalProtocolError: no such live node.
         """
-        node = self._nodes.pop(node_id, None)
-        if node is None:
-            raise LocalProtocolError(f"unknown node {node_id!r}")
-        node.alive = False
-        self._network.detach(node_id)
+        self._stop(node_id, graceful=False)
 
     def leave(self, node_id: str) -> None:
-        """Remove ``node_id`` gracefully: it stops its sessions and tells every peer."""
+        """Remove ``node_id`` gracefully: it stops its sessions and tells every peer (its
+        goodbyes still arrive; a crash would lose them)."""
         node = self._nodes.get(node_id)
         if node is None:
             raise LocalProtocolError(f"unknown node {node_id!r}")
         node.machine.leave(self.now)
         node.pump.drain()
-        self.remove_node(node_id)
+        self._stop(node_id, graceful=True)
+
+    def _stop(self, node_id: str, *, graceful: bool) -> None:
+        node = self._nodes.pop(node_id, None)
+        if node is None:
+            raise LocalProtocolError(f"unknown node {node_id!r}")
+        node.alive = False
+        self._network.detach(node_id, graceful=graceful)
 
     def node(self, node_id: str) -> RoleActivator:
         """The live node ``node_id``.

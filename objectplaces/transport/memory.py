@@ -9,7 +9,9 @@ properties, so its view fills within one delay instead of one republication inte
 
 Each node is attached with its ``RawNodeDriver``; time comes from a ``Scheduler``. A
 node that attaches under an id seen before is a new run of it: every other node's
-driver hears ``peer_restarted``. Handling one frame may raise; the network then drops
+driver hears ``peer_restarted``. Every frame carries the run of its sender and of its
+target: frames of a run that crashed, or that a new run replaced, are lost in flight,
+like frames to a run that is gone. Handling one frame may raise; the network then drops
 that frame, counts it (``dropped["failed"]``) and carries on, as every transport does.
 """
 
@@ -91,7 +93,8 @@ class NetworkStats:
         by_kind: kind -> (messages, bytes).
         per_node: node -> its traffic.
         dropped: reason -> frames dropped: "loss", "partition", "dead" (the target was
-            gone), "failed" (handling the frame raised; the target lives on).
+            gone, or the sender crashed or restarted since it sent the frame), "failed"
+            (handling the frame raised; the target lives on).
         delivered: frames that reached a live node.
     """
 
@@ -119,6 +122,8 @@ class MemoryNetwork:
         self._links: dict[tuple[str, str], LinkParams] = {}
         self._nodes: dict[str, tuple[int, RawNodeDriver]] = {}
         self._incarnations: dict[str, int] = {}
+        # node -> its latest run whose frames still in flight are lost (crashed or replaced)
+        self._voided: dict[str, int] = {}
         self._component: dict[str, int] | None = None
         self._router = CellRouter()
         self._traffic: dict[str, NodeTraffic] = {}
@@ -143,6 +148,8 @@ class MemoryNetwork:
             raise LocalProtocolError(f"node {node!r} is already on the network")
         previous = self._incarnations.get(node, 0)
         self._incarnations[node] = previous + 1
+        if previous:
+            self._voided[node] = previous  # the old run's frames must not reach anyone now
         self._nodes[node] = (previous + 1, driver)
         self._traffic.setdefault(node, NodeTraffic())
         if previous:
@@ -150,10 +157,18 @@ class MemoryNetwork:
                 if other != node:
                     self._handle(other_driver.peer_restarted, node, target=other)
 
-    def detach(self, node: str) -> None:
-        """Disconnect ``node`` at once, as a crash: frames in flight to it are lost."""
-        if self._nodes.pop(node, None) is None:
+    def detach(self, node: str, *, graceful: bool = False) -> None:
+        """Disconnect ``node`` at once: frames in flight to it are lost and, unless it
+        leaves ``graceful`` (its goodbyes must still arrive), those from it too.
+
+        Raises:
+            LocalProtocolError: ``node`` is not attached.
+        """
+        entry = self._nodes.pop(node, None)
+        if entry is None:
             raise LocalProtocolError(f"unknown node {node!r}")
+        if not graceful:
+            self._voided[node] = entry[0]
         self._router.forget(node)
 
     def __contains__(self, node: object) -> bool:
@@ -226,6 +241,7 @@ class MemoryNetwork:
         links = self._links
         defaults = self.defaults
         incarnations = self._incarnations
+        run = incarnations[source]
         # Frames over plain default links all arrive together: one event carries them all.
         plain = not (defaults.jitter or defaults.loss or defaults.duplicate or defaults.reorder)
         together: list[tuple[str, int]] = []
@@ -251,12 +267,11 @@ class MemoryNetwork:
                 if link.reorder and rng.random() < link.reorder:
                     delay += rng.random() * 4.0 * (link.delay + link.jitter)
                 loop.call_at(
-                    now + delay, self._arrive, source, target, incarnation, message, size, kind
+                    now + delay, self._arrive, source, run, target, incarnation, message, size, kind
                 )
         if together:
-            loop.call_at(
-                now + defaults.delay, self._arrive_together, source, together, message, size, kind
-            )
+            arrive = self._arrive_together
+            loop.call_at(now + defaults.delay, arrive, source, run, together, message, size, kind)
         tally[0] += count
         tally[1] += count * size
         by_kind[0] += count
@@ -268,6 +283,7 @@ class MemoryNetwork:
     def _arrive_together(
         self,
         source: str,
+        run: int | None,
         targets: list[tuple[str, int]],
         message: Message | bytes,
         size: int,
@@ -275,19 +291,22 @@ class MemoryNetwork:
     ) -> None:
         arrive = self._arrive
         for target, incarnation in targets:
-            arrive(source, target, incarnation, message, size, kind)
+            arrive(source, run, target, incarnation, message, size, kind)
 
     def _arrive(
         self,
         source: str,
+        run: int | None,
         target: str,
         incarnation: int,
         message: Message | bytes,
         size: int,
         kind: str,
     ) -> None:
+        # ``run``: the sender's run when it sent the frame (None: injected, never lost).
         entry = self._nodes.get(target)
-        if entry is None or entry[0] != incarnation:
+        void = run is not None and run <= self._voided.get(source, 0)
+        if entry is None or entry[0] != incarnation or void:
             self._dropped["dead"] += 1
             return
         driver = entry[1]
@@ -349,6 +368,7 @@ class MemoryNetwork:
             self.loop.now + delay,
             self._arrive,
             source,
+            None,
             target,
             self._incarnations[target],
             _decoded(data),

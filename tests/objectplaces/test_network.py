@@ -82,6 +82,33 @@ def test_crashed_node_receives_nothing_more_and_ids_are_checked() -> None:
         net.add_node("c", interest_radius=0)
 
 
+def test_a_crashed_node_loses_what_it_had_in_flight() -> None:
+    net = SimulatedNetwork(seed=37, delay=0.05)
+    a, b = net.add_node("a"), net.add_node("b")
+    b.update_node_property("status", "x")
+    net.run_for(0.01)  # the frame is in flight
+    net.remove_node("b")
+    net.run_for(0.1)
+    assert "b" not in a.view()
+    assert net.stats().dropped["dead"] == 1
+
+
+def test_an_old_run_s_frames_in_flight_never_reach_the_new_run_s_peers() -> None:
+    net = SimulatedNetwork(seed=38, delay=0.05)
+    log: list[Event] = []
+    a, b = net.add_node("a"), net.add_node("b")
+    a.set_participant_factory("voter", lambda: RecordingParticipant(log))
+    place(a, 0, 0)
+    place(b, 1, 0)
+    net.run_for(1.0)
+    b.start_interaction(RecordingInitiator(), groups.within(5.0), "voter")
+    net.leave("b")  # gracefully, with the ACTIVATE still on its way
+    net.add_node("b")  # and back at once, as a new run
+    net.run_for(1.0)
+    assert log == []  # no role for a session of the old run
+    assert a.participations() == []
+
+
 def test_run_until_stops_at_the_first_event_that_satisfies_the_predicate() -> None:
     net = SimulatedNetwork(seed=35, delay=0.25)
     a, b = net.add_node("a"), net.add_node("b")
