@@ -356,8 +356,8 @@ class NodeMachine:
                 self._timers.push(now + timeout / 3, action)
             case ExpireTombstone(initiator, session):
                 self._participations.expire_tombstone(initiator, session, now)
-            case RepeatLeft(initiator, session):
-                self._participations.repeat_left(initiator, session, now)
+            case RepeatLeft():
+                self._participations.repeat_left(action, now)
             case _:
                 assert_never(action)
 

@@ -138,7 +138,7 @@ class ParticipationTable:
             self._outbox.count("dropped_stale")
             if tomb.left_seq is not None and frame.epoch == tomb.epoch:
                 # We ended it on our own; the initiator, still talking, must learn it.
-                self._tell_left(source, frame.session, tomb)
+                self._tell_left(source, frame.session, tomb.epoch, tomb.left_seq)
             else:  # a closed channel: ack so the initiator stops retransmitting
                 ack = ChannelAck(False, frame.session, frame.epoch, frame.seq)
                 self._channels.acknowledge(source, ack)
@@ -258,29 +258,32 @@ class ParticipationTable:
         if on_our_own and part.role is not None:  # a declined one is no member
             tomb.left_seq = part.channel.sent_through + 1
             tomb.left_wait = self._config.retransmit_timeout
-            self._tell_left(owner.initiator, owner.session, tomb)
-            self._timers.push(now + tomb.left_wait, RepeatLeft(owner.initiator, owner.session))
+            self._tell_left(owner.initiator, owner.session, owner.epoch, tomb.left_seq)
+            repeat = RepeatLeft(owner.initiator, owner.session, owner.epoch)
+            self._timers.push(now + tomb.left_wait, repeat)
         self._role_timers.cancel(owner)
         role = part.role
         if role is not None:
             part.role = None
             self._outbox.call(role.out_group_of, (part.ref,), part.ref.session_id)
 
-    def _tell_left(self, initiator: str, session: int, tomb: _Tombstone) -> None:
+    def _tell_left(self, initiator: str, session: int, epoch: int, seq: int) -> None:
         # Out of band (docs/protocol.md §3): numbered past our stream, so that its ack
         # cannot be mistaken for a late ack of the stream.
-        left = ChannelData(False, session, tomb.epoch, tomb.left_seq or 0, FrameKind.LEFT, None)
+        left = ChannelData(False, session, epoch, seq, FrameKind.LEFT, None)
         self._outbox.send(initiator, codec.encode(left), "channel")
 
-    def repeat_left(self, initiator: str, session: int, now: float) -> None:
-        """Send the ``LEFT`` of (initiator, session) again unless it was acknowledged,
-        with the channels' backoff (doubling up to 16 times ``retransmit_timeout``)."""
-        tomb = self._tombstones.get((initiator, session))
-        if tomb is None or tomb.left_wait is None:
+    def repeat_left(self, repeat: RepeatLeft, now: float) -> None:
+        """Send the ``LEFT`` of that channel again unless it was acknowledged, with the
+        channels' backoff (doubling up to 16 times ``retransmit_timeout``)."""
+        tomb = self._tombstones.get((repeat.initiator, repeat.session))
+        if tomb is None or tomb.epoch != repeat.epoch:
+            return  # expired, or superseded by a later channel's (with its own timer)
+        if tomb.left_wait is None or tomb.left_seq is None:
             return
-        self._tell_left(initiator, session, tomb)
+        self._tell_left(repeat.initiator, repeat.session, tomb.epoch, tomb.left_seq)
         tomb.left_wait = min(2 * tomb.left_wait, 16 * self._config.retransmit_timeout)
-        self._timers.push(now + tomb.left_wait, RepeatLeft(initiator, session))
+        self._timers.push(now + tomb.left_wait, repeat)
 
     def initiator_gone(self, node: str, now: float, *, failed: bool) -> None:
         """``node`` failed (``failed``) or left: every role in its sessions ends."""

@@ -83,10 +83,12 @@ class ExpireTombstone:
 
 @dataclass(frozen=True, slots=True)
 class RepeatLeft:
-    """Send the ``LEFT`` of (initiator, session) again if it is still unacknowledged."""
+    """Send the ``LEFT`` of channel (initiator, session, epoch) again if it is still
+    unacknowledged."""
 
     initiator: str
     session: int
+    epoch: int
 
 
 @dataclass(frozen=True, slots=True, eq=False)

@@ -401,7 +401,7 @@ def test_a_role_ended_on_our_own_is_reported_left_instead_of_acked(
 def repeat_lefts_due(part: ParticipantSide, now: float) -> None:
     while (action := part.timers.pop_due(now)) is not None:
         if isinstance(action, RepeatLeft):
-            part.table.repeat_left(action.initiator, action.session, now)
+            part.table.repeat_left(action, now)
 
 
 def test_a_left_is_repeated_with_backoff_until_acked_with_its_own_number(
@@ -425,6 +425,17 @@ def test_a_left_is_repeated_with_backoff_until_acked_with_its_own_number(
     assert part.table.on_ack("a", ChannelAck(True, 1, 1, 1), now=3.6)
     repeat_lefts_due(part, now=4.9)
     assert sent(part.outbox) == []  # acked: no more
+
+
+def test_a_left_superseded_by_a_later_channel_s_is_not_repeated(part: ParticipantSide) -> None:
+    part.table.set_factory("voter", Voter)
+    part.frame(0, FrameKind.ACTIVATE, ["voter", "Requester"])
+    part.table.initiator_gone("a", now=2.0, failed=True)
+    part.frame(0, FrameKind.ACTIVATE, ["voter", "Requester"], epoch=2)  # activated afresh
+    part.table.initiator_gone("a", now=2.0, failed=True)  # and ended on our own again
+    sent(part.outbox)
+    repeat_lefts_due(part, now=2.25)  # both channels' timers are due: one LEFT only
+    assert sent(part.outbox) == [("a", ChannelData(False, 1, 2, 1, FrameKind.LEFT, None))]
 
 
 def test_a_left_is_not_repeated_to_an_initiator_that_left(part: ParticipantSide) -> None:
