@@ -6,7 +6,10 @@ its interest radius; each publishes its position once per simulated second and r
 collision-avoidance-style session (circles_overlap, hull length 2.5 m) whose participants
 answer once. Figures: CPU seconds per simulated second, deliveries and bytes per update.
 
-Run: .venv/bin/python bench/groups.py [--sizes 100,1000,10000] [--seconds 5]
+Run: .venv/bin/python bench/groups.py [--sizes 100,1000,10000] [--seconds 5] [--against DIR]
+
+``--against DIR`` runs every configuration a second time with the checkout in ``DIR``,
+alternating with this tree's, and adds a table of both trees' CPU cost.
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from rich.progress import Progress
 
+from bench.elsewhere import call_in_tree
 from bench.report import markdown_table, publish
 from objectplaces import Initiator, Participant, ParticipantRef, groups
 from objectplaces.sim import SimulatedNetwork
@@ -132,15 +136,24 @@ def main() -> None:
         default=1000,
         help="largest N also run with full multicast (it costs O(N^2))",
     )
+    parser.add_argument(
+        "--against", type=Path, help="also run every configuration with this checkout"
+    )
     args = parser.parse_args()
     sizes = [int(s) for s in args.sizes.split(",")]
     plan = [(n, True) for n in sizes] + [(n, False) for n in sizes if n <= args.full_up_to]
     results: list[Result] = []
+    baseline: list[Result] = []
     with Progress(transient=True) as progress:
         task = progress.add_task("configurations", total=len(plan))
         for n, scoped in plan:
             progress.update(task, description=f"N={n} {'scoped' if scoped else 'full'}")
             results.append(run(n, scoped, args.seconds))
+            if args.against:
+                figures = call_in_tree(
+                    args.against, "bench.groups", "run", [n, scoped, args.seconds]
+                )
+                baseline.append(Result(**figures))
             progress.advance(task)
     rows = []
     by_key = {(r.nodes, r.mode.startswith("scoped")): r for r in results}
@@ -182,7 +195,38 @@ def main() -> None:
         "scoped + indexed >= 20x cheaper than full + opaque at 1,000 nodes."
     )
     command = f".venv/bin/python bench/groups.py --sizes {args.sizes} --seconds {args.seconds:g}"
+    if args.against:
+        body += "\n\n" + _comparison(results, baseline, args.against)
+        command += f" --against {args.against}"
     publish("groups", "Group maintenance at scale (bench/groups.py)", body, command)
+
+
+def _comparison(results: list[Result], baseline: list[Result], against: Path) -> str:
+    """The table of this tree's CPU cost beside the other checkout's, same run."""
+    rows = [
+        [
+            r.nodes,
+            r.mode,
+            f"{r.cpu_per_sim_s:.3f}",
+            f"{b.cpu_per_sim_s:.3f}",
+            f"{r.cpu_per_sim_s / b.cpu_per_sim_s:.2f}",
+            f"{r.bytes_per_update:.0f} / {b.bytes_per_update:.0f}",
+        ]
+        for r, b in zip(results, baseline, strict=True)
+    ]
+    return f"Against the checkout in `{against}`, measured in the same run, alternating:\n\n" + (
+        markdown_table(
+            [
+                "N",
+                "dissemination + definition",
+                "CPU s per sim s, this",
+                f"CPU s per sim s, {against.name}",
+                "this / against",
+                "wire bytes per update (this / against)",
+            ],
+            rows,
+        )
+    )
 
 
 if __name__ == "__main__":
