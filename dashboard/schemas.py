@@ -34,6 +34,7 @@ __all__ = [
     "StoppedOut",
     "TaskIn",
     "TaskOut",
+    "TaskRecordOut",
     "json_value",
 ]
 
@@ -190,6 +191,19 @@ class TaskOut(_Out):
 
     task_id: str
     station: str
+
+
+class TaskRecordOut(_Out):
+    """A transport order and where it stands."""
+
+    id: str
+    source: str = Field(description="pick station id")
+    destination: str = Field(description="drop station id")
+    state: str = Field(description="waiting, assigned, driving, done, failed or cancelled")
+    vehicle: str | None = Field(description="the vehicle that holds or last held it")
+    created: float = Field(description="simulated seconds")
+    started: float | None = Field(description="when its vehicle last set off with it")
+    finished: float | None = Field(description="when it was delivered or cancelled")
 
 
 class SimOut(_Out):

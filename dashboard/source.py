@@ -32,6 +32,9 @@ __all__ = [
     "FleetSource",
     "InitiatorFactory",
     "Polygon",
+    "TaskBookSource",
+    "TaskRecordView",
+    "TaskSpecView",
     "UnknownStationError",
     "VehicleView",
 ]
@@ -219,5 +222,73 @@ class FleetSource(Protocol):
         The dashboard calls it about 50 times a wall-clock second with
         ``wall_elapsed * speed`` (capped, so a stalled loop does not cause a jump),
         and never while paused. The fleet steps its own fixed increments inside.
+        """
+        ...
+
+
+class TaskSpecView(Protocol):
+    """What a transport task carries: from where to where."""
+
+    @property
+    def id(self) -> str:
+        """The task's id."""
+        ...
+
+    @property
+    def pick(self) -> str:
+        """Station id where the load is picked up."""
+        ...
+
+    @property
+    def drop(self) -> str:
+        """Station id where the load is dropped."""
+        ...
+
+
+class TaskRecordView(Protocol):
+    """One transport task as the fleet's task book holds it."""
+
+    @property
+    def task(self) -> TaskSpecView:
+        """What the task carries."""
+        ...
+
+    @property
+    def state(self) -> str:
+        """``created``, ``assigned``, ``driving``, ``done``, ``failed`` or ``cancelled``."""
+        ...
+
+    @property
+    def vehicle(self) -> str | None:
+        """The vehicle that holds or last held it."""
+        ...
+
+    @property
+    def times(self) -> Mapping[Any, float]:
+        """When it last entered each state it has passed (keyed by state name), seconds."""
+        ...
+
+
+@runtime_checkable
+class TaskBookSource(Protocol):
+    """A fleet that keeps a task book; the dashboard then lists and cancels its tasks.
+
+    Optional: for a ``FleetSource`` without these members ``GET /api/tasks`` is empty.
+    """
+
+    def task_records(self) -> Sequence[TaskRecordView]:
+        """Every task held in detail (bounded history of finished ones, then open ones)."""
+        ...
+
+    def task_record(self, task_id: str) -> TaskRecordView | None:
+        """One task, or None if the book holds it no more (or never did)."""
+        ...
+
+    def cancel_task(self, task_id: str) -> None:
+        """Withdraw a task no vehicle holds yet.
+
+        Raises:
+            KeyError: no open task has that id.
+            ValueError: a vehicle holds it.
         """
         ...

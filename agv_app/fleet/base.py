@@ -12,6 +12,7 @@ from typing import Any
 
 from agv_app.fleet.view import OBSERVER_ID
 from agv_app.layout.graph import Layout
+from agv_app.tasks.book import TaskRecord
 from agv_app.tasks.desk import TaskDesk
 from agv_app.tasks.station import Station
 from objectplaces import Initiator
@@ -63,6 +64,14 @@ class FleetSourceBase:
     def open_tasks(self) -> list[str]:
         """Ids of tasks created and not finished, oldest first."""
         return self.desk.book.open_ids()
+
+    def task_records(self) -> list[TaskRecord]:
+        """Every task the book holds in detail: the last finished, then the open ones."""
+        return self.desk.book.records()
+
+    def task_record(self, task_id: str) -> TaskRecord | None:
+        """The task ``task_id`` as the book holds it, or None if it holds it no more."""
+        return self.desk.book.get(task_id)
 
     def pause(self) -> None:
         """Pause: the simulated fleet stops its clock; the mesh fleet, whose AGV

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from fastapi import APIRouter
 
-from dashboard.routes import docs, events, fleet, groups, nodes, page, sessions, sim
+from dashboard.routes import docs, events, fleet, groups, nodes, page, sessions, sim, tasks
 
 __all__ = ["ROUTERS"]
 
@@ -13,6 +13,7 @@ ROUTERS: tuple[APIRouter, ...] = (
     sessions.router,
     groups.router,
     fleet.router,
+    tasks.router,
     sim.router,
     events.router,
     page.router,

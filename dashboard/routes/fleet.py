@@ -1,17 +1,15 @@
-"""``/api/locks``, ``/api/tasks`` and ``/api/metrics``: the AGV fleet itself."""
+"""``/api/locks`` and ``/api/metrics``: the AGV fleet itself (tasks: ``routes/tasks``)."""
 
 from __future__ import annotations
 
 import math
 from typing import Any
 
-from fastapi import APIRouter, Depends, HTTPException, Request
+from fastapi import APIRouter, Request
 
 from dashboard.capture import capture
-from dashboard.deps import State, require_token
-from dashboard.errors import ERROR_RESPONSES
-from dashboard.limits import shown
-from dashboard.schemas import LockOut, MetricsOut, TaskIn, TaskOut
+from dashboard.deps import State
+from dashboard.schemas import LockOut, MetricsOut
 
 __all__ = ["router"]
 
@@ -32,25 +30,6 @@ async def list_locks(state: State) -> list[dict[str, Any]]:
         }
         for vid, rec in sorted(vehicles.items())
     ]
-
-
-@router.post(
-    "/tasks",
-    status_code=201,
-    response_model=TaskOut,
-    responses=ERROR_RESPONSES,
-    dependencies=[Depends(require_token)],
-)
-async def create_task(body: TaskIn, state: State) -> TaskOut:
-    """Create a transport task at a station (starts its task-assignment session)."""
-    try:
-        task_id = state.source.create_task(body.station)
-    except LookupError as exc:
-        known = ", ".join(s["id"] for s in state.layout["stations"])
-        raise HTTPException(404, f"unknown station {shown(body.station)} (known: {known})") from exc
-    except ValueError as exc:
-        raise HTTPException(422, str(exc)) from exc
-    return TaskOut(task_id=str(task_id), station=body.station)
 
 
 @router.get("/metrics", response_model=MetricsOut)

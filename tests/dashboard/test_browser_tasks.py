@@ -1,0 +1,96 @@
+"""The transport-orders panel in real headless chromium over the real AGV fleet."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from typing import Any
+
+import httpx
+import pytest
+
+from agv_app.fleet import Fleet, FleetConfig
+from tests.dashboard.served import Served
+from tests.dashboard.test_browser import CHROMIUM, CHROMIUM_ARGS
+
+pytestmark = [
+    pytest.mark.browser,
+    pytest.mark.skipif(not CHROMIUM.exists(), reason="needs /usr/bin/chromium (make chromium)"),
+]
+
+CLIPPED_CELLS = """(panel) => [...document.querySelectorAll(`${panel} td, ${panel} th`)]
+    .filter((c) => c.scrollWidth > c.clientWidth + 1)
+    .map((c) => c.textContent)
+    .concat(
+      [...document.querySelectorAll(`${panel} table`)]
+        .filter((t) => t.scrollWidth > t.parentElement.clientWidth + 1)
+        .map((t) => `table of ${panel}`),
+    )"""
+"""Cells (and tables) of a panel whose content is wider than they show: clipped."""
+
+
+@pytest.fixture
+def tasks_page() -> Iterator[tuple[Any, Served]]:
+    # No random tasks, and paused: a created task waits until the test resumes.
+    fleet = Fleet(config=FleetConfig(agvs=4, seed=3, task_until=0.0))
+    fleet.set_speed(8.0)
+    fleet.pause()
+    sync_api = pytest.importorskip("playwright.sync_api")
+    with Served(fleet) as served, sync_api.sync_playwright() as pw:
+        browser = pw.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
+        page = browser.new_page(viewport={"width": 1400, "height": 900})
+        problems: list[str] = []
+        page.on("console", lambda m: problems.append(m.text) if m.type == "error" else None)
+        page.on("pageerror", lambda e: problems.append(str(e)))
+        page.goto(served.url + "/")
+        page.wait_for_function("window.__dashboard && window.__dashboard.ready", timeout=10_000)
+        yield page, served
+        browser.close()
+        # A refused cancel (409) is logged by chromium as a failed resource; nothing else.
+        assert [p for p in problems if "409" not in p] == [], problems
+
+
+def create(served: Served, station: str) -> str:
+    r = httpx.post(f"{served.url}/api/tasks", json={"station": station}, timeout=5)
+    assert r.status_code == 201, r.text
+    return str(r.json()["task_id"])
+
+
+def test_a_waiting_order_is_listed_and_cancelled(tasks_page: tuple[Any, Served]) -> None:
+    page, served = tasks_page
+    task_id = create(served, "pick-A1-1")
+    row = page.locator(f"#tasks-panel tr[data-task-id='{task_id}']")
+    row.wait_for(timeout=5_000)
+    assert row.locator("td[data-state]").text_content() == "waiting"
+    assert row.locator("td").nth(1).text_content() == "pick-A1-1"
+    assert page.evaluate(CLIPPED_CELLS, "#tasks-panel") == []
+    row.locator("button.cancel").click()
+    page.wait_for_function(
+        f"document.querySelector(\"tr[data-task-id='{task_id}'] td[data-state]\")"
+        ".textContent === 'cancelled'",
+        timeout=5_000,
+    )
+    assert page.locator("#tasks-status").text_content() == f"task {task_id} cancelled"
+    assert row.locator("button.cancel").count() == 0
+
+
+def test_a_driving_order_has_no_cancel_and_the_filter_works(
+    tasks_page: tuple[Any, Served],
+) -> None:
+    page, served = tasks_page
+    first = create(served, "pick-A1-1")
+    httpx.post(f"{served.url}/api/sim/resume", timeout=5)
+    page.wait_for_function(
+        f"document.querySelector(\"tr[data-task-id='{first}'] td[data-state]\")"
+        "?.textContent === 'driving'",
+        timeout=30_000,
+    )
+    row = page.locator(f"tr[data-task-id='{first}']")
+    assert row.locator("td").nth(4).text_content().startswith("agv")
+    assert row.locator("button.cancel").count() == 0
+    page.select_option("#tasks-state", "waiting")
+    page.wait_for_function(
+        "document.querySelectorAll('#tasks-body tr').length === 0", timeout=5_000
+    )
+    page.select_option("#tasks-state", "driving")
+    row.wait_for(timeout=5_000)
+    assert page.evaluate(CLIPPED_CELLS, "#tasks-panel") == []
