@@ -18,6 +18,7 @@ from agv_app.fleet.sim import Fleet, FleetConfig
 from agv_app.layout.elements import LayoutError
 from agv_app.layout.graph import Layout
 from agv_app.layout.json_format import load_any
+from agv_app.tasks.load import DEFAULT_LOAD
 
 __all__ = ["DEFAULT_AGVS", "SAFETY_KEYS", "fleet_size", "register", "run_sim"]
 
@@ -75,7 +76,18 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
     p.add_argument(
         "--broadcast", action="store_true", help="vote with every AGV (no collision groups)"
     )
-    p.add_argument("--task-interval", type=float, help="mean seconds between new tasks")
+    p.add_argument(
+        "--load",
+        type=float,
+        default=DEFAULT_LOAD,
+        help="target share of busy AGVs, in (0, 1]; the task rate follows from it and the "
+        f"layout's stations (default: {DEFAULT_LOAD})",
+    )
+    p.add_argument(
+        "--task-interval",
+        type=float,
+        help="mean seconds between new tasks (overrides --load's rate, no tasks at the start)",
+    )
     p.add_argument("--json", dest="json_path", help="write the metrics to this JSON file")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run_sim)
@@ -91,6 +103,18 @@ def run_sim(args: argparse.Namespace) -> int:
     if bad_agvs or args.minutes <= 0 or not 0.0 <= args.loss < 1.0 or args.delay < 0:
         print("objectplaces sim: need --agvs >= 1, --minutes > 0, 0 <= --loss < 1", file=sys.stderr)
         return 2
+    if not 0.0 < args.load <= 1.0:
+        print(
+            f"objectplaces sim: --load is the share of AGVs kept busy, in (0, 1]; got {args.load}",
+            file=sys.stderr,
+        )
+        return 2
+    if args.task_interval is not None and not args.task_interval > 0:
+        print(
+            f"objectplaces sim: --task-interval must be more than 0 s; got {args.task_interval}",
+            file=sys.stderr,
+        )
+        return 2
     try:
         layout = load_any(args.layout) if args.layout else None
         args.agvs = fleet_size(layout, args.agvs)
@@ -101,6 +125,7 @@ def run_sim(args: argparse.Namespace) -> int:
             jitter=args.delay / 2000,
             loss=args.loss,
             broadcast=args.broadcast,
+            load=args.load,
             task_interval=args.task_interval,
         )
         fleet = Fleet(layout, config)

@@ -9,7 +9,12 @@ BENCHMARKS.md. Large sizes take long; ``--sizes`` and ``--minutes`` shorten the 
 (``git worktree add DIR <commit>``), side by side in the same run, and adds a table
 of both trees' sim speed: a change to the fleet shows there whether it costs time.
 
-    python -m bench.fleet [--sizes 10,20,50] [--minutes 30] [--seed 1] [--against DIR]
+Tasks arrive at the rate that keeps ``--load`` of the AGVs busy (default 0.7, see
+``agv_app.tasks.load``); the table sets the tasks done per hour beside the free-flow
+bound and the long waits (docs/fleet.md says what each figure means).
+
+    python -m bench.fleet [--sizes 10,20,50] [--minutes 30] [--seed 1] [--load 0.7]
+                          [--against DIR]
 """
 
 from __future__ import annotations
@@ -26,14 +31,17 @@ from pathlib import Path
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from agv_app.fleet import Fleet, FleetConfig
+from agv_app.tasks import DEFAULT_LOAD, check_load
 from bench.report import markdown_table, publish
 
 __all__ = ["main", "run_elsewhere", "run_one"]
 
 
-def run_one(agvs: int, minutes: float, seed: int, broadcast: bool) -> dict[str, float]:
+def run_one(
+    agvs: int, minutes: float, seed: int, broadcast: bool, load: float = DEFAULT_LOAD
+) -> dict[str, float]:
     """Run one fleet and return its figures (sim speed from this process's CPU time)."""
-    fleet = Fleet(config=FleetConfig(agvs=agvs, seed=seed, broadcast=broadcast))
+    fleet = Fleet(config=FleetConfig(agvs=agvs, seed=seed, broadcast=broadcast, load=load))
     started = time.process_time()
     fleet.run(minutes * 60)
     return fleet.summary(time.process_time() - started)
@@ -48,7 +56,8 @@ _RUN_ONE = (
 def run_elsewhere(
     tree: Path, agvs: int, minutes: float, seed: int, broadcast: bool
 ) -> dict[str, float]:
-    """:func:`run_one` with the code of another checkout ``tree``, in a child process."""
+    """:func:`run_one` with the code of another checkout ``tree``, in a child process
+    (at that tree's own default load: older trees take no load)."""
     env = {**os.environ, "PYTHONPATH": str(tree)}
     args = json.dumps([agvs, minutes, seed, broadcast])
     done = subprocess.run(
@@ -82,6 +91,9 @@ def main(argv: list[str] | None = None) -> None:
     )
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument(
+        "--load", type=float, default=DEFAULT_LOAD, help="target share of busy AGVs, (0, 1]"
+    )
+    parser.add_argument(
         "--jobs",
         type=int,
         default=os.cpu_count() or 1,
@@ -91,6 +103,10 @@ def main(argv: list[str] | None = None) -> None:
         "--against", type=Path, help="also run every job with the checkout in this directory"
     )
     args = parser.parse_args(argv)
+    try:
+        check_load(args.load)
+    except ValueError as exc:
+        raise SystemExit(f"bench.fleet: --load: {exc}") from exc
     sizes = [int(s) for s in args.sizes.split(",") if s]
     plan = _plan(sizes, args.minutes)
     jobs = [(n, m, broadcast) for n, m in plan for broadcast in (False, True)]
@@ -107,7 +123,7 @@ def main(argv: list[str] | None = None) -> None:
         for n, m, broadcast in sorted(jobs, key=lambda j: -j[0] * j[1]):
             for tree in trees:
                 future = (
-                    pool.submit(run_one, n, m, args.seed, broadcast)
+                    pool.submit(run_one, n, m, args.seed, broadcast, args.load)
                     if tree == "this"
                     else pool.submit(run_elsewhere, args.against, n, m, args.seed, broadcast)
                 )
@@ -129,6 +145,9 @@ def main(argv: list[str] | None = None) -> None:
                 grouped["tasks_created"],
                 grouped["tasks_completed"],
                 grouped["tasks_per_hour"],
+                grouped["free_flow_tasks_per_hour"],
+                grouped["stalls_60s"],
+                grouped["max_wait"],
                 grouped["collisions"] + broad["collisions"],
                 grouped["lock_overlaps"] + broad["lock_overlaps"],
                 f"{grouped['deadlocks']} / {broad['deadlocks']}",
@@ -145,6 +164,9 @@ def main(argv: list[str] | None = None) -> None:
         "tasks created",
         "tasks done",
         "tasks/h",
+        "free-flow tasks/h",
+        "waits > 60 s",
+        "longest wait, s",
         "collisions",
         "lock overlaps",
         "deadlocks (groups / broadcast)",
@@ -155,10 +177,12 @@ def main(argv: list[str] | None = None) -> None:
         "sim s per CPU s (groups)",
     ]
     body = (
-        f"Demo warehouse, seed {args.seed}, t_update 1 s, 5 ms delay; the minutes column "
+        f"Demo warehouse, seed {args.seed}, load {args.load:g}, t_update 1 s, 5 ms delay; "
+        "the minutes column "
         "gives each run's simulated time. Bytes per AGV per second count every frame the "
         "AGVs' nodes sent (properties, session channels, acks); session B/s counts the "
-        "collision and task protocols alone. Deadlocks: AGVs stalled over 180 s. Sim speed "
+        "collision and task protocols alone. Deadlocks: AGVs stalled over 180 s; free-flow "
+        "tasks/h, waits > 60 s and the longest wait (with groups) as in docs/fleet.md. Sim speed "
         "is simulated seconds per CPU second of the run's own process (one core).\n\n"
         + markdown_table(header, rows)
         + "\n\nGoals (issue 5): 0 violations at every size; bandwidth with groups <= 1/5 of "
@@ -166,7 +190,10 @@ def main(argv: list[str] | None = None) -> None:
     )
     if args.against:
         body += "\n\n" + _comparison(plan, results, baseline, args.against)
-    command = f".venv/bin/python -m bench.fleet --sizes {args.sizes} --minutes {args.minutes}"
+    command = (
+        f".venv/bin/python -m bench.fleet --sizes {args.sizes} --minutes {args.minutes} "
+        f"--load {args.load:g}"
+    )
     if args.against:
         command += f" --against {args.against}"
     publish("fleet", "AGV fleet: throughput, safety, bandwidth (bench/fleet.py)", body, command)

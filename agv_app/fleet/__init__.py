@@ -10,7 +10,7 @@ from agv_app.fleet.base import (
     FleetSourceBase,
 )
 from agv_app.fleet.demo import (
-    MESH_DEMO_TASK_INTERVAL_S,
+    DEMO_AGVS,
     demo_source,
 )
 from agv_app.fleet.mesh import (
@@ -39,6 +39,7 @@ from agv_app.fleet.sim import (
     SafetyError,
 )
 from agv_app.fleet.stalls import (
+    LONG_WAIT_S,
     STALL_LIMIT_S,
     StallWatch,
 )
@@ -49,7 +50,8 @@ from agv_app.fleet.view import (
 )
 
 __all__ = [
-    "MESH_DEMO_TASK_INTERVAL_S",
+    "DEMO_AGVS",
+    "LONG_WAIT_S",
     "OBSERVER_ID",
     "STALL_LIMIT_S",
     "AgvProcesses",

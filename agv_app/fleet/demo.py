@@ -6,12 +6,14 @@ import argparse
 
 from agv_app.fleet.mesh import MeshFleet
 from agv_app.fleet.sim import Fleet, FleetConfig
-from agv_app.layout.demo import demo_warehouse
+from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
+from agv_app.tasks.load import DEFAULT_LOAD, check_load, initial_tasks, task_interval_for_load
+from agv_app.vehicle.kinematics import VehicleSpec
 
-__all__ = ["MESH_DEMO_TASK_INTERVAL_S", "demo_source"]
+__all__ = ["DEMO_AGVS", "demo_source"]
 
-MESH_DEMO_TASK_INTERVAL_S = 90.0
-"""Mean seconds between tasks for one AGV process of the mesh demo (divided by N)."""
+DEMO_AGVS = 12
+"""AGVs of the simulated demo fleet by default."""
 
 
 def demo_source(
@@ -20,27 +22,43 @@ def demo_source(
     agvs: int | None = None,
     seed: int | None = None,
     processes: int = 0,
+    load: float | None = None,
 ) -> Fleet | MeshFleet:
     """The fleet ``objectplaces demo`` shows: the demo warehouse, tasks arriving for ever.
 
-    Accepts the parsed ``demo`` arguments or the keywords ``agvs``, ``seed`` and
-    ``processes``: 0 simulates ``agvs`` AGVs on one network in this process; more runs
-    that many AGV processes on the WebSocket mesh (a :class:`~agv_app.fleet.mesh.MeshFleet`,
-    which the caller must ``await start()`` and ``await stop()``).
+    Accepts the parsed ``demo`` arguments or the keywords ``agvs``, ``seed``,
+    ``processes`` and ``load``: 0 processes simulates ``agvs`` AGVs on one network in
+    this process; more runs that many AGV processes on the WebSocket mesh (a
+    :class:`~agv_app.fleet.mesh.MeshFleet`, which the caller must ``await start()`` and
+    ``await stop()``). Either way tasks arrive at the rate that keeps ``load`` of the
+    AGVs busy (default :data:`~agv_app.tasks.load.DEFAULT_LOAD`), and about ``load``
+    times the AGVs get a task at the start, so most of them move within seconds.
 
     Raises:
-        ValueError: ``processes`` is negative or more than the layout can park.
+        ValueError: ``processes`` is negative or more than the layout can park, or
+            ``load`` is not in (0, 1].
     """
     if args is not None:
         agvs = getattr(args, "agvs", agvs)
         seed = getattr(args, "seed", seed)
         processes = getattr(args, "processes", processes) or 0
+        load = getattr(args, "load", load)
+    load = check_load(DEFAULT_LOAD if load is None else load)
+    seed = 1 if seed is None else seed
     if processes < 0:
         raise ValueError(f"processes must be 0 or more, got {processes!r}")
     if processes:
+        layout = demo_warehouse()
+        spec = VehicleSpec(DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M)
+        dwell = 5.0
         return MeshFleet(
             agvs=processes,
-            seed=1 if seed is None else seed,
-            task_interval=MESH_DEMO_TASK_INTERVAL_S / processes,
+            seed=seed,
+            layout=layout,
+            task_interval=task_interval_for_load(
+                layout, agvs=processes, load=load, speed_m_s=spec.max_speed_m_s, dwell_s=dwell
+            ),
+            start_tasks=initial_tasks(agvs=processes, load=load),
+            dwell=dwell,
         )
-    return Fleet(demo_warehouse(), FleetConfig(agvs=agvs or 12, seed=1 if seed is None else seed))
+    return Fleet(demo_warehouse(), FleetConfig(agvs=agvs or DEMO_AGVS, seed=seed, load=load))

@@ -43,6 +43,8 @@ from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, dem
 from agv_app.layout.graph import Layout
 from agv_app.protocol import AGV_KIND
 from agv_app.tasks.desk import TaskDesk, pick_stations
+from agv_app.tasks.free_flow import FreeFlowBound, FreeFlowTimer
+from agv_app.tasks.load import TaskArrivals
 from agv_app.traffic.monitor import SafetyMonitor
 from agv_app.vehicle.kinematics import VehicleSpec
 from objectplaces import RoleActivator
@@ -67,6 +69,8 @@ class MeshFleet(FleetSourceBase):
         layout: must be the demo warehouse (the processes build it themselves); default.
         task_interval: mean seconds between automatic tasks, the first one as soon as
             every AGV is seen (None: no automatic tasks).
+        start_tasks: tasks created at once when every AGV is first seen (with automatic
+            tasks only), so the fleet is at its load from the start.
         t_update: property update interval of every node (the safe time is twice it).
         run_seconds: every AGV process stops by itself after this long.
         station_range: first auction range of the stations.
@@ -78,7 +82,7 @@ class MeshFleet(FleetSourceBase):
             terminal (they go to files in the run's temp dir).
 
     Raises:
-        ValueError: ``agvs`` < 1 or more AGVs than parking spots.
+        ValueError: ``agvs`` < 1, ``start_tasks`` < 0, or more AGVs than parking spots.
     """
 
     def __init__(
@@ -88,6 +92,7 @@ class MeshFleet(FleetSourceBase):
         seed: int = 1,
         layout: Layout | None = None,
         task_interval: float | None = None,
+        start_tasks: int = 0,
         t_update: float = 1.0,
         run_seconds: float = 86_400.0,
         station_range: float = 30.0,
@@ -98,10 +103,13 @@ class MeshFleet(FleetSourceBase):
     ) -> None:
         if agvs < 1:
             raise ValueError(f"agvs must be at least 1, got {agvs!r}")
+        if start_tasks < 0:
+            raise ValueError(f"start_tasks must be 0 or more, got {start_tasks!r}")
         self.layout = layout or demo_warehouse()
         self.agv_count = agvs
         self.seed = seed
         self.task_interval = task_interval
+        self.start_tasks = start_tasks
         self.t_update = t_update
         self.run_seconds = run_seconds
         self.station_range = station_range
@@ -111,9 +119,13 @@ class MeshFleet(FleetSourceBase):
         self.capture_output = capture_output
         spec = VehicleSpec(DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M)
         self.homes = ParkingPlan(self.layout, spec, agvs, rest_elsewhere=False).homes
+        self.free_flow = FreeFlowBound(
+            FreeFlowTimer(self.layout, spec.max_speed_m_s, dwell), self.homes
+        )
         width = max(2, len(str(agvs)))
         self.agv_ids = [f"agv-{i + 1:0{width}d}" for i in range(agvs)]
         self.rng = random.Random(seed)
+        self.arrivals = None if task_interval is None else TaskArrivals(task_interval, self.rng)
         self.metrics_raw = FleetMetrics()
         self.monitor = SafetyMonitor()
         self.overlaps = LastingOverlaps(self.monitor, min_s=2 * t_update)
@@ -126,6 +138,7 @@ class MeshFleet(FleetSourceBase):
                 clock=lambda: self.now,
                 station_range=station_range,
                 tally=self.metrics_raw.tally,
+                on_created=self.free_flow.add,
             ),
         )
         self.processes = AgvProcesses(python=python, capture_output=capture_output)
@@ -362,12 +375,15 @@ class MeshFleet(FleetSourceBase):
             "tasks_open": float(len(self.open_tasks)),
             "tasks_returned": float(self.desk.returned),
             "tasks_per_hour": done / hours if hours > 0 else 0.0,
+            "free_flow_tasks_per_hour": self.free_flow.per_hour(self.now),
             "task_time_mean_s": book.durations.mean,
             "messages": float(messages),
             "bytes": float(bytes_),
             "collisions": float(self.monitor.collisions),
             "lock_overlaps": float(self.monitor.lock_overlaps),
             "deadlocks": float(self.stalls.deadlocks),
+            "stalls_60s": float(self.stalls.long_waits),
+            "max_wait": self.stalls.max_wait,
         }
 
     def set_speed(self, factor: float) -> None:
@@ -398,13 +414,15 @@ class MeshFleet(FleetSourceBase):
         if seconds <= 0 or not self.started:
             return
         self._advanced += seconds
-        if self.task_interval is None or self._paused or not self.stations:
+        if self.arrivals is None or self._paused or not self.stations:
             return
         now = self.now
         if self._next_task_at is None:
             if len(self._agv_views()) < self.agv_count:
                 return
             self._next_task_at = now
+            for _ in range(self.start_tasks):
+                self.desk.create_random()
         if now >= self._next_task_at:
             self.desk.create_random()
-            self._next_task_at = now + self.rng.expovariate(1.0 / self.task_interval)
+            self._next_task_at = self.arrivals.next_after(now)

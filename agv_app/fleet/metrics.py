@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
+from agv_app.fleet.stalls import StallWatch
 from agv_app.samples import Samples
 from agv_app.tasks.book import TaskBook
 
@@ -40,7 +41,8 @@ class FleetMetrics:
         *,
         tasks: TaskBook,
         tasks_returned: int,
-        deadlocks: int,
+        stalls: StallWatch,
+        free_flow_tasks_per_hour: float,
         agvs: int,
         sim_seconds: float,
         wall_seconds: float,
@@ -56,6 +58,9 @@ class FleetMetrics:
         observer included); the ``*_per_agv_per_s`` figures count what the AGVs' nodes
         sent (``agv_sent``: wire kind -> (frames, bytes)), per AGV and simulated second.
         Means and maxima cover the whole run; percentiles the most recent values.
+        ``free_flow_tasks_per_hour`` is the bound of
+        :class:`~agv_app.tasks.free_flow.FreeFlowBound`; ``stalls_60s`` counts the waits
+        longer than 60 s and ``max_wait`` is the longest single wait (``stalls``).
         """
         per = max(agvs, 1) * max(sim_seconds, 1e-9)
         done, times, waits = tasks.counts["done"], tasks.durations, self.lock_waits
@@ -68,6 +73,7 @@ class FleetMetrics:
             "tasks_completed": done,
             "tasks_returned": tasks_returned,
             "tasks_per_hour": round(done * 3600 / max(sim_seconds, 1e-9), 2),
+            "free_flow_tasks_per_hour": round(free_flow_tasks_per_hour, 2),
             "task_time_mean": round(times.mean, 2),
             "task_time_p95": round(times.percentile(95), 2),
             "idle_share": round(self.idle_seconds / self.agv_seconds, 4)
@@ -86,7 +92,9 @@ class FleetMetrics:
             "bytes_per_agv_per_s": round(sum(v[1] for v in agv_sent.values()) / per, 2),
             "collisions": collisions,
             "lock_overlaps": lock_overlaps,
-            "deadlocks": deadlocks,
+            "deadlocks": stalls.deadlocks,
+            "stalls_60s": stalls.long_waits,
+            "max_wait": round(stalls.max_wait, 2),
             "double_assignments": tasks.double_assignments,
         }
         for kind, (n, b) in sorted(agv_sent.items()):

@@ -22,6 +22,14 @@ from agv_app.fleet.view import OBSERVER_ID, VehicleState, area_rings
 from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
 from agv_app.layout.graph import Layout
 from agv_app.tasks.desk import TaskDesk, pick_stations
+from agv_app.tasks.free_flow import FreeFlowBound, FreeFlowTimer
+from agv_app.tasks.load import (
+    DEFAULT_LOAD,
+    TaskArrivals,
+    check_load,
+    initial_tasks,
+    task_interval_for_load,
+)
 from agv_app.traffic.monitor import SafetyMonitor, SafetyViolation
 from agv_app.vehicle.controller import AgvConfig, AgvController
 from agv_app.vehicle.kinematics import VehicleSpec
@@ -46,7 +54,11 @@ class FleetConfig:
         reorder: probability a frame is held back (reordering).
         duplicate: probability a frame is duplicated.
         broadcast: vote with every AGV instead of the collision group.
-        task_interval: mean seconds between new tasks (None: ``1200 / agvs``).
+        load: target share of busy AGVs, in (0, 1]; the task rate follows from it and
+            the layout (:mod:`agv_app.tasks.load`) unless ``task_interval`` is given.
+        task_interval: mean seconds between new tasks (None: from ``load``).
+        start_tasks: tasks created at the start (None: about ``load * agvs`` when the
+            rate follows from the load and ``task_until`` is not 0, else none).
         task_until: no new tasks after this time (None: never).
         deadlock_after: an AGV stalled this long counts as a deadlock.
         station_range: first auction range of the stations.
@@ -64,12 +76,23 @@ class FleetConfig:
     reorder: float = 0.0
     duplicate: float = 0.0
     broadcast: bool = False
+    load: float = DEFAULT_LOAD
     task_interval: float | None = None
+    start_tasks: int | None = None
     task_until: float | None = None
     deadlock_after: float = STALL_LIMIT_S
     station_range: float = 30.0
     dwell: float = 5.0
     fail_on_violation: bool = False
+
+    def __post_init__(self) -> None:
+        check_load(self.load)
+        if self.task_interval is not None and not (
+            self.task_interval > 0 and math.isfinite(self.task_interval)
+        ):
+            raise ValueError(f"task_interval must be a positive number, got {self.task_interval!r}")
+        if self.start_tasks is not None and self.start_tasks < 0:
+            raise ValueError(f"start_tasks must be 0 or more, got {self.start_tasks!r}")
 
 
 class SafetyError(AssertionError):
@@ -118,6 +141,20 @@ class Fleet(FleetSourceBase):
         self.step_count = 0
         self._speed = 1.0
         self._carry = 0.0
+        self.parking = ParkingPlan(self.layout, self.spec, cfg.agvs, homes=homes)
+        self.free_flow = FreeFlowBound(
+            FreeFlowTimer(self.layout, self.spec.max_speed_m_s, cfg.dwell), self.parking.homes
+        )
+        self.task_interval: float | None = cfg.task_interval
+        """Mean seconds between new tasks (None: the layout has no stations to make any)."""
+        if self.task_interval is None and pick_stations(self.layout):
+            self.task_interval = task_interval_for_load(
+                self.layout,
+                agvs=cfg.agvs,
+                load=cfg.load,
+                speed_m_s=self.spec.max_speed_m_s,
+                dwell_s=cfg.dwell,
+            )
         super().__init__(
             self.layout,
             TaskDesk(
@@ -126,11 +163,11 @@ class Fleet(FleetSourceBase):
                 clock=lambda: self.net.now,
                 station_range=cfg.station_range,
                 tally=self.metrics_raw.tally,
+                on_created=self.free_flow.add,
             ),
         )
         self.agv_config = AgvConfig(t_update=cfg.t_update, dwell=cfg.dwell, broadcast=cfg.broadcast)
         self.agvs: dict[str, AgvController] = {}
-        self.parking = ParkingPlan(self.layout, self.spec, cfg.agvs, homes=homes)
         width = max(2, len(str(cfg.agvs)))
         for i, home in enumerate(self.parking.homes):
             agv_id = f"agv-{i + 1:0{width}d}"
@@ -156,6 +193,15 @@ class Fleet(FleetSourceBase):
         for sid in pick_stations(self.layout):
             self.desk.open_station(sid, self.net.add_node(f"st:{sid}"))
         self.observer = self.net.add_node(OBSERVER_ID)
+        start_tasks = cfg.start_tasks
+        if start_tasks is None:
+            by_load = cfg.task_interval is None and (cfg.task_until is None or cfg.task_until > 0)
+            start_tasks = initial_tasks(agvs=cfg.agvs, load=cfg.load) if by_load else 0
+        for _ in range(start_tasks):
+            self.desk.create_random()
+        self.arrivals = (
+            None if self.task_interval is None else TaskArrivals(self.task_interval, self.rng)
+        )
         self._next_task_at = self._draw_interval()
 
     def _relocate(self, agv: AgvController) -> str | None:
@@ -166,8 +212,9 @@ class Fleet(FleetSourceBase):
         return self.parking.relocate(agv.node_id, agv.home, agv.point)
 
     def _draw_interval(self) -> float:
-        mean = self.config.task_interval or 1200.0 / max(self.config.agvs, 1)
-        return self.net.now + self.rng.expovariate(1.0 / mean)
+        if self.arrivals is None:
+            return math.inf
+        return self.arrivals.next_after(self.net.now)
 
     # -- tasks ----------------------------------------------------------------------------
 
@@ -252,7 +299,8 @@ class Fleet(FleetSourceBase):
         return self.metrics_raw.summary(
             tasks=self.desk.book,
             tasks_returned=self.desk.returned,
-            deadlocks=self.stalls.deadlocks,
+            stalls=self.stalls,
+            free_flow_tasks_per_hour=self.free_flow.per_hour(self.net.now),
             agvs=len(self.agvs),
             sim_seconds=self.net.now,
             wall_seconds=wall_seconds,

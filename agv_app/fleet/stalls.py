@@ -3,14 +3,21 @@
 Deadlock avoidance (:mod:`agv_app.traffic.deadlock`) should make this impossible; the
 watch is how a run proves it. Both fleets count with it: the simulated one from each
 controller, the mesh one from the state each AGV process publishes.
+
+Short of a deadlock, long waits show traffic that flows badly: the watch also counts
+the waits that last over :data:`LONG_WAIT_S` (each wait once, however long) and keeps
+the longest single wait.
 """
 
 from __future__ import annotations
 
-__all__ = ["STALL_LIMIT_S", "StallWatch"]
+__all__ = ["LONG_WAIT_S", "STALL_LIMIT_S", "StallWatch"]
 
 STALL_LIMIT_S = 180.0
 """Seconds an AGV may wait to move before it counts as deadlocked."""
+
+LONG_WAIT_S = 60.0
+"""Seconds of one wait past which it counts as a long wait (``stalls_60s``)."""
 
 
 class StallWatch:
@@ -18,23 +25,36 @@ class StallWatch:
 
     Args:
         limit_s: seconds of waiting that count as a deadlock.
+        long_wait_s: seconds of waiting that count as a long wait.
     """
 
-    def __init__(self, *, limit_s: float = STALL_LIMIT_S) -> None:
+    def __init__(self, *, limit_s: float = STALL_LIMIT_S, long_wait_s: float = LONG_WAIT_S) -> None:
         self.limit_s = limit_s
+        self.long_wait_s = long_wait_s
         self.deadlocks = 0
         """Stalls that lasted longer than the limit."""
+        self.long_waits = 0
+        """Waits that lasted longer than ``long_wait_s``, each counted once."""
+        self.max_wait = 0.0
+        """The longest single wait so far (one still going on included), seconds."""
         self._since: dict[str, float] = {}
         self._counted: set[str] = set()
+        self._long: set[str] = set()
 
     def observe(self, agv_id: str, *, stalled: bool, now: float) -> None:
         """Whether ``agv_id`` waits to move at ``now`` (call it at every check)."""
         if not stalled:
             self._since.pop(agv_id, None)
             self._counted.discard(agv_id)
+            self._long.discard(agv_id)
             return
         since = self._since.setdefault(agv_id, now)
-        if now - since > self.limit_s and agv_id not in self._counted:
+        waited = now - since
+        self.max_wait = max(self.max_wait, waited)
+        if waited > self.long_wait_s and agv_id not in self._long:
+            self._long.add(agv_id)
+            self.long_waits += 1
+        if waited > self.limit_s and agv_id not in self._counted:
             self._counted.add(agv_id)
             self.deadlocks += 1
 

@@ -23,23 +23,43 @@ from agv_app.tasks.desk import (
     drop_stations,
     pick_stations,
 )
+from agv_app.tasks.free_flow import (
+    FreeFlowBound,
+    FreeFlowTimer,
+    mean_task_seconds,
+)
+from agv_app.tasks.load import (
+    DEFAULT_LOAD,
+    TaskArrivals,
+    check_load,
+    initial_tasks,
+    task_interval_for_load,
+)
 from agv_app.tasks.station import (
     Station,
 )
 
 __all__ = [
     "DEFAULT_HISTORY",
+    "DEFAULT_LOAD",
     "TASK_STATES",
     "Bidder",
+    "FreeFlowBound",
+    "FreeFlowTimer",
     "Station",
     "TaskAgent",
     "TaskAnnouncer",
+    "TaskArrivals",
     "TaskBook",
     "TaskDesk",
     "TaskRecord",
     "TaskSpec",
     "TaskState",
     "bidder_group",
+    "check_load",
     "drop_stations",
+    "initial_tasks",
+    "mean_task_seconds",
     "pick_stations",
+    "task_interval_for_load",
 ]

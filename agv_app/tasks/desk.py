@@ -42,6 +42,8 @@ class TaskDesk:
         station_range: first auction range of the stations.
         tally: counts the stations' protocol messages.
         history: finished tasks the book keeps in detail.
+        on_created: told of every task created, with the time (e.g. a
+            :class:`~agv_app.tasks.free_flow.FreeFlowBound`'s ``add``).
     """
 
     def __init__(
@@ -53,6 +55,7 @@ class TaskDesk:
         station_range: float = 30.0,
         tally: MessageTally | None = None,
         history: int = DEFAULT_HISTORY,
+        on_created: Callable[[TaskSpec, float], None] | None = None,
     ) -> None:
         self.layout = layout
         self.rng = rng
@@ -62,6 +65,7 @@ class TaskDesk:
         self.book = TaskBook(history=history)
         self.stations: dict[str, Station] = {}
         """The open stations, by station id."""
+        self.on_created = on_created
         self._drops = drop_stations(layout)
 
     def open_station(self, station_id: str, node: RoleActivator) -> Station:
@@ -106,7 +110,10 @@ class TaskDesk:
         if drop is None:
             choices = [d for d in self._drops if d != station_id]
             drop = choices[self.rng.randrange(len(choices))]
-        task = self.book.create(station_id, drop, now=self.clock())
+        now = self.clock()
+        task = self.book.create(station_id, drop, now=now)
+        if self.on_created is not None:
+            self.on_created(task, now)
         station.add_task(task)
         return task.id
 

@@ -50,7 +50,7 @@ def test_an_opentcs_layout_runs_a_fleet_of_its_parking_capacity(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     out = tmp_path / "demo01.json"
-    code = main(["sim", "--layout", str(DEMO_01), "--minutes", "10", "--quiet", "--json", str(out)])
+    code = main(["sim", "--layout", str(DEMO_01), "--minutes", "4", "--quiet", "--json", str(out)])
     assert code == 0
     figures = json.loads(out.read_text())
     assert figures["agvs"] == 5  # Demo-01 has five parking places
@@ -94,3 +94,34 @@ def test_bad_arguments_and_a_bad_layout_exit_two(tmp_path: Path) -> None:
     bad = tmp_path / "bad.json"
     bad.write_text("{")
     assert main(["sim", "--layout", str(bad), "--quiet"]) == 2
+
+
+def test_sim_runs_at_load_0_7_by_default_and_reports_the_new_figures(tmp_path: Path) -> None:
+    from objectplaces.cli import build_parser
+
+    args = build_parser().parse_args(["sim"])
+    assert args.load == 0.7
+    assert args.task_interval is None
+    out = tmp_path / "m.json"
+    code = main(["sim", "--agvs", "3", "--minutes", "0.5", "--quiet", "--json", str(out)])
+    assert code == 0
+    figures = json.loads(out.read_text())
+    assert figures["tasks_created"] >= 2, "load 0.7 of 3 AGVs: 2 tasks at the start"
+    assert {"free_flow_tasks_per_hour", "stalls_60s", "max_wait"} <= figures.keys()
+
+
+@pytest.mark.parametrize("load", ["0", "1.5", "-0.2", "nan"])
+def test_sim_refuses_a_load_outside_zero_to_one(
+    load: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["sim", "--agvs", "2", "--minutes", "1", "--load", load]) == 2
+    err = capsys.readouterr().err
+    assert "--load" in err
+    assert f"got {float(load)}" in err
+
+
+def test_sim_refuses_a_task_interval_that_is_not_positive(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    assert main(["sim", "--agvs", "2", "--minutes", "1", "--task-interval", "0"]) == 2
+    assert "--task-interval must be more than 0 s; got 0.0" in capsys.readouterr().err

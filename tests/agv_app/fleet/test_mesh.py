@@ -98,6 +98,9 @@ async def test_agv_processes_take_a_task_and_are_reaped() -> None:
         assert metrics["collisions"] == 0
         assert metrics["lock_overlaps"] == 0
         assert metrics["deadlocks"] == 0
+        assert metrics["stalls_60s"] == 0
+        assert 0.0 <= metrics["max_wait"] < 60.0
+        assert metrics["free_flow_tasks_per_hour"] >= 0.0
     finally:
         await fleet.stop()
     assert not any(_alive(pid) for pid in pids)

@@ -74,7 +74,7 @@ def test_demo_source_is_a_fleet_source_and_steps_in_fixed_increments() -> None:
     assert [v.id for v in views] == ["agv-01", "agv-02", "agv-03"]
     assert len(views[0].hull) == 4
     assert views[0].locked
-    assert fleet.metrics()["tasks_created"] == 1
+    assert fleet.metrics()["tasks_created"] == 3  # 2 at the start (load 0.7 of 3 AGVs), 1 here
     fleet.set_speed(4.0)
     assert fleet.speed == 4.0
     with pytest.raises(ValueError, match="positive"):

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from agv_app.fleet import STALL_LIMIT_S, StallWatch
+from agv_app.fleet import LONG_WAIT_S, STALL_LIMIT_S, StallWatch
 
 
 def test_a_stall_counts_once_when_it_passes_the_limit_and_again_after_a_move() -> None:
@@ -24,3 +24,19 @@ def test_a_stall_counts_once_when_it_passes_the_limit_and_again_after_a_move() -
 
 def test_the_default_limit_is_the_one_setting() -> None:
     assert StallWatch().limit_s == STALL_LIMIT_S == 180.0
+
+
+def test_waits_over_a_minute_count_once_each_and_the_longest_is_kept() -> None:
+    watch = StallWatch()
+    assert LONG_WAIT_S == 60.0
+    for t in range(0, 62):
+        watch.observe("agv-1", stalled=True, now=float(t))
+        watch.observe("agv-2", stalled=t < 30, now=float(t))
+    assert watch.long_waits == 1
+    assert watch.max_wait == 61.0
+    watch.observe("agv-1", stalled=True, now=90.0)
+    assert (watch.long_waits, watch.max_wait) == (1, 90.0)
+    watch.observe("agv-1", stalled=False, now=91.0)
+    watch.observe("agv-1", stalled=True, now=92.0)
+    watch.observe("agv-1", stalled=True, now=152.5)
+    assert (watch.long_waits, watch.max_wait, watch.deadlocks) == (2, 90.0, 0)

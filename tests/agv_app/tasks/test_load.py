@@ -1,0 +1,91 @@
+"""The task rate that keeps a target share of the fleet busy, and the free-flow times."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from agv_app.layout import Layout, Point, Segment, Station
+from agv_app.tasks import (
+    FreeFlowBound,
+    FreeFlowTimer,
+    TaskSpec,
+    check_load,
+    initial_tasks,
+    mean_task_seconds,
+    task_interval_for_load,
+)
+
+
+def lane() -> Layout:
+    """A 30 m two-way lane: pick at p0, drop at p30, parking at p45."""
+    pts = [Point("p0", 0.0, 0.0), Point("p30", 30.0, 0.0), Point("p45", 45.0, 0.0)]
+    segs = [Segment("a", "p0", "p30", True), Segment("b", "p30", "p45", True)]
+    stations = [
+        Station("in", "p0", "pick"),
+        Station("out", "p30", "drop"),
+        Station("park", "p45", "parking"),
+    ]
+    return Layout(pts, segs, stations)
+
+
+TIMER = FreeFlowTimer(lane(), speed_m_s=1.5, dwell_s=5.0)
+TASK = TaskSpec("task-1", "in", "out")
+
+
+@pytest.mark.parametrize("load", [0.0, -0.1, 1.01, math.nan, math.inf, "0.7", True, None])
+def test_a_load_outside_zero_to_one_is_refused_showing_the_value(load: object) -> None:
+    with pytest.raises(ValueError, match=r"\(0, 1\].*" + repr(load).replace("(", r"\(")):
+        check_load(load)  # type: ignore[arg-type]
+
+
+def test_loads_in_zero_to_one_pass() -> None:
+    assert check_load(1) == 1.0
+    assert check_load(0.7) == 0.7
+    assert initial_tasks(agvs=20, load=0.7) == 14
+    assert initial_tasks(agvs=3, load=0.5) == 2
+
+
+def test_the_mean_task_time_is_approach_carry_and_two_dwells() -> None:
+    # From the drop back to the pick (20 s), to the drop (20 s), 5 s at each end.
+    assert mean_task_seconds(TIMER, ["in"], ["out"]) == pytest.approx(50.0)
+    assert TIMER.task_seconds("p45", TASK) == pytest.approx(30 + 20 + 10)
+
+
+def test_the_task_interval_keeps_the_load_busy() -> None:
+    # 4 AGVs at half load: 2 busy at 50 s a task, one task every 25 s.
+    interval = task_interval_for_load(lane(), agvs=4, load=0.5, speed_m_s=1.5, dwell_s=5.0)
+    assert interval == pytest.approx(25.0)
+    with pytest.raises(ValueError, match="got 0"):
+        task_interval_for_load(lane(), agvs=0, load=0.5, speed_m_s=1.5, dwell_s=5.0)
+
+
+def test_a_layout_without_tasks_to_make_is_refused() -> None:
+    bare = Layout([Point("p0", 0.0, 0.0), Point("p1", 9.0, 0.0)], [Segment("a", "p0", "p1")])
+    with pytest.raises(ValueError, match="no pick and drop stations"):
+        task_interval_for_load(bare, agvs=2, load=0.5, speed_m_s=1.5, dwell_s=5.0)
+
+
+def test_the_bound_replays_tasks_back_to_back_from_where_each_vehicle_stands() -> None:
+    bound = FreeFlowBound(TIMER, ["p0"])
+    bound.add(TASK, 0.0)  # from p0: 0 + 20 + 10 = 30 s
+    bound.add(TaskSpec("task-2", "in", "out"), 1.0)  # waits for the vehicle; from p30: 50 s
+    assert bound.completed(29.9) == 0
+    assert bound.completed(30.0) == 1
+    assert bound.completed(79.9) == 1
+    assert bound.completed(80.0) == 2
+    assert bound.per_hour(3600.0) == pytest.approx(2.0)
+
+
+def test_the_bound_shares_tasks_among_its_vehicles_and_idles_between_arrivals() -> None:
+    bound = FreeFlowBound(TIMER, ["p0", "p45"])
+    bound.add(TASK, 0.0)  # vehicle 0 from p0: done at 30
+    bound.add(TaskSpec("task-2", "in", "out"), 0.0)  # vehicle 1 from p45: 30 + 20 + 10 = 60
+    bound.add(TaskSpec("task-3", "in", "out"), 100.0)  # vehicle 0 idle till then: 150
+    assert [bound.completed(t) for t in (30.0, 60.0, 149.0, 150.0)] == [1, 2, 2, 3]
+
+
+def test_a_bound_needs_vehicles() -> None:
+    with pytest.raises(ValueError, match="at least one vehicle"):
+        FreeFlowBound(TIMER, [])
