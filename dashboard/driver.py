@@ -3,7 +3,8 @@
 ``FleetDriver.run`` wakes every ``tick_s``, advances the fleet by the wall time elapsed
 times its speed (at most ``max_step_s`` of wall time per step, so a stalled loop does
 not make the fleet jump), and every so often offers a fresh state to the feed,
-registers the poll responder on new nodes and forgets HTTP sessions that ended. Each of
+registers the poll responder on new nodes, forgets HTTP sessions that ended and logs
+what changed in the fleet (``dashboard.watch``). Each of
 these is one synchronous call on the event loop, so it never interleaves with a request
 handler (``dashboard.app``).
 
@@ -104,7 +105,10 @@ class FleetDriver:
 
     def _housekeeping(self) -> None:
         self.state.ensure_responders()
-        self.state.prune()
+        now = float(self.state.source.now)
+        for session_id in self.state.prune():
+            self.state.events.record(now, "info", "api", f"session {session_id} ended")
+        self.state.watch_fleet()
 
     def _publisher(self, fresh: bool) -> Callable[[], None]:
         return lambda: self.state.publish(fresh_counters=fresh)

@@ -19,7 +19,10 @@ from dashboard.definitions import GroupDefinitionIn, Name
 __all__ = [
     "MAX_PARAMS",
     "MIN_SPEED",
+    "AlarmOut",
     "ErrorOut",
+    "EventOut",
+    "EventsOut",
     "GroupViewOut",
     "LockOut",
     "MetricsOut",
@@ -28,6 +31,7 @@ __all__ = [
     "ParticipationOut",
     "SessionDetailOut",
     "SessionOut",
+    "SimActionIn",
     "SimOut",
     "SpeedIn",
     "StartSessionIn",
@@ -212,6 +216,42 @@ class SimOut(_Out):
     now: float = Field(description="simulated seconds since start")
     paused: bool
     speed: float = Field(description="simulated seconds per wall-clock second")
+
+
+class SimActionIn(_In):
+    """Why the fleet is paused or resumed (optional body of pause and resume)."""
+
+    reason: str = Field(
+        default="asked over REST", min_length=1, max_length=200, examples=["aisle blocked"]
+    )
+
+
+class EventOut(_Out):
+    """One line of the operator's log."""
+
+    seq: int
+    time: float = Field(description="simulated seconds")
+    severity: str = Field(description="info, warning or alarm")
+    source: str = Field(description="what it is about: a node id, fleet, api")
+    text: str
+
+
+class AlarmOut(_Out):
+    """A condition that holds until it clears (an AGV failed, waiting too long)."""
+
+    key: str
+    since: float = Field(description="simulated seconds")
+    severity: str
+    source: str
+    text: str
+
+
+class EventsOut(_Out):
+    """The active alarms (most severe, then oldest first) and the latest events."""
+
+    alarms: list[AlarmOut]
+    events: list[EventOut] = Field(description="oldest first")
+    dropped: int = Field(description="events no longer kept: the history is bounded")
 
 
 class SpeedIn(_In):

@@ -19,11 +19,13 @@ from fastapi import HTTPException
 
 from dashboard import introspect
 from dashboard.capture import JSON, FleetState, PolygonCache, SessionRecord, capture, layout_json
+from dashboard.eventlog import EventLog
 from dashboard.feed import ClientFeed, FeedHub
 from dashboard.limits import shown
 from dashboard.poll import POLL_ROLE, RESPONDER_ROLE, PollResponder, poll_factory
 from dashboard.schemas import SimOut
 from dashboard.source import FleetSource, InitiatorFactory
+from dashboard.watch import FleetWatch
 from objectplaces import Initiator, RoleActivator, Session
 
 __all__ = ["MAX_API_SESSIONS", "ApiSession", "ApiSessions", "DashboardState", "FeedClient"]
@@ -132,6 +134,9 @@ class DashboardState:
         self._responders_on: set[str] = set()
         self._polygons = PolygonCache()
         self._last_counters: dict[str, dict[str, Any]] | None = None
+        self.events = EventLog()
+        """The operator's log (``GET /api/events``)."""
+        self.watch = FleetWatch(self.events)
 
     # ---- reading ----------------------------------------------------------------------
 
@@ -194,6 +199,16 @@ class DashboardState:
                 continue
             node.set_participant_factory(RESPONDER_ROLE, _responder_factory(node))
             self._responders_on.add(node_id)
+
+    def watch_fleet(self) -> None:
+        """Log what changed in the fleet since the last look (``dashboard.watch``)."""
+        source = self.source
+        self.watch.observe(
+            float(source.now),
+            nodes=set(source.nodes()),
+            statuses={v.id: v.status for v in source.vehicles()},
+            paused=bool(source.paused),
+        )
 
     def prune(self) -> list[str]:
         """Forget sessions started over HTTP that have ended (by themselves, or on a node

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from fastapi import APIRouter
 
-from dashboard.routes import docs, events, fleet, groups, nodes, page, sessions, sim, tasks
+from dashboard.routes import docs, events, fleet, groups, log, nodes, page, sessions, sim, tasks
 
 __all__ = ["ROUTERS"]
 
@@ -15,6 +15,7 @@ ROUTERS: tuple[APIRouter, ...] = (
     fleet.router,
     tasks.router,
     sim.router,
+    log.router,
     events.router,
     page.router,
     docs.router,

@@ -88,6 +88,9 @@ async def start_session(body: StartSessionIn, state: State) -> dict[str, Any]:
             params=dict(body.params),
         ),
     )
+    state.events.record(
+        state.source.now, "info", "api", f"session {sid} ({body.role}) started over REST"
+    )
     return session_detail(state, sid)
 
 
@@ -109,6 +112,7 @@ async def stop_session(state: State, session_id: str = SessionId) -> StoppedOut:
             )
         raise HTTPException(404, f"unknown session {shown(session_id)}")
     state.api.pop(session_id)
+    state.events.record(state.source.now, "info", "api", f"session {session_id} stopped over REST")
     ended = HTTPException(404, f"session {session_id!r} has already ended")
     node = state.source.nodes().get(api.node)
     if node is None:

@@ -7,7 +7,7 @@ from fastapi import APIRouter, Depends, HTTPException, Path
 from dashboard.deps import State, require_token
 from dashboard.errors import ERROR_RESPONSES
 from dashboard.limits import shown
-from dashboard.schemas import SimOut, SpeedIn
+from dashboard.schemas import SimActionIn, SimOut, SpeedIn
 
 __all__ = ["router"]
 
@@ -20,17 +20,19 @@ router = APIRouter(
 
 
 @router.post("/pause", response_model=SimOut)
-async def pause(state: State) -> SimOut:
-    """Stop simulated time."""
+async def pause(state: State, body: SimActionIn | None = None) -> SimOut:
+    """Stop simulated time; ``reason`` goes to the operator's log."""
     state.source.pause()
+    state.watch.paused(state.source.now, True, (body or SimActionIn()).reason)
     state.publish()
     return state.sim()
 
 
 @router.post("/resume", response_model=SimOut)
-async def resume(state: State) -> SimOut:
-    """Let simulated time run again."""
+async def resume(state: State, body: SimActionIn | None = None) -> SimOut:
+    """Let simulated time run again; ``reason`` goes to the operator's log."""
     state.source.resume()
+    state.watch.paused(state.source.now, False, (body or SimActionIn()).reason)
     state.publish()
     return state.sim()
 

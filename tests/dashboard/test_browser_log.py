@@ -1,0 +1,58 @@
+"""The events-and-alarms panel in real headless chromium over the real AGV fleet."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from typing import Any
+
+import httpx
+import pytest
+
+from agv_app.fleet import Fleet, FleetConfig
+from tests.dashboard.served import Served
+from tests.dashboard.test_browser import CHROMIUM, CHROMIUM_ARGS
+from tests.dashboard.test_browser_tasks import CLIPPED_CELLS
+
+pytestmark = [
+    pytest.mark.browser,
+    pytest.mark.skipif(not CHROMIUM.exists(), reason="needs /usr/bin/chromium (make chromium)"),
+]
+
+
+@pytest.fixture
+def log_page() -> Iterator[tuple[Any, Served, Fleet]]:
+    fleet = Fleet(config=FleetConfig(agvs=4, seed=3, task_until=0.0))
+    sync_api = pytest.importorskip("playwright.sync_api")
+    with Served(fleet) as served, sync_api.sync_playwright() as pw:
+        browser = pw.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
+        page = browser.new_page(viewport={"width": 1400, "height": 900})
+        problems: list[str] = []
+        page.on("console", lambda m: problems.append(m.text) if m.type == "error" else None)
+        page.on("pageerror", lambda e: problems.append(str(e)))
+        page.goto(served.url + "/")
+        page.wait_for_function("window.__dashboard && window.__dashboard.ready", timeout=10_000)
+        yield page, served, fleet
+        browser.close()
+        assert problems == [], problems
+
+
+def test_a_pause_and_a_failed_agv_show_with_the_alarm_on_top(
+    log_page: tuple[Any, Served, Fleet],
+) -> None:
+    page, served, fleet = log_page
+    reason = "aisle 3 blocked by a pallet that fell off a shelf"
+    r = httpx.post(f"{served.url}/api/sim/pause", json={"reason": reason}, timeout=5)
+    assert r.status_code == 200
+    page.locator("#events-body td", has_text=f"fleet paused: {reason}").wait_for(timeout=5_000)
+    victim = sorted(fleet.agvs)[0]
+    fleet.crash(victim)  # paused: the driver does not advance the fleet meanwhile
+    alarm = page.locator(f"#alarms li[data-alarm-key='failed:{victim}']")
+    alarm.wait_for(timeout=5_000)
+    assert alarm.text_content().endswith(f"{victim} failed")
+    page.locator("#events-body td", has_text=f"node {victim} left").wait_for(timeout=5_000)
+    first_row = page.locator("#events-body tr").first
+    assert first_row.locator("td[data-severity]").text_content() in {"alarm", "warning"}
+    alarms_box = page.locator("#alarms").bounding_box()
+    table_box = page.locator("#log-panel table").bounding_box()
+    assert alarms_box["y"] < table_box["y"], "active alarms stand above the log"
+    assert page.evaluate(CLIPPED_CELLS, "#log-panel") == []
