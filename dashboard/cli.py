@@ -19,7 +19,14 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from dashboard.source import FleetSource
 
-__all__ = ["TOKEN_ENV", "build_source", "is_loopback", "register", "run_demo", "serve"]
+__all__ = [
+    "TOKEN_ENV",
+    "build_source",
+    "is_loopback",
+    "register",
+    "run_demo",
+    "serve",
+]
 
 TOKEN_ENV = "OBJECTPLACES_TOKEN"
 """Environment variable read when ``--token`` is not given."""
@@ -49,13 +56,19 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
     )
     parser.add_argument("--host", default="127.0.0.1", help="address to listen on")
     parser.add_argument("--port", type=int, default=8000, help="port to listen on")
-    parser.add_argument("--agvs", type=int, default=12, help="number of AGVs")
+    parser.add_argument(
+        "--agvs",
+        type=int,
+        default=None,
+        help="number of AGVs of one simulated fleet (default 12); not with --processes",
+    )
     parser.add_argument("--seed", type=int, default=1, help="random seed of the fleet")
     parser.add_argument(
         "--processes",
         type=int,
         default=0,
-        help="run every AGV as its own process on the WebSocket mesh (this many processes)",
+        help="run every AGV as its own process on the WebSocket mesh (this many AGVs and "
+        "processes); not with --agvs",
     )
     parser.add_argument(
         "--token",
@@ -80,6 +93,7 @@ def build_source(args: argparse.Namespace) -> FleetSource:
     if make is None:
         raise SystemExit("objectplaces demo: agv_app.fleet offers no demo_source()")
     try:
+        # --agvs left out (None): the demo fleet's own default.
         return make(agvs=args.agvs, seed=args.seed, processes=args.processes)
     except ValueError as exc:
         raise SystemExit(f"objectplaces demo: {exc}") from exc
@@ -122,8 +136,21 @@ def run_demo(args: argparse.Namespace, *, builder: SourceBuilder = build_source)
     Returns:
         The exit status.
     """
-    if args.agvs < 1:
-        print("objectplaces demo: --agvs must be at least 1", file=sys.stderr)
+    if args.agvs is not None and args.processes:
+        print(
+            f"objectplaces demo: give --agvs {args.agvs} (one simulated fleet) or "
+            f"--processes {args.processes} (one process per AGV), not both",
+            file=sys.stderr,
+        )
+        return 2
+    if args.agvs is not None and args.agvs < 1:
+        print(f"objectplaces demo: --agvs must be at least 1, got {args.agvs}", file=sys.stderr)
+        return 2
+    if args.processes < 0:
+        print(
+            f"objectplaces demo: --processes must be 0 or more, got {args.processes}",
+            file=sys.stderr,
+        )
         return 2
     if args.token is None and not is_loopback(args.host):
         print(

@@ -78,13 +78,15 @@ class FleetDriver:
         elapsed = 0.0 if self._last_step is None else now - self._last_step
         self._last_step = now
         source = self.state.source
-        if not source.paused and elapsed > 0:
+        paused = bool(source.paused)
+        if not paused and elapsed > 0:
             seconds = min(elapsed, self.max_step_s) * source.speed
             try:
                 source.advance(seconds)
             except Exception as exc:
                 self.advance_errors += 1
                 self._report(now, "advancing the fleet", exc)
+        self.state.clock.tick(elapsed, float(source.now), paused=paused)
         if now - self._last_housekeeping >= self.housekeeping_s:
             self._last_housekeeping = now
             self._guarded(now, "housekeeping", self._housekeeping)

@@ -12,13 +12,14 @@ from __future__ import annotations
 import asyncio
 import math
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 from fastapi import HTTPException
 
 from dashboard import introspect
 from dashboard.capture import JSON, FleetState, PolygonCache, SessionRecord, capture, layout_json
+from dashboard.clock import RunClock
 from dashboard.eventlog import EventLog
 from dashboard.feed import ClientFeed, FeedHub
 from dashboard.limits import shown
@@ -137,6 +138,8 @@ class DashboardState:
         self.events = EventLog()
         """The operator's log (``GET /api/events``)."""
         self.watch = FleetWatch(self.events)
+        self.clock = RunClock()
+        """Wall time run and simulated time gained, measured by the driver."""
 
     # ---- reading ----------------------------------------------------------------------
 
@@ -235,14 +238,22 @@ class DashboardState:
             }
         return self._last_counters
 
+    def metrics(self) -> dict[str, float]:
+        """The fleet's figures, with ``wall_seconds`` and ``sim_speed`` as measured live."""
+        return {
+            **{str(k): float(v) for k, v in self.source.metrics().items()},
+            **self.clock.figures(),
+        }
+
     def capture(self, *, fresh_counters: bool = True) -> FleetState:
-        """The fleet as the feed shows it now."""
-        return capture(
+        """The fleet as the feed shows it now (metrics as ``metrics()``)."""
+        state = capture(
             self.source,
             sessions=self.sessions(),
             nodes=self.counters(fresh=fresh_counters),
             cache=self._polygons,
         )
+        return replace(state, metrics={**state.metrics, **self.clock.figures()})
 
     def connect_feed(self) -> FeedClient:
         """Register a feed client and offer it the current state."""

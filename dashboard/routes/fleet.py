@@ -36,8 +36,7 @@ async def list_locks(state: State) -> list[dict[str, Any]]:
 async def get_metrics(state: State, request: Request) -> MetricsOut:
     """Fleet figures (tasks, messages, safety), the clock, and failed advances."""
     metrics = {
-        str(k): (float(v) if math.isfinite(float(v)) else None)
-        for k, v in state.source.metrics().items()
+        str(k): (float(v) if math.isfinite(float(v)) else None) for k, v in state.metrics().items()
     }
     driver = request.app.state.driver
     return MetricsOut(sim=state.sim(), metrics=metrics, advance_errors=driver.advance_errors)

@@ -6,7 +6,7 @@ import argparse
 
 import pytest
 
-from dashboard.cli import is_loopback, register, run_demo
+from dashboard.cli import build_source, is_loopback, register, run_demo
 
 
 def parse(*argv: str) -> argparse.Namespace:
@@ -37,7 +37,7 @@ def test_defaults_match_the_issue(monkeypatch: pytest.MonkeyPatch) -> None:
     assert (args.host, args.port, args.agvs, args.seed, args.open) == (
         "127.0.0.1",
         8000,
-        12,
+        None,  # the demo fleet's default, 12 AGVs
         1,
         False,
     )
@@ -62,3 +62,24 @@ def test_non_loopback_without_token_is_refused(
 def test_bad_agv_count_is_refused(capsys: pytest.CaptureFixture[str]) -> None:
     assert run_demo(parse("--agvs", "0")) == 2
     assert "--agvs" in capsys.readouterr().err
+
+
+def test_agvs_and_processes_together_are_refused(capsys: pytest.CaptureFixture[str]) -> None:
+    def builder(args: argparse.Namespace):
+        raise AssertionError("must not build a fleet")
+
+    assert run_demo(parse("--agvs", "4", "--processes", "6"), builder=builder) == 2
+    err = capsys.readouterr().err
+    assert "--agvs 4" in err
+    assert "--processes 6" in err
+    assert "not both" in err
+
+
+def test_negative_processes_are_refused(capsys: pytest.CaptureFixture[str]) -> None:
+    assert run_demo(parse("--processes", "-1")) == 2
+    assert "--processes must be 0 or more, got -1" in capsys.readouterr().err
+
+
+def test_the_default_fleet_has_twelve_agvs() -> None:
+    source = build_source(parse("--seed", "2"))
+    assert len(source.vehicles()) == 12
