@@ -122,7 +122,11 @@ class ParkingPlan:
         chosen: list[str] = []
         occupied = [layout.point(p) for p in sorted({*taken, *usable})]
         candidates = sorted(
-            (p for p in layout.points if p in reach and p not in usable and p not in taken),
+            (
+                p
+                for p in layout.points
+                if p in reach and p not in usable and p not in taken and _may_wait(layout, p)
+            ),
             key=lambda p: (len(layout.neighbours(p)) > 1, p),
         )
         for pid in candidates:
@@ -133,3 +137,13 @@ class ParkingPlan:
                 if len(chosen) == n:
                     break
         return chosen
+
+
+def _may_wait(layout: Layout, point: str) -> bool:
+    """A vehicle may rest at ``point`` for long: a dead end, or off every two-way lane.
+
+    One resting on a two-way run between junctions blocks it for everyone else, and one
+    that must leave through it may meet one coming in (``traffic/deadlock.py``).
+    """
+    neighbours = layout.neighbours(point)
+    return len(neighbours) <= 1 or not any(layout.is_bidirectional(point, q) for q in neighbours)

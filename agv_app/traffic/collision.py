@@ -41,6 +41,8 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from typing import Any
 
+import shapely
+
 from agv_app.geometry import Area, coords_to_polygon, hull_length, overlaps, polygon_to_coords
 from agv_app.protocol import AGV_KIND, MessageTally, tally_send
 from agv_app.traffic.lockbook import LockBook, Priority, RequestEntry
@@ -117,7 +119,10 @@ def request_coords(area: Area, *, grow_m: float = _WIRE_GROWTH_M, tolerance_m: f
     Simplifying by less than it was grown keeps the original inside, so a voter never
     under-estimates the request; far fewer vertices travel (turn arcs are smooth).
     """
-    grown = area.geom.buffer(grow_m, join_style="mitre").simplify(tolerance_m)
+    # Vertices a hair apart (where a route turns back on itself) make the mitre
+    # buffer divide by zero; dropping them moves no edge by more than a micrometre.
+    clean = shapely.remove_repeated_points(area.geom, 1e-6)
+    grown = clean.buffer(grow_m, join_style="mitre").simplify(tolerance_m)
     return polygon_to_coords(Area(grown), margin_m=0.0)
 
 
@@ -169,6 +174,12 @@ class Requester(Initiator):
         self._started_at: float | None = None
         self.done = ""
         """``""`` while pending, then ``"locked"`` or ``"withdrawn"``."""
+
+    @property
+    def blocked_by(self) -> frozenset[str]:
+        """The members that deferred because of one of their locks (their AGV stands or
+        drives in the requested area)."""
+        return frozenset(self._blocked)
 
     @property
     def votes(self) -> Mapping[str, bool]:

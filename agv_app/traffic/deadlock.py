@@ -20,9 +20,17 @@ clear resting place beyond it, so the whole passage through the run is one reque
 Locks are mutually exclusive, so at most one of two oncoming AGVs holds the passage;
 it never waits inside the run (its lock reaches past it) and drives out, releasing
 the run behind it. The other one waits clear of the mouth, where the first one's
-passage does not need its area, and gets the run once the first one has left. The
-route end is the only exception: a destination at the end of a dead-end spur, which
-task assignment and home parking never give to two AGVs at once.
+passage does not need its area, and gets the run once the first one has left.
+
+Yielding. The argument needs every waiting AGV to wait at a resting place, but a
+route may *start* where the AGV may not rest: a dead-end dock at the end of a two-way
+run, where it dwelt to load or unload. Two AGVs standing at the two docks of one run,
+each bound for the other's dock, each request the whole passage including the other's
+hull, and wait forever. So an AGV that has not left the start of its route, stands in
+a no-rest zone of it and has waited ``AgvConfig.yield_after`` for its first lock
+because of someone's lock backs off to a waiting place (its home: a parking spot at a
+dead end or off every two-way lane), then goes on from there, which is a resting
+place. See docs/traffic.md for the whole argument and its limits.
 """
 
 from __future__ import annotations

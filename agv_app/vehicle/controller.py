@@ -50,6 +50,9 @@ class AgvConfig:
         retry: wait before asking again after a withdrawn request.
         hull_margin_m: added to the published hull length (rounding, wire margin).
         broadcast: vote with every AGV instead of the collision group.
+        yield_after: seconds an AGV that stands where it may not rest (inside a two-way
+            run: a dead-end dock) waits for its first lock before it backs off to a
+            waiting place (``traffic/deadlock.py``, "Yielding").
     """
 
     t_update: float = 1.0
@@ -58,6 +61,7 @@ class AgvConfig:
     retry: float = 0.2
     hull_margin_m: float = 0.05
     broadcast: bool = False
+    yield_after: float = 15.0
 
 
 class AgvController:
@@ -76,7 +80,7 @@ class AgvController:
         on_task_done: called with the task id when a task is finished.
         on_lock_wait: called with the seconds a granted request waited.
         relocate: asked for another parking point when the idle AGV stands in someone's
-            way (None: stay).
+            way, or when it must yield and its home is no waiting place (None: stay).
     """
 
     def __init__(
@@ -127,6 +131,9 @@ class AgvController:
         self._released_at_s = 0.0
         self._stalled = False
         self._first_try: tuple[float, float] | None = None
+        self._route_started_at = 0.0
+        self._resume: str | None = None
+        """Where a yielding AGV goes once it has reached its waiting place."""
         self.node = node
         self.attach(node)
 
@@ -198,6 +205,7 @@ class AgvController:
         station has returned it), finish the stretch it was on, then drive home."""
         self.task = None
         self.pending_task = None
+        self._resume = None
         self.phase = "to_home" if self._dest is not None else "lost"
         self._requester = None
         self._retry_at = 0.0
@@ -275,6 +283,7 @@ class AgvController:
         self._dest = dest
         self._stalled = False
         self._first_try = None
+        self._route_started_at = self.node.now()
         if dest is None or dest == self.point:
             self._plan = None
             self._dest = None
@@ -371,7 +380,39 @@ class AgvController:
                 self._on_lock_wait(now - requester.entry.priority[0])
         else:
             self._retry_at = now + self.config.retry
+            if requester.blocked_by and self._must_yield(now):
+                self._yield()
             self.publish()
+
+    def _must_yield(self, now: float) -> bool:
+        """True if the AGV has not left its start, stands where it may not rest, and has
+        waited ``yield_after`` for its first lock: someone needs the run it stands in."""
+        plan, vehicle = self._plan, self.vehicle
+        return (
+            plan is not None
+            and self._resume is None
+            and self.point != self.home  # its home is a waiting place already
+            and vehicle.s <= _LEAD_M + 1e-6
+            and self.book.lock_end(default=vehicle.s) <= vehicle.s + 1e-6
+            and not plan.may_rest(vehicle.s)
+            and now - self._route_started_at >= self.config.yield_after
+        )
+
+    def _yield(self) -> None:
+        """Back off to a waiting place (home, else a free rest point), then go on."""
+        dest = self._dest
+        assert dest is not None
+        place: str | None = self.home
+        if place in (self.point, dest) and self._relocate is not None:
+            place = self._relocate(self)
+            if place is not None:
+                self.home = place
+        if place is None or place in (self.point, dest):
+            return
+        phase = self.phase
+        self._route_to(place)
+        self.phase = phase
+        self._resume = dest
 
     def _release(self) -> None:
         vehicle, spec, book = self.vehicle, self.spec, self.book
@@ -393,6 +434,12 @@ class AgvController:
         self.point = self._dest
         self._dest = None
         self._plan = None
+        if self._resume is not None:
+            resume, self._resume = self._resume, None
+            self._route_to(resume)
+            if self._dest is not None:
+                self.publish()
+                return
         if self.phase == "to_pick":
             self.phase = "at_pick"
             self._dwell_until = now + self.config.dwell
