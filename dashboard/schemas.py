@@ -39,6 +39,7 @@ __all__ = [
     "TaskIn",
     "TaskOut",
     "TaskRecordOut",
+    "VehicleOut",
     "json_value",
 ]
 
@@ -180,6 +181,23 @@ class LockOut(_Out):
     vehicle: str
     status: str
     hull_length: float
+    locked: list[Polygon]
+    requested: list[Polygon]
+
+
+class VehicleOut(_Out):
+    """One AGV as it stands now."""
+
+    id: str
+    x: float = Field(description="metres")
+    y: float = Field(description="metres")
+    heading: float = Field(description="radians, counter-clockwise from +x")
+    length: float = Field(description="hull length along the heading, metres")
+    width: float = Field(description="hull width, metres")
+    status: str = Field(description="idle, driving, waiting, failed, …")
+    task: str | None = Field(description="the task it carries out")
+    hull: Polygon
+    hull_length: float = Field(description="radius of its collision-avoidance circle")
     locked: list[Polygon]
     requested: list[Polygon]
 

@@ -43,6 +43,45 @@ const COLORS = {
   label: "#e8eef4",
 };
 
+// ---- legend: one entry per colour a hull or a station can take, from COLORS ----------
+
+// Statuses (or station kinds) sharing a colour share an entry: "driving / moving".
+function legendEntries(colors) {
+  const byColor = new Map();
+  for (const [name, color] of Object.entries(colors)) {
+    if (!byColor.has(color)) byColor.set(color, []);
+    byColor.get(color).push(name);
+  }
+  return [...byColor].map(([color, names]) => ({ color, names }));
+}
+
+function buildLegend() {
+  const legend = document.getElementById("legend");
+  const groups = [
+    ["hull", "hull-colors", COLORS.status, "data-hull-status"],
+    ["station (click: add task)", "station-colors", COLORS.station, "data-station-kind"],
+  ];
+  for (const [title, id, colors, attr] of groups) {
+    const li = document.createElement("li");
+    li.id = id;
+    li.className = "legend-group";
+    li.append(`${title}:`);
+    for (const { color, names } of legendEntries(colors)) {
+      const entry = document.createElement("span");
+      entry.className = "legend-entry";
+      entry.setAttribute(attr, names.join(" "));
+      const swatch = document.createElement("i");
+      swatch.className = "sw";
+      swatch.style.background = color;
+      entry.append(swatch, names.join(" / "));
+      li.append(entry);
+    }
+    legend.append(li);
+  }
+}
+
+buildLegend();
+
 // ---- state fed by the event stream -------------------------------------------------
 
 const state = {
@@ -84,7 +123,8 @@ function fitView() {
   const [x0, y0, x1, y1] = state.layout.bounds;
   // Room at the top for the legend, and around for station labels.
   const side = 30;
-  const top = 44;
+  const legend = document.getElementById("legend");
+  const top = legend.offsetTop + legend.offsetHeight + 8;
   const bottom = 24;
   const w = Math.max(x1 - x0, 1);
   const h = Math.max(y1 - y0, 1);

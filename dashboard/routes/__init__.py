@@ -4,7 +4,19 @@ from __future__ import annotations
 
 from fastapi import APIRouter
 
-from dashboard.routes import docs, events, fleet, groups, log, nodes, page, sessions, sim, tasks
+from dashboard.routes import (
+    docs,
+    events,
+    fleet,
+    groups,
+    log,
+    nodes,
+    page,
+    sessions,
+    sim,
+    tasks,
+    vehicles,
+)
 
 __all__ = ["ROUTERS"]
 
@@ -13,6 +25,7 @@ ROUTERS: tuple[APIRouter, ...] = (
     sessions.router,
     groups.router,
     fleet.router,
+    vehicles.router,
     tasks.router,
     sim.router,
     log.router,

@@ -1,0 +1,68 @@
+"""``/api/vehicles``: the AGVs of the real fleet as they stand."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from agv_app.fleet import Fleet, FleetConfig
+from dashboard.app import create_app
+from tests.dashboard.conftest import TestClient
+
+FIELDS = {
+    "id", "x", "y", "heading", "length", "width", "status", "task",
+    "hull", "hull_length", "locked", "requested",
+}  # fmt: skip
+
+
+@pytest.fixture
+def fleet() -> Fleet:
+    return Fleet(config=FleetConfig(agvs=4, seed=3, task_until=0.0))
+
+
+@pytest.fixture
+def fleet_client(fleet: Fleet) -> TestClient:
+    return TestClient(create_app(fleet))
+
+
+def test_every_vehicle_is_listed_by_id(fleet: Fleet, fleet_client: TestClient) -> None:
+    vehicles = fleet_client.get("/api/vehicles").json()
+    assert [v["id"] for v in vehicles] == sorted(v.id for v in fleet.vehicles())
+    for listed in vehicles:
+        assert set(listed) == FIELDS
+        assert len(listed["hull"]) == 4
+        assert all(math.isfinite(c) for c in (listed["x"], listed["y"], listed["heading"]))
+        assert fleet_client.get(f"/api/vehicles/{listed['id']}").json() == listed
+
+
+def test_a_vehicle_with_a_task_shows_it(fleet: Fleet, fleet_client: TestClient) -> None:
+    task_id = fleet_client.post("/api/tasks", json={"station": "pick-A1-1"}).json()["task_id"]
+    for _ in range(300):
+        fleet.advance(0.1)
+        holders = [v for v in fleet_client.get("/api/vehicles").json() if v["task"] == task_id]
+        if holders:
+            break
+    (holder,) = holders
+    assert holder["status"] != "idle"
+    assert holder["locked"], "a vehicle with a task locks floor ahead"
+
+
+@pytest.mark.parametrize(
+    ("url", "status"),
+    [
+        ("/api/vehicles/agv-99", 404),
+        ("/api/vehicles/" + "x" * 129, 422),
+        ("/api/vehicles/%00", 404),
+    ],
+)
+def test_bad_vehicle_requests_are_4xx(fleet_client: TestClient, url: str, status: int) -> None:
+    r = fleet_client.get(url)
+    assert r.status_code == status, r.text
+    assert r.json()["detail"]
+
+
+def test_unknown_vehicle_names_the_known_ones(fleet_client: TestClient) -> None:
+    detail = fleet_client.get("/api/vehicles/agv-99").json()["detail"]
+    assert "'agv-99'" in detail
+    assert "agv-01" in detail
