@@ -154,3 +154,27 @@ def test_a_crashed_run_loses_what_it_had_in_flight() -> None:
     net.add_node("b").update_node_property("position", (3.0, 3.0))
     net.run_for(3.0)
     assert a.view()["b"]["position"] == (3.0, 3.0)
+
+
+def test_frames_of_an_overtaken_epoch_do_not_open_a_role_later() -> None:
+    # Found by soak seed 2200: a newer activation's ACTIVATE overtook an older epoch's
+    # ACTIVATE and DEACTIVATE; the participant dropped those without an ack, so the
+    # initiator retransmitted them until every tombstone had expired, and the old
+    # ACTIVATE then opened a role no session knows. Fixed in the core: they are acked.
+    net, _, roles, sid = _pair(seed=5)
+    a, b = net.node("a"), net.node("b")
+    net.set_link("a", "b", both_ways=False, delay=1.0)  # what a says next arrives late
+    for x in (9.0, 1.0, 9.0):  # out, in (epoch 2), out again
+        b.update_node_property("position", (x, 0.0))
+        net.run_for(0.05)
+    net.set_link("a", "b", both_ways=False, delay=0.005)
+    b.update_node_property("position", (1.0, 0.0))  # in again: epoch 3 overtakes epoch 2
+    net.run_for(3.0)
+    a.stop_interaction(sid)
+    net.run_for(2.0)
+    # Epoch 2's frames were acked on arrival: nothing of the session is left to retransmit
+    # (unacked, they would be until the channel broke, long after b's tombstones expire).
+    assert set(a.machine.state_counts().values()) == {0}
+    net.run_for(60.0)  # beyond every retransmission and tombstone
+    assert b.participations() == []
+    assert not any(role.active for role in roles)

@@ -312,6 +312,24 @@ def test_a_newer_epoch_supersedes_the_old_participation(part: ParticipantSide) -
     assert part.outbox.counters["dropped_stale"] == 1
 
 
+def test_frames_of_an_epoch_overtaken_by_a_newer_one_are_acked_and_dropped(
+    part: ParticipantSide,
+) -> None:
+    # Soak seed 2200: epoch 3's ACTIVATE overtook epoch 2's ACTIVATE and DEACTIVATE; left
+    # unacked, those were retransmitted until the tombstones were gone, then opened a role.
+    part.table.set_factory("voter", Voter)
+    part.frame(0, FrameKind.ACTIVATE, ["voter", "Requester"], epoch=3)
+    called(part.outbox), sent(part.outbox)
+    part.frame(1, FrameKind.DEACTIVATE, epoch=2)
+    part.frame(0, FrameKind.ACTIVATE, ["voter", "Requester"], epoch=2)
+    assert sent(part.outbox) == [
+        ("a", ChannelAck(False, 1, 2, 1)),
+        ("a", ChannelAck(False, 1, 2, 0)),
+    ]
+    assert called(part.outbox) == []
+    assert part.outbox.counters["dropped_stale"] == 2
+
+
 def test_only_an_activation_opens_a_participation(part: ParticipantSide) -> None:
     part.table.set_factory("voter", Voter)
     part.frame(1, FrameKind.ROLE, "request")  # overtook its ACTIVATE, or a forgery
