@@ -32,7 +32,13 @@ class Served:
         self.sock.bind(("127.0.0.1", 0))
         self.url = f"http://127.0.0.1:{self.sock.getsockname()[1]}"
         self.app = create_app(source, token=token)
-        config = uvicorn.Config(self.app, log_level="warning", lifespan="on")
+        # Keep idle connections open longer than any test runs: with uvicorn's 5 s
+        # default, a loaded machine lets the server close a pooled connection just as
+        # the client reuses it, and the request fails with a read error that says
+        # nothing about the dashboard.
+        config = uvicorn.Config(
+            self.app, log_level="warning", lifespan="on", timeout_keep_alive=300
+        )
         self.server = uvicorn.Server(config)
         self.thread = threading.Thread(
             target=self.server.run, kwargs={"sockets": [self.sock]}, daemon=True
