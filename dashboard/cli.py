@@ -64,6 +64,13 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
     )
     parser.add_argument("--seed", type=int, default=1, help="random seed of the fleet")
     parser.add_argument(
+        "--load",
+        type=float,
+        default=None,
+        help="share of AGVs kept busy, in (0, 1]; the task rate follows from the layout "
+        "(default: the fleet's, 0.7)",
+    )
+    parser.add_argument(
         "--processes",
         type=int,
         default=0,
@@ -94,7 +101,7 @@ def build_source(args: argparse.Namespace) -> FleetSource:
         raise SystemExit("objectplaces demo: agv_app.fleet offers no demo_source()")
     try:
         # --agvs left out (None): the demo fleet's own default.
-        return make(agvs=args.agvs, seed=args.seed, processes=args.processes)
+        return make(agvs=args.agvs, seed=args.seed, processes=args.processes, load=args.load)
     except ValueError as exc:
         raise SystemExit(f"objectplaces demo: {exc}") from exc
 
@@ -145,6 +152,12 @@ def run_demo(args: argparse.Namespace, *, builder: SourceBuilder = build_source)
         return 2
     if args.agvs is not None and args.agvs < 1:
         print(f"objectplaces demo: --agvs must be at least 1, got {args.agvs}", file=sys.stderr)
+        return 2
+    if args.load is not None and not 0.0 < args.load <= 1.0:
+        print(
+            f"objectplaces demo: --load is the share of AGVs kept busy, in (0, 1]; got {args.load}",
+            file=sys.stderr,
+        )
         return 2
     if args.processes < 0:
         print(

@@ -83,3 +83,22 @@ def test_negative_processes_are_refused(capsys: pytest.CaptureFixture[str]) -> N
 def test_the_default_fleet_has_twelve_agvs() -> None:
     source = build_source(parse("--seed", "2"))
     assert len(source.vehicles()) == 12
+
+
+@pytest.mark.parametrize("load", ["0", "1.5", "-0.2", "nan"])
+def test_a_load_outside_zero_to_one_is_refused(
+    load: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    def builder(args: argparse.Namespace):
+        raise AssertionError("must not build a fleet")
+
+    assert run_demo(parse("--load", load), builder=builder) == 2
+    assert f"--load is the share of AGVs kept busy, in (0, 1]; got {float(load)}" in (
+        capsys.readouterr().err
+    )
+
+
+def test_the_load_reaches_the_fleet() -> None:
+    quiet = build_source(parse("--seed", "2", "--load", "0.1"))
+    busy = build_source(parse("--seed", "2", "--load", "1"))
+    assert quiet.metrics()["tasks_created"] < busy.metrics()["tasks_created"]
