@@ -394,8 +394,5 @@ class NodeMachine:
 
     def state_counts(self) -> dict[str, int]:
         """Sizes of every per-session structure, to check that nothing is left behind."""
-        return {
-            **self._sessions.counts(),
-            **self._participations.counts(),
-            "role_timers": len(self._role_timers),
-        }
+        counts = {**self._sessions.counts(), **self._participations.counts()}
+        return {**counts, "role_timers": len(self._role_timers)}
