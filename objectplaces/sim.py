@@ -17,7 +17,8 @@ from objectplaces.core.messages import Message
 from objectplaces.core.node import NodeConfig, NodeMachine
 from objectplaces.runtime.pump import Pump
 from objectplaces.runtime.sim import EventLoop
-from objectplaces.transport.memory import LinkParams, MemoryNetwork, NetworkStats
+from objectplaces.transport.memory import LinkParams, MemoryNetwork
+from objectplaces.transport.netstats import NetworkStats
 from tuplespace import TupleSpace
 
 __all__ = ["SimulatedNetwork"]

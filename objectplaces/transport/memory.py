@@ -20,16 +20,17 @@ from __future__ import annotations
 import logging
 import random
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 from objectplaces.core import codec
 from objectplaces.core.errors import DecodeError, LocalProtocolError
 from objectplaces.core.events import Broadcast, Output, Publish, Send, Subscribe
 from objectplaces.core.messages import Message
 from objectplaces.transport.base import RawNodeDriver, Scheduler
+from objectplaces.transport.netstats import NetworkStats, NodeTraffic
 from objectplaces.transport.routing import Cell, CellRouter
 
-__all__ = ["LinkParams", "MemoryNetwork", "NetworkStats", "NodeTraffic"]
+__all__ = ["LinkParams", "MemoryNetwork"]
 
 log = logging.getLogger("objectplaces")
 
@@ -53,57 +54,6 @@ class LinkParams:
             value = getattr(self, name)
             if not 0 <= value <= 1:
                 raise LocalProtocolError(f"{name} must be a probability in [0, 1], got {value!r}")
-
-
-@dataclass(slots=True)
-class NodeTraffic:
-    """Messages and bytes one node sent and received, by message kind."""
-
-    sent: dict[str, list[int]] = field(default_factory=dict)
-    received: dict[str, list[int]] = field(default_factory=dict)
-
-    @property
-    def sent_messages(self) -> int:
-        """Messages this node put on the wire."""
-        return sum(v[0] for v in self.sent.values())
-
-    @property
-    def sent_bytes(self) -> int:
-        """Bytes this node put on the wire."""
-        return sum(v[1] for v in self.sent.values())
-
-    @property
-    def received_messages(self) -> int:
-        """Messages delivered to this node."""
-        return sum(v[0] for v in self.received.values())
-
-    @property
-    def received_bytes(self) -> int:
-        """Bytes delivered to this node."""
-        return sum(v[1] for v in self.received.values())
-
-
-@dataclass(frozen=True, slots=True)
-class NetworkStats:
-    """Traffic of the whole simulated network.
-
-    Attributes:
-        messages: frames put on the wire (one per recipient).
-        bytes: their total size.
-        by_kind: kind -> (messages, bytes).
-        per_node: node -> its traffic.
-        dropped: reason -> frames dropped: "loss", "partition", "dead" (the target was
-            gone, or the sender crashed or restarted since it sent the frame), "failed"
-            (handling the frame raised; the target lives on).
-        delivered: frames that reached a live node.
-    """
-
-    messages: int
-    bytes: int
-    by_kind: dict[str, tuple[int, int]]
-    per_node: dict[str, NodeTraffic]
-    dropped: dict[str, int]
-    delivered: int
 
 
 class MemoryNetwork:
