@@ -94,7 +94,13 @@ class Channels:
         self._transmit(target, channel, now)
 
     def acknowledge(self, target: str, ack: ChannelAck) -> None:
-        """Send a cumulative ack to ``target``."""
+        """Send a cumulative ack to ``target``, unless it acknowledges nothing.
+
+        A frame that arrives ahead of frame 0 leaves nothing delivered in order; an ack of
+        -1 would tell the sender nothing, and its intake refuses negative acks (§7).
+        """
+        if ack.ack < 0:
+            return
         self._outbox.send(target, codec.encode(ack), "ack")
 
     def retransmit(self, target: str, channel: Channel, at: float, now: float) -> bool:

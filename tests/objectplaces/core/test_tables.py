@@ -474,3 +474,20 @@ def test_a_role_whose_initiator_left_is_not_reported(part: ParticipantSide) -> N
     assert sent(part.outbox) == []
     part.frame(1, FrameKind.ROLE, "late")
     assert sent(part.outbox) == [("a", ChannelAck(False, 1, 1, 1))]
+
+
+def test_a_frame_ahead_of_frame_0_draws_no_ack() -> None:
+    # Nothing is delivered in order yet: an ack of -1 would tell the sender nothing, and
+    # the sender's intake refuses negative acks as malformed, counting an honest peer.
+    plumbing = Plumbing.build("b", NodeConfig())
+    channel = plumbing.channels.open(to_participant=False, session=7, epoch=0)
+    early = ChannelData(True, 7, 0, 1, FrameKind.ROLE, "late")
+    delivered, ack = channel.on_data(early)
+    plumbing.channels.acknowledge("a", ack)
+    assert delivered == []
+    assert sent(plumbing.outbox) == []
+    first = ChannelData(True, 7, 0, 0, FrameKind.ROLE, "first")
+    delivered, ack = channel.on_data(first)
+    plumbing.channels.acknowledge("a", ack)
+    assert [d.seq for d in delivered] == [0, 1]
+    assert [frame for _, frame in sent(plumbing.outbox)] == [ChannelAck(False, 7, 0, 1)]
