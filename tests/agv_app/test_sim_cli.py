@@ -8,6 +8,7 @@ from pathlib import Path
 import pytest
 
 from agv_app import fleet as fleet_module
+from agv_app.tasks import DEFAULT_LOAD
 from objectplaces.cli import main
 
 KEYS = {
@@ -96,14 +97,15 @@ def test_bad_arguments_and_a_bad_layout_exit_two(tmp_path: Path) -> None:
     assert main(["sim", "--layout", str(bad), "--quiet"]) == 2
 
 
-def test_sim_runs_at_load_0_7_by_default_and_reports_the_new_figures(tmp_path: Path) -> None:
+def test_sim_runs_at_the_default_load_and_reports_the_new_figures(tmp_path: Path) -> None:
     from objectplaces.cli import build_parser
 
     args = build_parser().parse_args(["sim"])
-    assert args.load == 0.7
+    assert args.load == DEFAULT_LOAD
     assert args.task_interval is None
     out = tmp_path / "m.json"
-    code = main(["sim", "--agvs", "3", "--minutes", "0.5", "--quiet", "--json", str(out)])
+    argv = ["sim", "--agvs", "3", "--minutes", "0.5", "--load", "0.7", "--quiet"]
+    code = main([*argv, "--json", str(out)])
     assert code == 0
     figures = json.loads(out.read_text())
     assert figures["tasks_created"] >= 2, "load 0.7 of 3 AGVs: 2 tasks at the start"

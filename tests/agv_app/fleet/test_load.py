@@ -13,7 +13,6 @@ from agv_app.fleet import Fleet, FleetConfig, demo_source
 from agv_app.layout import Layout, Point, Segment
 from agv_app.layout.demo import demo_warehouse
 from agv_app.tasks import (
-    DEFAULT_LOAD,
     FreeFlowTimer,
     TaskArrivals,
     drop_stations,
@@ -65,8 +64,7 @@ def test_a_fleet_refuses_a_load_outside_zero_to_one(load: float) -> None:
 
 
 def test_the_demo_has_most_agvs_moving_within_ten_seconds() -> None:
-    fleet = demo_source(agvs=12, seed=1)
-    assert DEFAULT_LOAD == 0.7
+    fleet = demo_source(agvs=12, seed=1, load=0.7)
     assert len(fleet.open_tasks) == 8
     fleet.advance(10.0)
     busy = [v.id for v in fleet.vehicles() if v.status != "idle"]

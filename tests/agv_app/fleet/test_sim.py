@@ -55,7 +55,7 @@ def test_random_starts_never_collide(picks: list[str], seed: int, loss: float) -
 
 
 def test_demo_source_is_a_fleet_source_and_steps_in_fixed_increments() -> None:
-    fleet = demo_source(agvs=3, seed=2)
+    fleet = demo_source(agvs=3, seed=2, load=0.7)
     ids = set(fleet.nodes())
     assert {"agv-01", "agv-02", "agv-03", fleet.observer_id} <= ids
     assert any(i.startswith("st:") for i in ids)
