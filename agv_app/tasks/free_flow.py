@@ -10,7 +10,9 @@ Two uses: :func:`mean_task_seconds` estimates the mean over the tasks a layout's
 stations make (for the task rate that gives a target load, see
 :mod:`agv_app.tasks.load`); :class:`FreeFlowBound` replays the tasks a run actually
 created on ``N`` vehicles working back to back at free-flow times and counts how many
-they would have finished, which bounds the run's throughput.
+they would have finished: what the run could have delivered without traffic. It is an
+estimate of that ceiling rather than a strict bound: the replay gives each task to the
+vehicle free first, the task auction to the nearest bidder, which can do better.
 """
 
 from __future__ import annotations
