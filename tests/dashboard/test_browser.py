@@ -10,22 +10,11 @@ from typing import Any
 import httpx
 import pytest
 
+from tests.dashboard.browser import BROWSER_MARKS, chromium_page, load_dashboard
 from tests.dashboard.conftest import NetworkSource
 from tests.dashboard.served import Served
 
-CHROMIUM = Path("/usr/bin/chromium")
-CHROMIUM_ARGS = [
-    "--no-sandbox",
-    "--headless",
-    "--disable-gpu",
-    "--disable-background-networking",
-    "--disable-component-update",
-]
-
-pytestmark = [
-    pytest.mark.browser,
-    pytest.mark.skipif(not CHROMIUM.exists(), reason="needs /usr/bin/chromium (make chromium)"),
-]
+pytestmark = BROWSER_MARKS
 
 
 @pytest.fixture
@@ -36,23 +25,12 @@ def served(source: NetworkSource) -> Iterator[Served]:
 
 @pytest.fixture
 def page(served: Served, tmp_path: Path) -> Iterator[Any]:
-    sync_api = pytest.importorskip("playwright.sync_api")
-    with sync_api.sync_playwright() as pw:
-        browser = pw.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
-        page = browser.new_page(viewport={"width": 1400, "height": 900})
-        problems: list[str] = []
-        page.on(
-            "console",
-            lambda m: problems.append(f"{m.type}: {m.text}") if m.type == "error" else None,
-        )
-        page.on("pageerror", lambda e: problems.append(f"pageerror: {e}"))
+    with chromium_page() as (page, problems):
         page.on("requestfailed", lambda r: problems.append(f"request failed: {r.url}"))
-        page.goto(served.url + "/")
-        page.wait_for_function("window.__dashboard && window.__dashboard.ready", timeout=10_000)
+        load_dashboard(page, served.url)
         yield page
         page.screenshot(path=str(tmp_path / "dashboard.png"))
-        browser.close()
-        assert problems == [], problems
+    assert problems == [], problems
 
 
 def test_page_loads_and_draws_without_errors(page: Any) -> None:

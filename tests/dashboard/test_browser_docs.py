@@ -8,20 +8,16 @@ from urllib.parse import urlsplit
 
 import pytest
 
+from tests.dashboard.browser import BROWSER_MARKS, chromium_page
 from tests.dashboard.conftest import NetworkSource
 from tests.dashboard.served import Served
-from tests.dashboard.test_browser import CHROMIUM, CHROMIUM_ARGS
 
-pytestmark = [
-    pytest.mark.browser,
-    pytest.mark.skipif(not CHROMIUM.exists(), reason="needs /usr/bin/chromium (make chromium)"),
-]
+pytestmark = BROWSER_MARKS
 
 
 @pytest.fixture
 def offline_page(source: NetworkSource) -> Iterator[tuple[Any, Served, list[str]]]:
     """A page whose every request to anything but 127.0.0.1 is aborted and noted."""
-    sync_api = pytest.importorskip("playwright.sync_api")
     blocked: list[str] = []
 
     def only_loopback(route: Any) -> None:
@@ -32,12 +28,9 @@ def offline_page(source: NetworkSource) -> Iterator[tuple[Any, Served, list[str]
             blocked.append(url)
             route.abort()
 
-    with Served(source) as served, sync_api.sync_playwright() as pw:
-        browser = pw.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
-        page = browser.new_page(viewport={"width": 1400, "height": 900})
+    with Served(source) as served, chromium_page() as (page, _):
         page.route("**/*", only_loopback)
         yield page, served, blocked
-        browser.close()
 
 
 def test_swagger_ui_renders_offline(offline_page: tuple[Any, Served, list[str]]) -> None:

@@ -7,14 +7,11 @@ from typing import Any
 
 import pytest
 
+from tests.dashboard.browser import BROWSER_MARKS, chromium_page, load_dashboard
 from tests.dashboard.conftest import NetworkSource
 from tests.dashboard.served import Served
-from tests.dashboard.test_browser import CHROMIUM, CHROMIUM_ARGS
 
-pytestmark = [
-    pytest.mark.browser,
-    pytest.mark.skipif(not CHROMIUM.exists(), reason="needs /usr/bin/chromium (make chromium)"),
-]
+pytestmark = BROWSER_MARKS
 
 HULL_STATUSES = {
     "idle", "driving", "moving", "waiting", "blocked", "loading", "unloading",
@@ -24,14 +21,9 @@ HULL_STATUSES = {
 
 @pytest.fixture
 def page(source: NetworkSource) -> Iterator[Any]:
-    sync_api = pytest.importorskip("playwright.sync_api")
-    with Served(source) as served, sync_api.sync_playwright() as pw:
-        browser = pw.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
-        page = browser.new_page(viewport={"width": 1400, "height": 900})
-        page.goto(served.url + "/")
-        page.wait_for_function("window.__dashboard && window.__dashboard.ready", timeout=10_000)
+    with Served(source) as served, chromium_page() as (page, _):
+        load_dashboard(page, served.url)
         yield page
-        browser.close()
 
 
 def test_every_hull_colour_has_a_legend_entry(page: Any) -> None:

@@ -9,13 +9,10 @@ import httpx
 import pytest
 
 from agv_app.fleet import Fleet, FleetConfig
+from tests.dashboard.browser import BROWSER_MARKS, chromium_page, load_dashboard
 from tests.dashboard.served import Served
-from tests.dashboard.test_browser import CHROMIUM, CHROMIUM_ARGS
 
-pytestmark = [
-    pytest.mark.browser,
-    pytest.mark.skipif(not CHROMIUM.exists(), reason="needs /usr/bin/chromium (make chromium)"),
-]
+pytestmark = BROWSER_MARKS
 
 CLIPPED_CELLS = """(panel) => [...document.querySelectorAll(`${panel} td, ${panel} th`)]
     .filter((c) => c.scrollWidth > c.clientWidth + 1)
@@ -34,17 +31,10 @@ def tasks_page() -> Iterator[tuple[Any, Served]]:
     fleet = Fleet(config=FleetConfig(agvs=4, seed=3, task_until=0.0))
     fleet.set_speed(8.0)
     fleet.pause()
-    sync_api = pytest.importorskip("playwright.sync_api")
-    with Served(fleet) as served, sync_api.sync_playwright() as pw:
-        browser = pw.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
-        page = browser.new_page(viewport={"width": 1400, "height": 900})
-        problems: list[str] = []
-        page.on("console", lambda m: problems.append(m.text) if m.type == "error" else None)
-        page.on("pageerror", lambda e: problems.append(str(e)))
-        page.goto(served.url + "/")
-        page.wait_for_function("window.__dashboard && window.__dashboard.ready", timeout=10_000)
-        yield page, served
-        browser.close()
+    with Served(fleet) as served:
+        with chromium_page() as (page, problems):
+            load_dashboard(page, served.url)
+            yield page, served
         # A refused cancel (409) is logged by chromium as a failed resource; nothing else.
         assert [p for p in problems if "409" not in p] == [], problems
 
