@@ -82,7 +82,7 @@ class AsyncioRunner:
     def send_properties_to(self, peer: str) -> None:
         """A peer subscribed to our cell: it gets our properties."""
         if not self.closed:
-            self.machine.send_properties_to(peer, self._loop.time())
+            self.machine.send_properties_to(peer, self.now())
             self.wake()
 
     def drain(self) -> None:
