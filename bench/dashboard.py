@@ -21,8 +21,8 @@ from playwright.sync_api import sync_playwright
 
 from agv_app.fleet import demo_source
 from bench.report import markdown_table, publish
+from tests.dashboard.browser import CHROMIUM, CHROMIUM_ARGS
 from tests.dashboard.served import Served
-from tests.dashboard.test_browser import CHROMIUM, CHROMIUM_ARGS
 
 
 def measure(agvs: int, seconds: float) -> tuple[float, float, float]:
