@@ -6,7 +6,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test lint bench chromium clean soak
+.PHONY: demo test lint bench chromium mosquitto clean soak
 
 $(STAMP): pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -18,9 +18,13 @@ demo: $(STAMP)
 	$(BIN)/objectplaces demo
 
 chromium:
-	@scripts/ensure-chromium.sh
+	@scripts/ensure-debian-package.sh /usr/bin/chromium chromium fonts-dejavu-core
 
-test: $(STAMP) chromium
+# The MQTT broker the VDA 5050 tests start on 127.0.0.1.
+mosquitto:
+	@scripts/ensure-debian-package.sh /usr/sbin/mosquitto mosquitto
+
+test: $(STAMP) chromium mosquitto
 	$(BIN)/ruff check .
 	$(BIN)/mypy
 	$(BIN)/python -m pytest -n 2
