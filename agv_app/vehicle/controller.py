@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from agv_app.geometry import Area, Polyline, Pose, hull_length, hull_projection, projection_ahead
+from agv_app.layout.elements import Route
 from agv_app.layout.graph import Layout
 from agv_app.protocol import AGV_KIND, MessageTally
 from agv_app.tasks.auction import Bidder, TaskSpec
@@ -288,7 +289,7 @@ class AgvController:
             self._plan = None
             self._dest = None
             return
-        route = self.layout.route(self.point, dest)
+        route = self._route_for(dest)
         heading = self.vehicle.pose().heading_rad
         ahead = route.polyline.piece_heading(0)
         if abs(math.remainder(ahead - heading, math.tau)) > math.pi / 2:
@@ -305,6 +306,11 @@ class AgvController:
         self._key += 1
         self.book.set_locks(LockEntry(self._key, self.vehicle.s, self.vehicle.hull()))
         self._released_at_s = self.vehicle.s
+
+    def _route_for(self, dest: str) -> Route:
+        """The route from the point we rest on to ``dest``: the shortest one (an order
+        from a master control names its own)."""
+        return self.layout.route(self.point, dest)
 
     def step(self, dt: float) -> None:
         """Advance the AGV by ``dt`` seconds of simulated time."""
