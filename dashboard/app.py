@@ -26,9 +26,11 @@ from fastapi.staticfiles import StaticFiles
 
 from dashboard.driver import FleetDriver
 from dashboard.errors import install_error_handlers
+from dashboard.history import HistorySampler, MetricsHistory
 from dashboard.limits import RequestLimits
 from dashboard.routes import ROUTERS
 from dashboard.routes.docs import DOCS_ASSETS_DIR, DOCS_ASSETS_URL
+from dashboard.routes.history import router as history_router
 from dashboard.source import FleetSource
 from dashboard.state import DashboardState
 
@@ -60,6 +62,8 @@ def create_app(
     state = DashboardState(source, token=token)
     state.ensure_responders()
     driver = FleetDriver(state, tick_s=tick_s)
+    history = MetricsHistory()
+    sampler = HistorySampler(state, history)
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
@@ -69,11 +73,12 @@ def create_app(
             await start()
         try:
             async with asyncio.TaskGroup() as tasks:
-                runner = tasks.create_task(driver.run())
+                runners = [tasks.create_task(driver.run()), tasks.create_task(sampler.run())]
                 try:
                     yield
                 finally:
-                    runner.cancel()
+                    for runner in runners:
+                        runner.cancel()
         finally:
             if inspect.iscoroutinefunction(stop):
                 await stop()
@@ -88,10 +93,11 @@ def create_app(
     )
     app.state.dashboard = state
     app.state.driver = driver
+    app.state.history = history
     app.state.static_dir = static_dir
     app.add_middleware(RequestLimits)
     install_error_handlers(app)
-    for router in ROUTERS:
+    for router in (*ROUTERS, history_router):
         app.include_router(router)
     app.mount("/static", StaticFiles(directory=static_dir), name="static")
     app.mount(DOCS_ASSETS_URL, StaticFiles(directory=DOCS_ASSETS_DIR), name="docs-assets")
