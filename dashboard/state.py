@@ -23,6 +23,7 @@ from dashboard.clock import RunClock
 from dashboard.eventlog import EventLog
 from dashboard.feed import ClientFeed, FeedHub
 from dashboard.limits import shown
+from dashboard.membership import MembershipHistory
 from dashboard.poll import POLL_ROLE, RESPONDER_ROLE, PollResponder, poll_factory
 from dashboard.schemas import SimOut
 from dashboard.source import FleetSource, InitiatorFactory
@@ -140,6 +141,8 @@ class DashboardState:
         self.watch = FleetWatch(self.events)
         self.clock = RunClock()
         """Wall time run and simulated time gained, measured by the driver."""
+        self.memberships = MembershipHistory()
+        """Joins and leaves per session, seen at every publication (``publish``)."""
 
     # ---- reading ----------------------------------------------------------------------
 
@@ -245,11 +248,14 @@ class DashboardState:
             **self.clock.figures(),
         }
 
-    def capture(self, *, fresh_counters: bool = True) -> FleetState:
-        """The fleet as the feed shows it now (metrics as ``metrics()``)."""
+    def capture(
+        self, *, fresh_counters: bool = True, sessions: dict[str, SessionRecord] | None = None
+    ) -> FleetState:
+        """The fleet as the feed shows it now (metrics as ``metrics()``); ``sessions``
+        when the caller has just read them."""
         state = capture(
             self.source,
-            sessions=self.sessions(),
+            sessions=self.sessions() if sessions is None else sessions,
             nodes=self.counters(fresh=fresh_counters),
             cache=self._polygons,
         )
@@ -270,10 +276,13 @@ class DashboardState:
         self._wakers.pop(client.handle, None)
 
     def publish(self, *, fresh_counters: bool = True) -> None:
-        """Offer the current state to every feed client and wake their senders."""
+        """Note who joined and left each session, then offer the current state to every
+        feed client and wake their senders."""
+        sessions = self.sessions()
+        self.memberships.observe(float(self.source.now), sessions)
         if not len(self.hub):
             return
-        self.hub.publish(self.capture(fresh_counters=fresh_counters))
+        self.hub.publish(self.capture(fresh_counters=fresh_counters, sessions=sessions))
         for event in self._wakers.values():
             event.set()
 

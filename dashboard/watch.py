@@ -60,6 +60,10 @@ class FleetWatch:
             )
         self._paused = paused
 
+    def waiting_since(self, vehicle_id: str) -> float | None:
+        """When the vehicle began to wait (as first seen waiting), or None if it does not."""
+        return self._waiting_since.get(vehicle_id)
+
     def paused(self, now: float, paused: bool, why: str) -> None:
         """The dashboard paused or resumed the fleet, for ``why``: log it as asked."""
         word = "paused" if paused else "resumed"

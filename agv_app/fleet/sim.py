@@ -19,6 +19,7 @@ from agv_app.fleet.metrics import FleetMetrics
 from agv_app.fleet.parking import ParkingPlan, home_heading
 from agv_app.fleet.stalls import STALL_LIMIT_S, StallWatch
 from agv_app.fleet.view import OBSERVER_ID, VehicleState, area_rings
+from agv_app.geometry import XY
 from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
 from agv_app.layout.graph import Layout
 from agv_app.tasks.desk import TaskDesk, pick_stations
@@ -339,6 +340,19 @@ class Fleet(FleetSourceBase):
                 )
             )
         return out
+
+    def vehicle_route(self, vehicle_id: str) -> tuple[XY, ...]:
+        """The rest of an AGV's route, from where it stands to where it stops; ``()`` at
+        rest or failed.
+
+        Raises:
+            KeyError: no AGV has that id.
+        """
+        agv = self.agvs[vehicle_id]
+        vehicle = agv.vehicle
+        if agv.failed or vehicle.remaining() <= 1e-9:
+            return ()
+        return tuple(vehicle.route.slice(vehicle.s, vehicle.route.length).coords)
 
     def nodes(self) -> Mapping[str, RoleActivator]:
         """Every live node: AGVs, stations and the observer."""

@@ -10,11 +10,13 @@ from dashboard.routes import (
     fleet,
     groups,
     log,
+    membership,
     nodes,
     page,
     sessions,
     sim,
     tasks,
+    vehicle_detail,
     vehicles,
 )
 
@@ -23,9 +25,11 @@ __all__ = ["ROUTERS"]
 ROUTERS: tuple[APIRouter, ...] = (
     nodes.router,
     sessions.router,
+    membership.router,
     groups.router,
     fleet.router,
     vehicles.router,
+    vehicle_detail.router,
     tasks.router,
     sim.router,
     log.router,
