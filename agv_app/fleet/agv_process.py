@@ -38,6 +38,7 @@ from typing import Any
 from agv_app.fleet.parking import home_heading
 from agv_app.geometry import Area, polygon_to_coords
 from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
+from agv_app.vda5050.process import bridge_for, vehicle_class
 from agv_app.vehicle.controller import AgvConfig, AgvController
 from agv_app.vehicle.kinematics import VehicleSpec
 from objectplaces.core.errors import LocalProtocolError
@@ -130,6 +131,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "--settle-timeout", type=float, default=20.0, help="longest wait for those peers, s"
     )
     parser.add_argument("--dwell", type=float, default=5.0, help="seconds at a station")
+    parser.add_argument(
+        "--vda5050", default=None, metavar="mqtt://HOST:PORT", help="speak VDA 5050 over MQTT"
+    )
     args = parser.parse_args(argv)
     for name in ("dt", "t_update", "publish_interval", "run_seconds"):
         if not getattr(args, name) > 0:
@@ -236,7 +240,7 @@ async def run(args: argparse.Namespace, secret: bytes) -> int:
         failure_timeout=3 * args.t_update,
     )
     try:
-        agv = AgvController(
+        agv = vehicle_class(args.vda5050)(
             node,
             layout,
             VehicleSpec(DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M),
@@ -259,6 +263,8 @@ async def run(args: argparse.Namespace, secret: bytes) -> int:
                 tg.create_task(_watch_stdin(stop)),
                 tg.create_task(_watch_parent(stop, parent)),
             ]
+            if args.vda5050 is not None:
+                tasks.append(tg.create_task(bridge_for(agv, args.vda5050)))
             with contextlib.suppress(TimeoutError):
                 async with asyncio.timeout(args.run_seconds):
                     await stop.wait()
