@@ -46,7 +46,7 @@ def make_order(
         {"nodeId": p, "sequenceId": first_sequence + 2 * i, "released": i < base, "actions": []}
         for i, p in enumerate(points)
     ]
-    edges = [
+    edges: list[dict[str, Any]] = [
         {
             "edgeId": layout.segment_between(a, b),
             "sequenceId": first_sequence + 2 * i + 1,
