@@ -1,4 +1,5 @@
-"""Reading a middleware node (``objectplaces.RoleActivator``) into dashboard records.
+"""Reading a middleware node (a ``NodeHandle``, e.g. ``objectplaces.RoleActivator``) into
+dashboard records.
 
 All knowledge of the node's introspection API lives here, so the rest of the dashboard
 deals in ``SessionRecord`` and plain dicts.
@@ -10,7 +11,8 @@ from collections.abc import Mapping
 from typing import Any
 
 from dashboard.capture import SessionRecord
-from objectplaces import NodeStats, RoleActivator
+from dashboard.source import NodeHandle
+from objectplaces import NodeStats
 
 __all__ = [
     "counters_of",
@@ -21,7 +23,7 @@ __all__ = [
 ]
 
 
-def sessions_of(node_id: str, node: RoleActivator) -> list[SessionRecord]:
+def sessions_of(node_id: str, node: NodeHandle) -> list[SessionRecord]:
     """The live sessions ``node`` initiated, oldest first.
 
     Args:
@@ -42,7 +44,7 @@ def sessions_of(node_id: str, node: RoleActivator) -> list[SessionRecord]:
     ]
 
 
-def participations_of(node: RoleActivator) -> list[dict[str, Any]]:
+def participations_of(node: NodeHandle) -> list[dict[str, Any]]:
     """The participant roles active on ``node``: ``{session_id, initiator, role}``."""
     return [
         {"session_id": str(p.session_id), "initiator": str(p.initiator), "role": p.participant_role}
@@ -50,18 +52,18 @@ def participations_of(node: RoleActivator) -> list[dict[str, Any]]:
     ]
 
 
-def properties_of(node: RoleActivator) -> Mapping[str, Any]:
+def properties_of(node: NodeHandle) -> Mapping[str, Any]:
     """The node's own current properties."""
     return node.properties
 
 
-def view_of(node: RoleActivator) -> Mapping[str, Mapping[str, Any]]:
+def view_of(node: NodeHandle) -> Mapping[str, Mapping[str, Any]]:
     """The latest properties ``node`` knows of every other node, by node id."""
     view = node.view()
     return {k: view[k] for k in sorted(view)}
 
 
-def counters_of(node: RoleActivator, *, full: bool = False) -> dict[str, Any]:
+def counters_of(node: NodeHandle, *, full: bool = False) -> dict[str, Any]:
     """The node's traffic: ``messages`` and ``bytes`` sent plus received, and ``sent``
     (messages sent).
 

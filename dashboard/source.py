@@ -25,12 +25,21 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import Any, Protocol, runtime_checkable
 
 from agv_app.layout import Layout
-from objectplaces import Initiator, RoleActivator
+from objectplaces import (
+    Initiator,
+    NodeStats,
+    Participant,
+    ParticipationInfo,
+    Session,
+    SessionInfo,
+)
+from objectplaces.core.groups import DefinitionLike
 
 __all__ = [
     "XY",
     "FleetSource",
     "InitiatorFactory",
+    "NodeHandle",
     "Polygon",
     "TaskBookSource",
     "TaskRecordView",
@@ -52,6 +61,60 @@ The mapping is the ``params`` object of ``POST /api/sessions`` (empty when absen
 factory raises ``ValueError`` with a clear message when a parameter is missing or bad;
 the dashboard answers 422 with that message.
 """
+
+
+class NodeHandle(Protocol):
+    """A middleware node as the dashboard reads and drives it.
+
+    An ``objectplaces.RoleActivator`` is one. A fleet whose nodes run in other
+    processes may give a stand-in that reads what the node publishes; its members that
+    would act on the node (``start_interaction``, ``stop_interaction``, ``view_group``)
+    then raise ``objectplaces.LocalProtocolError``, which the API answers with 422.
+    """
+
+    @property
+    def node_id(self) -> str:
+        """The node's id."""
+        ...
+
+    @property
+    def properties(self) -> Mapping[str, Any]:
+        """The node's own current properties."""
+        ...
+
+    def view(self) -> Mapping[str, Mapping[str, Any]]:
+        """The latest properties the node knows of the others, by node id."""
+        ...
+
+    def sessions(self) -> list[SessionInfo]:
+        """Live sessions the node initiated."""
+        ...
+
+    def participations(self) -> list[ParticipationInfo]:
+        """Participant roles active on the node."""
+        ...
+
+    def stats(self) -> NodeStats:
+        """The node's traffic and drop counters."""
+        ...
+
+    def set_participant_factory(self, name: str, factory: Callable[[], Participant] | None) -> None:
+        """Register a participant role on the node (None removes it)."""
+        ...
+
+    def start_interaction(
+        self, initiator: Initiator, definition: DefinitionLike, participant_role: str
+    ) -> Session:
+        """Start a session on the node."""
+        ...
+
+    def stop_interaction(self, session: Session | str) -> None:
+        """Stop a session the node started."""
+        ...
+
+    def view_group(self, definition: DefinitionLike) -> frozenset[str]:
+        """The nodes that satisfy ``definition`` now, from the node's view."""
+        ...
 
 
 class UnknownStationError(LookupError):
@@ -145,10 +208,11 @@ class FleetSource(Protocol):
         """Every AGV, in a stable order (by id is best)."""
         ...
 
-    def nodes(self) -> Mapping[str, RoleActivator]:
+    def nodes(self) -> Mapping[str, NodeHandle]:
         """The middleware node handles the dashboard
         may inspect and start sessions on, by node id: every AGV, every station, and
-        the dashboard's own observer node (see ``observer_id``)."""
+        the dashboard's own observer node (see ``observer_id``). A node in another
+        process may be a read-only stand-in (``NodeHandle``)."""
         ...
 
     @property

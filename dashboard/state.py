@@ -26,9 +26,9 @@ from dashboard.limits import shown
 from dashboard.membership import MembershipHistory
 from dashboard.poll import POLL_ROLE, RESPONDER_ROLE, PollResponder, poll_factory
 from dashboard.schemas import SimOut
-from dashboard.source import FleetSource, InitiatorFactory
+from dashboard.source import FleetSource, InitiatorFactory, NodeHandle
 from dashboard.watch import FleetWatch
-from objectplaces import Initiator, RoleActivator, Session
+from objectplaces import Initiator, Session
 
 __all__ = ["MAX_API_SESSIONS", "ApiSession", "ApiSessions", "DashboardState", "FeedClient"]
 
@@ -152,7 +152,7 @@ class DashboardState:
         roles[POLL_ROLE] = poll_factory
         return roles
 
-    def node(self, node_id: str, *, status: int = 404) -> RoleActivator:
+    def node(self, node_id: str, *, status: int = 404) -> NodeHandle:
         """The node handle, or an HTTP error naming the unknown id.
 
         Args:
@@ -287,5 +287,5 @@ class DashboardState:
             event.set()
 
 
-def _responder_factory(node: RoleActivator) -> Callable[[], PollResponder]:
+def _responder_factory(node: NodeHandle) -> Callable[[], PollResponder]:
     return lambda: PollResponder(lambda: node.properties)

@@ -16,8 +16,7 @@ from typing import Any, Protocol, runtime_checkable
 
 from dashboard import introspect
 from dashboard.capture import COORD_DIGITS, JSON, SessionRecord, vehicle_json
-from dashboard.source import XY, VehicleView
-from objectplaces import RoleActivator
+from dashboard.source import XY, NodeHandle, VehicleView
 
 __all__ = ["RouteSource", "route_length", "vehicle_detail"]
 
@@ -51,7 +50,7 @@ def _route_of(source: object, vehicle_id: str) -> list[list[float]]:
     return [[round(float(x), COORD_DIGITS), round(float(y), COORD_DIGITS)] for x, y in points]
 
 
-def _traffic(node: RoleActivator) -> JSON:
+def _traffic(node: NodeHandle) -> JSON:
     stats = node.stats()
     return {
         "frames_sent": int(stats.messages_sent),
@@ -64,7 +63,7 @@ def _traffic(node: RoleActivator) -> JSON:
 
 
 def _participations(
-    node: RoleActivator, sessions: Mapping[str, SessionRecord], now: float
+    node: NodeHandle, sessions: Mapping[str, SessionRecord], now: float
 ) -> list[JSON]:
     out: list[JSON] = []
     for part in introspect.participations_of(node):
@@ -84,7 +83,7 @@ def vehicle_detail(
     source: object,
     vehicle: VehicleView,
     *,
-    node: RoleActivator | None,
+    node: NodeHandle | None,
     sessions: Mapping[str, SessionRecord],
     waiting_since: float | None,
     now: float,

@@ -63,5 +63,8 @@ async def view_group(
         defn = model.build()
     except ObjectPlacesError as exc:
         raise HTTPException(422, f"invalid group definition: {exc}") from exc
-    members = handle.view_group(defn)
+    try:
+        members = handle.view_group(defn)
+    except ObjectPlacesError as exc:  # a node in another process keeps its view there
+        raise HTTPException(422, f"cannot view the group: {exc}") from exc
     return GroupViewOut(node=node_id, definition=defn.to_json(), members=sorted(members))

@@ -11,14 +11,14 @@ from dashboard.deps import State
 from dashboard.errors import ERROR_RESPONSES
 from dashboard.routes.views import session_out
 from dashboard.schemas import NodeDetailOut, NodeOut, ParticipationOut, json_value
-from objectplaces import RoleActivator
+from dashboard.source import NodeHandle
 
 __all__ = ["node_out", "router"]
 
 router = APIRouter(prefix="/api/nodes", tags=["nodes"])
 
 
-def node_out(node_id: str, node: RoleActivator) -> dict[str, Any]:
+def node_out(node_id: str, node: NodeHandle) -> dict[str, Any]:
     """One node as ``NodeOut``: its own properties, role counts and traffic."""
     counters = introspect.counters_of(node)
     return {

@@ -17,8 +17,9 @@ from dashboard.errors import ERROR_RESPONSES
 from dashboard.limits import shown
 from dashboard.routes.views import session_detail, session_out
 from dashboard.schemas import SessionDetailOut, SessionOut, StartSessionIn, StoppedOut
+from dashboard.source import NodeHandle
 from dashboard.state import ApiSession
-from objectplaces import Initiator, ObjectPlacesError, RoleActivator, Session
+from objectplaces import Initiator, ObjectPlacesError, Session
 from objectplaces.groups import GroupDefinition
 
 __all__ = ["router", "start_or_undo"]
@@ -125,7 +126,7 @@ async def stop_session(state: State, session_id: str = SessionId) -> StoppedOut:
 
 
 def start_or_undo(
-    node: RoleActivator, initiator: Initiator, definition: GroupDefinition, participant_role: str
+    node: NodeHandle, initiator: Initiator, definition: GroupDefinition, participant_role: str
 ) -> Session:
     """``node.start_interaction``, or, when it raises, no trace of the attempt."""
     before = {str(info.session_id) for info in node.sessions()}
@@ -140,7 +141,7 @@ def start_or_undo(
         raise
 
 
-def _stop_quietly(node: RoleActivator, session_id: str) -> None:
+def _stop_quietly(node: NodeHandle, session_id: str) -> None:
     try:
         node.stop_interaction(session_id)
     except Exception:
