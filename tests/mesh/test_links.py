@@ -13,7 +13,7 @@ import pytest
 
 from objectplaces import Initiator, Participant, groups
 from objectplaces.core.messages import PropertyUpdate
-from objectplaces.mesh import MeshNode, MeshOptions, start_node
+from objectplaces.mesh import MeshNode, MeshOptions, start_mesh_node
 from objectplaces.roles import ParticipantRef
 from tests.mesh.rawpeer import authenticate, open_raw
 
@@ -47,7 +47,7 @@ class Greeter(Participant):
 
 
 async def node(node_id: str, join: list[str], **kwargs: Any) -> MeshNode:
-    return await start_node(
+    return await start_mesh_node(
         node_id, join=join, secret=SECRET, property_interval=0.2, failure_timeout=30.0, **kwargs
     )
 
