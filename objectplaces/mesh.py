@@ -18,6 +18,7 @@ import logging
 import time
 from collections.abc import Sequence
 from types import TracebackType
+from typing import TYPE_CHECKING, Any, Literal, overload
 
 from objectplaces.activator import RoleActivator
 from objectplaces.core.errors import LocalProtocolError
@@ -27,7 +28,10 @@ from objectplaces.transport.options import MeshOptions, PeerStats
 from objectplaces.transport.websocket import WebSocketMesh
 from tuplespace import TupleSpace
 
-__all__ = ["MeshNode", "MeshOptions", "PeerStats", "start_node"]
+if TYPE_CHECKING:
+    from objectplaces.zenoh_node import ZenohNode
+
+__all__ = ["MeshNode", "MeshOptions", "PeerStats", "start_mesh_node", "start_node"]
 
 log = logging.getLogger("objectplaces.mesh")
 
@@ -166,7 +170,39 @@ def _describe(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {exc}"
 
 
+@overload
 async def start_node(
+    node_id: str, *, transport: Literal["websocket"] = ..., **kwargs: Any
+) -> MeshNode: ...
+
+
+@overload
+async def start_node(node_id: str, *, transport: Literal["zenoh"], **kwargs: Any) -> ZenohNode: ...
+
+
+async def start_node(
+    node_id: str, *, transport: str = "websocket", **kwargs: Any
+) -> MeshNode | ZenohNode:
+    """Start a node on the WebSocket mesh (the default) or, with ``transport="zenoh"``,
+    on Zenoh, and return its ``RoleActivator``.
+
+    The keyword arguments are those of ``start_mesh_node`` or of
+    ``objectplaces.zenoh_node.start_zenoh_node`` (``listen``, ``connect``, ``mode`` ...).
+
+    Raises:
+        LocalProtocolError: a bad argument or an unknown transport.
+        OSError: the node cannot listen or connect.
+    """
+    if transport == "websocket":
+        return await start_mesh_node(node_id, **kwargs)
+    if transport == "zenoh":
+        from objectplaces.zenoh_node import start_zenoh_node
+
+        return await start_zenoh_node(node_id, **kwargs)
+    raise LocalProtocolError(f"transport must be 'websocket' or 'zenoh', got {transport!r}")
+
+
+async def start_mesh_node(
     node_id: str,
     *,
     listen: str = "127.0.0.1:0",

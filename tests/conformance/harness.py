@@ -1,4 +1,5 @@
-"""Two ways to run the same scenario: the simulated network, or in-process mesh nodes.
+"""Ways to run the same scenario: the simulated network, in-process mesh nodes, and
+in-process Zenoh nodes (peers, or clients of a router).
 
 A scenario only adds nodes, calls the ``RoleActivator`` API, lets nodes leave and waits
 for conditions; it never knows which transport carries it.
@@ -13,9 +14,12 @@ from functools import partial
 from typing import Any, Protocol
 
 from objectplaces import RoleActivator
-from objectplaces.mesh import MeshNode, start_node
+from objectplaces.mesh import MeshNode, start_mesh_node
 from objectplaces.sim import SimulatedNetwork
+from objectplaces.zenoh_node import ZenohNode, start_zenoh_node
+from objectplaces.zenoh_router import ZenohRouter, start_router
 from tests.mesh.rawpeer import authenticate, open_raw
+from tests.zenoh.intruder import open_fleet_session
 
 INTERVAL = 0.2
 FAILURE_TIMEOUT = 1.0
@@ -89,7 +93,7 @@ class MeshHarness:
 
     async def add(self, node_id: str, **kwargs: Any) -> RoleActivator:
         seeds = [next(iter(self.nodes.values())).address] if self.nodes else []
-        node = await start_node(
+        node = await start_mesh_node(
             node_id,
             join=seeds,
             secret=self.secret,
@@ -128,6 +132,71 @@ class MeshHarness:
         for node in list(self.nodes.values()):
             await node.close()
         self.nodes.clear()
+
+
+class ZenohHarness:
+    """Zenoh nodes in this process over 127.0.0.1: peers each knowing only the previous
+    node's endpoint, or (``via_router``) clients of one router."""
+
+    def __init__(self, *, via_router: bool = False) -> None:
+        self.name = "zenoh-client" if via_router else "zenoh-peer"
+        self.via_router = via_router
+        self.nodes: dict[str, ZenohNode] = {}
+        self.router: ZenohRouter | None = None
+        self.secret = b"conformance"
+
+    async def add(self, node_id: str, **kwargs: Any) -> RoleActivator:
+        if self.via_router:
+            if self.router is None:
+                self.router = await start_router(secret=self.secret, listen=["tcp/127.0.0.1:0"])
+            connect, mode = self.router.endpoints, "client"
+        else:
+            last = list(self.nodes.values())[-1:]
+            connect, mode = [n.address for n in last], "peer"
+        node = await start_zenoh_node(
+            node_id,
+            secret=self.secret,
+            connect=connect,
+            mode=mode,  # type: ignore[arg-type]
+            property_interval=INTERVAL,
+            failure_timeout=FAILURE_TIMEOUT,
+            **kwargs,
+        )
+        self.nodes[node_id] = node
+        async with asyncio.timeout(10):
+            for other in self.nodes.values():
+                await other.wait_for_peers(len(self.nodes) - 1)
+        return node
+
+    async def leave(self, node_id: str) -> None:
+        await self.nodes.pop(node_id).close()
+
+    async def hostile(self, target: str, frames: list[bytes]) -> None:
+        # An intruder that holds the secret puts each frame on the target's inbox key;
+        # the target refuses each and counts it.
+        node = self.nodes[target]
+        connect = self.router.endpoints if self.router else [node.address]
+        session = await open_fleet_session(self.secret, connect)
+        try:
+            for frame in frames:
+                before = _dropped(node)
+                session.put(f"objectplaces/default/to/{target}/intruder", frame)
+                await self.until(lambda: _dropped(node) != before)  # noqa: B023
+        finally:
+            await asyncio.to_thread(session.close)
+
+    async def until(self, predicate: Callable[[], bool], within: float = 10.0) -> None:
+        deadline = time.monotonic() + within
+        while not predicate():
+            assert time.monotonic() < deadline, f"not within {within}s"
+            await asyncio.sleep(0.005)
+
+    async def close(self) -> None:
+        for node in list(self.nodes.values()):
+            await node.close()
+        self.nodes.clear()
+        if self.router is not None:
+            await self.router.close()
 
 
 def _dropped(node: RoleActivator) -> int:

@@ -1,9 +1,9 @@
-"""The same role code and the same expectations on the simulated network and on the mesh."""
+"""The same role code and the same expectations on the simulated network, the mesh and Zenoh."""
 
 from __future__ import annotations
 
 import math
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Callable
 from typing import Any
 
 import msgpack
@@ -11,12 +11,19 @@ import pytest
 
 from objectplaces import Initiator, Participant, groups
 from objectplaces.roles import InitiatorRef, ParticipantRef
-from tests.conformance.harness import Harness, MeshHarness, SimHarness
+from tests.conformance.harness import Harness, MeshHarness, SimHarness, ZenohHarness
+
+HARNESSES: dict[str, Callable[[], Harness]] = {
+    "sim": SimHarness,
+    "mesh": MeshHarness,
+    "zenoh-peer": ZenohHarness,
+    "zenoh-client": lambda: ZenohHarness(via_router=True),
+}
 
 
-@pytest.fixture(params=["sim", "mesh"])
+@pytest.fixture(params=list(HARNESSES))
 async def net(request: pytest.FixtureRequest) -> AsyncIterator[Harness]:
-    harness: Harness = SimHarness() if request.param == "sim" else MeshHarness()
+    harness = HARNESSES[request.param]()
     try:
         yield harness
     finally:

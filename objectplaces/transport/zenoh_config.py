@@ -1,0 +1,167 @@
+"""A node's Zenoh configuration: mode, endpoints, lease, and the fleet secret as usrpwd auth.
+
+The fleet secret never travels: each node derives one user name and password from it
+(HMAC-SHA256 with the fleet name), proves them with Zenoh's user/password
+authentication on every link it opens, and accepts a link only from a peer that proves
+the same pair (a dictionary file holding that one pair, written 0600 into a private
+temporary directory and removed when the node closes). A session without the secret
+gets no link, so it can neither publish into the fleet nor hear it.
+
+Multicast scouting is off: a node reaches only the endpoints it is given, and the peers
+those tell it about (gossip), so nodes that know only a chain of endpoints still meet.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import hmac
+import json
+import os
+import shutil
+import socket
+import tempfile
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import zenoh
+
+from objectplaces.core import codec
+from objectplaces.core.errors import LocalProtocolError
+
+__all__ = [
+    "Credentials",
+    "CredentialsFile",
+    "ZenohOptions",
+    "derive_credentials",
+    "resolve_ports",
+    "zenoh_config",
+]
+
+Mode = Literal["peer", "client", "router"]
+_MODES = ("peer", "client", "router")
+
+
+@dataclass(frozen=True, slots=True)
+class ZenohOptions:
+    """Where and how a node joins Zenoh; durations in seconds.
+
+    Attributes:
+        mode: ``peer`` (links to other peers, found through the endpoints and gossip),
+            ``client`` (one link to a router) or ``router``.
+        listen: endpoints to listen on, e.g. ``tcp/127.0.0.1:7447`` (port 0 picks one).
+        connect: endpoints to connect to (peers or routers).
+        fleet: the fleet's name; nodes of other fleets share no key.
+        lease: a silent peer's links are dropped after this long, and with them its
+            liveliness token: the time a frozen node takes to leave every group.
+        max_frame: largest frame accepted, in bytes.
+    """
+
+    mode: Mode = "peer"
+    listen: tuple[str, ...] = ("tcp/127.0.0.1:0",)
+    connect: tuple[str, ...] = ()
+    fleet: str = "default"
+    lease: float = 2.0
+    max_frame: int = codec.DEFAULT_MAX_FRAME
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if self.mode not in _MODES:
+            raise LocalProtocolError(f"mode must be one of {_MODES}, got {self.mode!r}")
+        for name in ("listen", "connect"):
+            value = getattr(self, name)
+            if isinstance(value, str) or not all(_is_endpoint(e) for e in value):
+                raise LocalProtocolError(
+                    f"{name} must be a list of endpoints like tcp/127.0.0.1:7447, got {value!r}"
+                )
+        if not self.lease >= 0.1:
+            raise LocalProtocolError(f"lease must be >= 0.1 s, got {self.lease!r}")
+        if self.max_frame < 64:
+            raise LocalProtocolError(f"max_frame too small: {self.max_frame!r}")
+
+
+def _is_endpoint(endpoint: object) -> bool:
+    if not isinstance(endpoint, str):
+        return False
+    proto, sep, address = endpoint.partition("/")
+    return bool(sep and proto in ("tcp", "udp", "tls", "quic") and ":" in address)
+
+
+@dataclass(frozen=True, slots=True)
+class Credentials:
+    """The user name and password every node of one fleet derives from its secret."""
+
+    user: str
+    password: str
+
+
+def derive_credentials(secret: bytes, fleet: str) -> Credentials:
+    """The usrpwd pair of ``fleet`` under ``secret`` (never the secret itself)."""
+    if not isinstance(secret, bytes) or not secret:
+        raise LocalProtocolError("secret must be non-empty bytes")
+
+    def derive(label: str) -> str:
+        message = f"objectplaces zenoh {label} {fleet}".encode()
+        return hmac.new(secret, message, hashlib.sha256).hexdigest()
+
+    return Credentials(user="op-" + derive("user")[:16], password=derive("password"))
+
+
+class CredentialsFile:
+    """The dictionary file of accepted credentials, in a private temporary directory.
+
+    ``remove()`` deletes the file and its directory (again is fine).
+    """
+
+    def __init__(self, credentials: Credentials) -> None:
+        self._dir = Path(tempfile.mkdtemp(prefix="objectplaces-zenoh-"))
+        os.chmod(self._dir, 0o700)
+        self.path = self._dir / "usrpwd"
+        fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+        with os.fdopen(fd, "w") as file:
+            file.write(f"{credentials.user}:{credentials.password}\n")
+
+    def remove(self) -> None:
+        """Delete the file and its directory."""
+        shutil.rmtree(self._dir, ignore_errors=True)
+
+
+def zenoh_config(options: ZenohOptions, credentials: Credentials, dictionary: Path) -> zenoh.Config:
+    """The ``zenoh.Config`` of a node with these options and credentials."""
+    config = zenoh.Config()
+    lease_ms = max(int(options.lease * 1000), 100)
+    settings: dict[str, Any] = {
+        "mode": options.mode,
+        "listen/endpoints": list(options.listen) if options.mode != "client" else [],
+        "connect/endpoints": list(options.connect),
+        "scouting/multicast/enabled": False,
+        "transport/link/tx/lease": lease_ms,
+        "transport/auth/usrpwd": {
+            "user": credentials.user,
+            "password": credentials.password,
+            "dictionary_file": str(dictionary),
+        },
+        **options.extra,
+    }
+    for key, value in settings.items():
+        config.insert_json5(key, json.dumps(value))
+    return config
+
+
+def resolve_ports(endpoints: Sequence[str]) -> tuple[str, ...]:
+    """``endpoints`` with every TCP port 0 replaced by a port free now.
+
+    Zenoh does not report the port it picked, so we pick one and tell it; another
+    process could take it in between (then opening fails with ``OSError``).
+    """
+    resolved = []
+    for endpoint in endpoints:
+        proto, _, address = endpoint.partition("/")
+        host, _, port = address.rpartition(":")
+        if proto == "tcp" and port == "0":
+            with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
+                probe.bind((host.strip("[]"), 0))
+                endpoint = f"tcp/{host}:{probe.getsockname()[1]}"
+        resolved.append(endpoint)
+    return tuple(resolved)

@@ -1,0 +1,170 @@
+"""From Zenoh's threads to the event loop: parse a sample's key, queue it, wake the loop.
+
+Zenoh runs subscriber, liveliness and queryable callbacks on threads of its own. These
+callbacks do as little as they can there: read the key (a key that is none of ours is
+counted and dropped), copy the payload, and append one item to a bounded queue. The
+loop is woken once for everything queued meanwhile and hands the items on in arrival
+order. A full queue drops new items (counted): a flood can cost frames, never memory.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import collections
+import contextlib
+import threading
+from collections.abc import Callable
+from typing import Any
+
+import msgpack
+import zenoh
+
+from objectplaces.transport.routing import Cell
+from objectplaces.transport.zenoh_keys import FleetKeys
+
+__all__ = ["Item", "ZenohInbox"]
+
+Item = tuple[Any, ...]
+"""``("frame", source, data)``, ``("alive" | "gone", node, incarnation)`` or
+``("query", asker, cells)`` (cells None: the asker hears everything)."""
+
+_MAX_CELLS = 4096
+
+
+class ZenohInbox:
+    """A bounded queue of what Zenoh delivered, drained on the event loop.
+
+    Args:
+        loop: the loop that drains it.
+        on_items: called on the loop with every item queued since the last call.
+        counters: where drops are counted (written on the loop only).
+        max_frame: payloads larger than this are dropped unread.
+        capacity: items queued at most.
+    """
+
+    def __init__(
+        self,
+        loop: asyncio.AbstractEventLoop,
+        on_items: Callable[[list[Item]], None],
+        counters: dict[str, int],
+        *,
+        max_frame: int,
+        capacity: int = 100_000,
+    ) -> None:
+        self._loop = loop
+        self._on_items = on_items
+        self._counters = counters
+        self._max_frame = max_frame
+        self._capacity = capacity
+        self._queue: collections.deque[Item] = collections.deque()
+        self._scheduled = False
+        self._closed = False
+        self._lock = threading.Lock()
+        self._drops: dict[str, int] = {}
+
+    def close(self) -> None:
+        """Queue nothing more."""
+        self._closed = True
+
+    # ------------------------------------------------------------------ Zenoh's threads
+
+    def data_callback(self, keys: FleetKeys) -> Callable[[zenoh.Sample], None]:
+        """The callback of a data subscriber of ``keys``' fleet."""
+        max_frame = self._max_frame
+
+        def on_sample(sample: zenoh.Sample) -> None:
+            inbound = keys.parse(str(sample.key_expr))
+            if inbound is None:
+                self._drop("dropped_foreign_key")
+            elif inbound.source == keys.node:
+                pass  # our own put, heard back through a wildcard
+            elif len(sample.payload) > max_frame:
+                self._drop("dropped_oversize")
+            else:
+                self._push(("frame", inbound.source, sample.payload.to_bytes()))
+
+        return on_sample
+
+    def alive_callback(self, keys: FleetKeys) -> Callable[[zenoh.Sample], None]:
+        """The callback of the liveliness subscriber of ``keys``' fleet."""
+
+        def on_token(sample: zenoh.Sample) -> None:
+            parsed = keys.parse_alive(str(sample.key_expr))
+            if parsed is None:
+                self._drop("dropped_foreign_key")
+                return
+            kind = "alive" if sample.kind == zenoh.SampleKind.PUT else "gone"
+            self._push((kind, *parsed))
+
+        return on_token
+
+    def query_callback(self) -> Callable[[zenoh.Query], None]:
+        """The callback of a node's queryable: who asks, and which cells it hears."""
+
+        def on_query(query: zenoh.Query) -> None:
+            payload = query.payload
+            asked = None if payload is None else _parse_query(payload.to_bytes())
+            if asked is None:
+                self._drop("dropped_bad_query")
+            else:
+                self._push(("query", *asked))
+
+        return on_query
+
+    def _drop(self, name: str) -> None:
+        with self._lock:
+            self._drops[name] = self._drops.get(name, 0) + 1
+        self._wake()
+
+    def _push(self, item: Item) -> None:
+        if self._closed:
+            return
+        if len(self._queue) >= self._capacity:
+            self._drop("dropped_inbox_full")
+            return
+        self._queue.append(item)  # before the flag is read: the drain cannot miss it
+        self._wake()
+
+    def _wake(self) -> None:
+        if self._scheduled or self._closed:
+            return
+        self._scheduled = True
+        with contextlib.suppress(RuntimeError):  # the loop is closed: nobody listens
+            self._loop.call_soon_threadsafe(self._drain)
+
+    # ------------------------------------------------------------------ the loop
+
+    def _drain(self) -> None:
+        self._scheduled = False
+        with self._lock:
+            drops, self._drops = self._drops, {}
+        for name, count in drops.items():
+            self._counters[name] = self._counters.get(name, 0) + count
+        queue = self._queue
+        items = [queue.popleft() for _ in range(len(queue))]
+        if items and not self._closed:
+            self._on_items(items)
+
+
+def _parse_query(data: bytes) -> tuple[str, frozenset[Cell] | None] | None:
+    """``[asker, cells or None]`` from a query's payload; None if it is not that."""
+    try:
+        asker, cells = msgpack.unpackb(data, use_list=True)
+        if not isinstance(asker, str) or not asker:
+            return None
+        if cells is None:
+            return asker, None
+        if not isinstance(cells, list) or len(cells) > _MAX_CELLS:
+            return None
+        parsed = frozenset((int(c[0]), int(c[1])) for c in cells if _is_cell(c))
+        return (asker, parsed) if len(parsed) == len(cells) else None
+    except (ValueError, TypeError, msgpack.UnpackException):
+        return None
+
+
+def _is_cell(value: object) -> bool:
+    return (
+        isinstance(value, list)
+        and len(value) == 2
+        and all(isinstance(v, int) and not isinstance(v, bool) for v in value)
+    )

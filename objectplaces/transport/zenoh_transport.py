@@ -1,0 +1,304 @@
+"""The Zenoh transport: one node's session, its keys, and the frames it moves (asyncio).
+
+Outputs of the node machine become puts on the fleet's keys (``zenoh_keys``): ``Publish``
+on the cell keys, ``Broadcast`` on the node's broadcast key, ``Send`` on the target's
+inbox key. ``Subscribe`` declares one subscriber per interest cell, or the one wildcard
+of full dissemination: Zenoh routes each update only to the nodes that hear its cell.
+
+Membership is Zenoh's liveliness: every node holds a token while its session lives; a
+node whose token goes (it left, its process died, its links lapsed past the lease) is
+gone, and the machine lets it leave every group at once, with no heartbeat of ours.
+
+A node that starts hearing a cell asks the queryables there (``who/<cell>/*``), and a
+node that sees a new token asks that node; an asked node whose properties the asker
+should hear sends it a snapshot on its inbox key. The asker's subscription travels in
+the query, so nobody answers out of scope.
+
+Zenoh calls back on its own threads; the callbacks only parse keys and queue the
+sample for the event loop (``ZenohInbox``), where the driver sees it. Frames are
+decoded and checked by the node machine's own intake: a malformed payload on our keys
+is counted and dropped there, and never stops the node.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+from typing import Any
+
+import msgpack
+import zenoh
+
+from objectplaces.core.events import Broadcast, Output, Publish, Send, Subscribe
+from objectplaces.transport.base import RawNodeDriver
+from objectplaces.transport.routing import Cell
+from objectplaces.transport.zenoh_alive import AliveTable, Change
+from objectplaces.transport.zenoh_config import (
+    Credentials,
+    CredentialsFile,
+    ZenohOptions,
+    derive_credentials,
+    zenoh_config,
+)
+from objectplaces.transport.zenoh_inbox import Item, ZenohInbox
+from objectplaces.transport.zenoh_keys import FleetKeys
+
+__all__ = ["ZenohTransport"]
+
+log = logging.getLogger("objectplaces.zenoh")
+
+_QUERY_TIMEOUT = 2.0
+
+
+class ZenohTransport:
+    """One node's Zenoh session.
+
+    Args:
+        node_id: this node's id.
+        secret: the fleet secret (turned into Zenoh credentials, never sent).
+        options: mode, endpoints, fleet, lease.
+        incarnation: distinguishes this run of the node from earlier ones (larger is newer).
+    """
+
+    def __init__(
+        self, node_id: str, *, secret: bytes, options: ZenohOptions, incarnation: int
+    ) -> None:
+        self.node_id = node_id
+        self.options = options
+        self.incarnation = incarnation
+        self.keys = FleetKeys(options.fleet, node_id)
+        self.counters: dict[str, int] = {}
+        self._credentials: Credentials = derive_credentials(secret, options.fleet)
+        self._driver: RawNodeDriver | None = None
+        self._session: zenoh.Session | None = None
+        self._file: CredentialsFile | None = None
+        self._inbox: ZenohInbox | None = None
+        self._alive = AliveTable(node_id)
+        self._declared: list[Any] = []
+        self._cell_subs: dict[Cell, Any] = {}
+        self._full_sub: Any = None
+        self._subscription: frozenset[Cell] | None = None
+        self._subscribed = False
+        self._my_cell: Cell | None = None
+        self._queryable: Any = None
+        self._changed = asyncio.Event()
+        self.closed = False
+
+    # ------------------------------------------------------------------ lifecycle
+
+    def attach(self, driver: RawNodeDriver) -> None:
+        """Connect whoever drives the node machine this transport carries."""
+        self._driver = driver
+
+    @property
+    def address(self) -> str:
+        """The endpoints this node listens on (comma separated; "" for a client)."""
+        return ",".join(self.options.listen) if self.options.mode != "client" else ""
+
+    async def open(self) -> None:
+        """Open the session and declare what every node hears: its inbox, the broadcasts,
+        the liveliness tokens, its queryable; then its own token.
+
+        Raises:
+            OSError: Zenoh refused the configuration or could not listen.
+        """
+        loop = asyncio.get_running_loop()
+        self._inbox = ZenohInbox(
+            loop, self._on_items, self.counters, max_frame=self.options.max_frame
+        )
+        self._file = CredentialsFile(self._credentials)
+        config = zenoh_config(self.options, self._credentials, self._file.path)
+        try:
+            self._session = await asyncio.to_thread(zenoh.open, config)
+        except zenoh.ZError as exc:
+            self._file.remove()
+            raise OSError(f"zenoh: {exc}") from exc
+        session, keys, inbox = self._session, self.keys, self._inbox
+        on_data = inbox.data_callback(keys)
+        self._declared += [
+            session.declare_subscriber(keys.inbox(), on_data),
+            session.declare_subscriber(keys.broadcasts(), on_data),
+        ]
+        self._queryable = session.declare_queryable(keys.who(None), inbox.query_callback())
+        self._declared.append(
+            session.liveliness().declare_subscriber(
+                keys.alive_all(), inbox.alive_callback(keys), history=True
+            )
+        )
+        self._declared.append(session.liveliness().declare_token(keys.alive(self.incarnation)))
+
+    async def close(self) -> None:
+        """Withdraw our token and close the session (what was put is flushed first)."""
+        if self.closed:
+            return
+        self.closed = True
+        session = self._session
+        if self._inbox is not None:
+            self._inbox.close()
+        if session is not None:
+            await asyncio.to_thread(session.close)
+        if self._file is not None:
+            self._file.remove()
+        self._changed.set()
+
+    # ------------------------------------------------------------------ introspection
+
+    def peers(self) -> list[str]:
+        """Nodes of the fleet whose liveliness token is up now, sorted."""
+        return self._alive.nodes()
+
+    async def links_changed(self) -> None:
+        """Wait until a node appears or goes (or the transport closes)."""
+        await self._changed.wait()
+
+    def _signal(self) -> None:
+        self._changed.set()
+        self._changed = asyncio.Event()
+
+    def _count(self, name: str, amount: int = 1) -> None:
+        self.counters[name] = self.counters.get(name, 0) + amount
+
+    # ------------------------------------------------------------------ outputs
+
+    def transmit(self, output: Output) -> int:
+        """Carry one output of the machine (never blocks: a congested put is dropped,
+        and the session channels retransmit).
+
+        Returns:
+            How many puts went out.
+        """
+        if self.closed or self._session is None:
+            return 0
+        keys = self.keys
+        match output:
+            case Send(target, data, _):
+                return self._put(keys.to(target), data)
+            case Broadcast(data, _):
+                return self._put(keys.broadcast(), data)
+            case Publish(cells, data, _):
+                self._publishing_in(cells[0] if cells else None)
+                sent = 0
+                for n, cell in enumerate(cells):
+                    sent += self._put(keys.props(cell, left=n > 0), data)
+                return sent
+            case Subscribe(cells):
+                self._subscribe(cells)
+                return 0
+
+    def _put(self, key: str, data: bytes) -> int:
+        assert self._session is not None
+        try:
+            self._session.put(key, data)
+        except zenoh.ZError:
+            self._count("dropped_put_failed")
+            return 0
+        self._count("frames_out")
+        self._count("bytes_out", len(data))
+        return 1
+
+    def _publishing_in(self, cell: Cell | None) -> None:
+        """Move our queryable to the cell we publish in, so that askers there find us."""
+        if cell == self._my_cell or self._session is None:
+            return
+        self._my_cell = cell
+        old = self._queryable
+        assert self._inbox is not None
+        self._queryable = self._session.declare_queryable(
+            self.keys.who(cell), self._inbox.query_callback()
+        )
+        if old is not None:
+            old.undeclare()
+
+    def _subscribe(self, cells: frozenset[Cell] | None) -> None:
+        session, keys, inbox = self._session, self.keys, self._inbox
+        assert session is not None
+        assert inbox is not None
+        first = not self._subscribed
+        was_full = self._subscribed and self._subscription is None
+        self._subscribed = True
+        self._subscription = cells
+        on_data = inbox.data_callback(keys)
+        asks: list[str] = []
+        if cells is None:
+            for sub in self._cell_subs.values():
+                sub.undeclare()
+            self._cell_subs.clear()
+            if self._full_sub is None:
+                self._full_sub = session.declare_subscriber(keys.all_props(), on_data)
+            if not was_full:
+                asks.append(keys.who_all())
+        else:
+            if self._full_sub is not None:
+                self._full_sub.undeclare()
+                self._full_sub = None
+            for cell in [c for c in self._cell_subs if c not in cells]:
+                self._cell_subs.pop(cell).undeclare()
+            for cell in sorted(cells - self._cell_subs.keys()):
+                self._cell_subs[cell] = session.declare_subscriber(
+                    keys.cell_subscription(cell), on_data
+                )
+                asks.append(keys.who_in(cell))
+            if first:
+                asks.append(keys.who_in(None))
+        for selector in asks:
+            self._ask(selector)
+
+    def _ask(self, selector: str) -> None:
+        """Ask the queryables matching ``selector`` for their properties."""
+        session = self._session
+        if session is None or self.closed:
+            return
+        cells = None if self._subscription is None else sorted(self._subscription)
+        payload = msgpack.packb([self.node_id, cells])
+        try:
+            session.get(selector, _ignore_reply, payload=payload, timeout=_QUERY_TIMEOUT)
+        except zenoh.ZError:
+            self._count("dropped_query_failed")
+
+    # ------------------------------------------------------------------ inputs
+
+    def _on_items(self, items: list[Item]) -> None:
+        """Hand what Zenoh delivered to the node, in arrival order (on the loop)."""
+        driver = self._driver
+        if driver is None or self.closed:
+            return
+        for item in items:
+            try:
+                self._handle(driver, item)
+            except Exception:
+                # One input's failure costs that input, never the node.
+                log.exception("node %s: handling %s failed", self.node_id, item[0])
+                self._count("driver_errors")
+
+    def _handle(self, driver: RawNodeDriver, item: Item) -> None:
+        match item:
+            case ("frame", source, data):
+                self._count("frames_in")
+                self._count("bytes_in", len(data))
+                driver.deliver_raw(source, data)
+            case ("alive", node, incarnation):
+                change = self._alive.token_up(node, incarnation)
+                if change is Change.RESTARTED:
+                    driver.peer_restarted(node)
+                if change is not Change.NOTHING:
+                    if self._subscribed:
+                        self._ask(self.keys.who_is(node))
+                    self._signal()
+            case ("gone", node, incarnation):
+                if self._alive.token_down(node, incarnation) is Change.GONE:
+                    # Its run is over, whether it left or died: it leaves every group now.
+                    driver.peer_restarted(node)
+                    self._signal()
+            case ("query", asker, cells):
+                if self._should_answer(cells):
+                    driver.send_properties_to(asker)
+            case _:
+                self._count("dropped_unknown_item")
+
+    def _should_answer(self, cells: frozenset[Cell] | None) -> bool:
+        """Whether an asker hearing ``cells`` (None: everything) should hear us."""
+        return cells is None or self._my_cell is None or self._my_cell in cells
+
+
+def _ignore_reply(_reply: zenoh.Reply) -> None:
+    """Answers travel on the asker's inbox key, not as replies."""

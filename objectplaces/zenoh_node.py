@@ -1,0 +1,209 @@
+"""Embed an ObjectPlaces node in an asyncio application, over Zenoh.
+
+```python
+node = await objectplaces.start_node(
+    "agv-3", transport="zenoh", listen=["tcp/127.0.0.1:7003"],
+    connect=["tcp/127.0.0.1:7001"], mode="peer", secret=b"...",
+)
+node.update_node_property("position", (1.0, 2.0))   # the usual RoleActivator API
+...
+await node.close()                                   # leave the fleet
+```
+
+The same ``NodeMachine`` and roles as on the WebSocket mesh; only the transport
+differs (``objectplaces.transport.zenoh_transport``). docs/zenoh.md tells the keys,
+membership by liveliness, security, and how to run a router for client-mode nodes.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from collections.abc import Sequence
+from types import TracebackType
+
+from objectplaces.activator import RoleActivator
+from objectplaces.core import codec
+from objectplaces.core.errors import LocalProtocolError
+from objectplaces.core.node import NodeConfig, NodeMachine
+from objectplaces.runtime.aio import AsyncioRunner
+from objectplaces.transport.zenoh_config import Mode, ZenohOptions, resolve_ports
+from objectplaces.transport.zenoh_transport import ZenohTransport
+from tuplespace import TupleSpace
+
+__all__ = ["ZenohNode", "ZenohRunner", "start_zenoh_node"]
+
+
+class ZenohRunner(AsyncioRunner):
+    """The asyncio runner, also taking raw frames: the machine's intake decodes them."""
+
+    def deliver_raw(self, source: str, data: bytes) -> None:
+        """Hand the machine one frame from ``source`` as it came off the wire."""
+        if self.closed:
+            return
+        self.machine.receive(source, data, self.now())
+        self.wake()
+
+
+class ZenohNode(RoleActivator):
+    """A node on Zenoh: the ``RoleActivator`` API plus its membership.
+
+    Made by ``start_node(..., transport="zenoh")``; ``await node.close()`` leaves.
+    """
+
+    def __init__(
+        self,
+        machine: NodeMachine,
+        *,
+        runner: ZenohRunner,
+        transport: ZenohTransport,
+        space: TupleSpace,
+    ) -> None:
+        super().__init__(machine, clock=runner.now, wake=runner.wake, space=space)
+        self._runner = runner
+        self._transport = transport
+        self._close_reason: str | None = None
+        self._closed_event = asyncio.Event()
+
+    @property
+    def address(self) -> str:
+        """The endpoints this node listens on ("" for a client)."""
+        return self._transport.address
+
+    @property
+    def closed(self) -> bool:
+        """Whether ``close()`` was called."""
+        return self._close_reason is not None
+
+    @property
+    def close_reason(self) -> str | None:
+        """Why the node is off the fleet (None while it is on it)."""
+        return self._close_reason
+
+    async def wait_closed(self) -> str:
+        """Wait until the node is closed; returns the reason."""
+        await self._closed_event.wait()
+        assert self._close_reason is not None
+        return self._close_reason
+
+    def peers(self) -> list[str]:
+        """Nodes of the fleet alive now (their liveliness token is up), sorted."""
+        return self._transport.peers()
+
+    def peer_stats(self) -> dict[str, object]:
+        """Per-peer link counters: none on Zenoh, which keeps the links (see counters)."""
+        return {}
+
+    def transport_counters(self) -> dict[str, int]:
+        """Node-wide transport counters (frames and bytes in and out, drops by reason)."""
+        return dict(sorted(self._transport.counters.items()))
+
+    async def links_changed(self) -> None:
+        """Wait until a node appears or goes."""
+        await self._transport.links_changed()
+
+    async def wait_for_peers(self, count: int) -> list[str]:
+        """Wait until at least ``count`` other nodes are alive (bound it with a timeout)."""
+        while len(self._transport.peers()) < count:
+            await self._transport.links_changed()
+        return self.peers()
+
+    async def close(self) -> None:
+        """Leave: stop our sessions, drop our roles, tell the fleet, close the session."""
+        if self._close_reason is not None:
+            return
+        self._close_reason = "closed"
+        runner = self._runner
+        self.machine.leave(runner.now())
+        runner.drain()
+        runner.close()
+        await self._transport.close()
+        self._closed_event.set()
+
+    async def __aenter__(self) -> ZenohNode:
+        return self
+
+    async def __aexit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        await self.close()
+
+    def __repr__(self) -> str:
+        return f"<ZenohNode {self.node_id!r} at {self.address or 'client'}>"
+
+
+async def start_zenoh_node(
+    node_id: str,
+    *,
+    secret: bytes,
+    listen: Sequence[str] = ("tcp/127.0.0.1:0",),
+    connect: Sequence[str] = (),
+    mode: Mode = "peer",
+    fleet: str = "default",
+    lease: float = 2.0,
+    interest_radius: float | None = None,
+    property_interval: float | None = 1.0,
+    failure_timeout: float | None = None,
+    cell_size: float = 25.0,
+    retransmit_timeout: float = 0.2,
+    max_frame: int | None = None,
+    space: TupleSpace | None = None,
+) -> ZenohNode:
+    """Start a node on Zenoh and return its ``RoleActivator``.
+
+    Args:
+        node_id: unique in the fleet.
+        secret: shared by every node of the fleet; becomes Zenoh credentials, never sent.
+        listen: endpoints to listen on (peers; port 0 picks a free one).
+        connect: endpoints of peers or a router to connect to.
+        mode: ``peer`` or ``client`` (a client needs a router in ``connect``).
+        fleet: the fleet's name (its key prefix).
+        lease: a silent node leaves every group after about this long.
+        interest_radius: scoped dissemination radius (None: hear every node).
+        property_interval: republish properties this often (None: never).
+        failure_timeout: a node not heard this long leaves every group (None: three
+            property intervals); a node whose process dies leaves before, by liveliness.
+        cell_size: grid cell side for scoped dissemination and the spatial index.
+        retransmit_timeout: first retransmission delay of session channel frames.
+        max_frame: largest frame accepted, in bytes.
+        space: the node's tuplespace (a new one by default).
+
+    Raises:
+        LocalProtocolError: a bad argument.
+        OSError: Zenoh could not open the session (an endpoint cannot be bound ...).
+    """
+    if interest_radius is not None and not interest_radius > 0:
+        raise LocalProtocolError(f"interest_radius must be > 0, got {interest_radius!r}")
+    if mode not in ("peer", "client"):
+        raise LocalProtocolError(f"mode must be 'peer' or 'client', got {mode!r}")
+    if isinstance(listen, str) or isinstance(connect, str):
+        raise LocalProtocolError("listen and connect must be lists of endpoints")
+    options = ZenohOptions(
+        mode=mode,
+        listen=resolve_ports(listen) if mode == "peer" else (),
+        connect=tuple(connect),
+        fleet=fleet,
+        lease=lease,
+        max_frame=codec.DEFAULT_MAX_FRAME if max_frame is None else max_frame,
+    )
+    loop = asyncio.get_running_loop()
+    config = NodeConfig(
+        property_interval=property_interval,
+        failure_timeout=failure_timeout,
+        interest_radius=interest_radius,
+        cell_size=cell_size,
+        retransmit_timeout=retransmit_timeout,
+        max_frame=options.max_frame,
+    )
+    space = space if space is not None else TupleSpace(clock=loop.time)
+    machine = NodeMachine(node_id, now=loop.time(), config=config, space=space)
+    transport = ZenohTransport(node_id, secret=secret, options=options, incarnation=time.time_ns())
+    runner = ZenohRunner(machine, transport.transmit)
+    transport.attach(runner)
+    await transport.open()
+    node = ZenohNode(machine, runner=runner, transport=transport, space=space)
+    runner.wake()
+    return node

@@ -1,0 +1,29 @@
+"""A raw Zenoh session for the tests: with the fleet's credentials, or with wrong ones."""
+
+from __future__ import annotations
+
+import asyncio
+from collections.abc import Sequence
+
+import zenoh
+
+from objectplaces.transport.zenoh_config import (
+    CredentialsFile,
+    ZenohOptions,
+    derive_credentials,
+    zenoh_config,
+)
+
+
+async def open_fleet_session(
+    secret: bytes, connect: Sequence[str], *, fleet: str = "default"
+) -> zenoh.Session:
+    """A bare client session (no node) holding credentials derived from ``secret``."""
+    options = ZenohOptions(mode="client", connect=tuple(connect), fleet=fleet, listen=())
+    credentials = derive_credentials(secret, fleet)
+    file = CredentialsFile(credentials)
+    try:
+        config = zenoh_config(options, credentials, file.path)
+        return await asyncio.to_thread(zenoh.open, config)
+    finally:
+        file.remove()
