@@ -16,6 +16,8 @@ const KEY_METRICS = [
   "collisions", "lock_overlaps", "deadlocks",
 ];
 const STATION_HIT_PX = 12;
+// Station kinds where a click creates a transport task (the fleet's pick stations).
+const TASK_KINDS = ["pick", "pickdrop"];
 
 const COLORS = {
   path: "#3b4a5a",
@@ -59,7 +61,7 @@ function buildLegend() {
   const legend = document.getElementById("legend");
   const groups = [
     ["hull", "hull-colors", COLORS.status, "data-hull-status"],
-    ["station (click: add task)", "station-colors", COLORS.station, "data-station-kind"],
+    ["station (click a pick station: add a task)", "station-colors", COLORS.station, "data-station-kind"],
   ];
   for (const [title, id, colors, attr] of groups) {
     const li = document.createElement("li");
@@ -240,6 +242,8 @@ function midpointWithDirection(pts) {
 
 // ---- the fleet, every frame --------------------------------------------------------------
 
+const overlays = [];
+
 const ui = {
   showCircles: false,
   showSessions: true,
@@ -359,6 +363,12 @@ function drawFrame(nowMs) {
   ctx.lineWidth = 1.5 * px;
   ctx.stroke();
 
+  // Drawings of other modules (the selected AGV's route, a group view), in world space.
+  for (const draw of overlays) {
+    ctx.save();
+    draw(ctx, { px, position: (id) => nodePosition(id, t) });
+    ctx.restore();
+  }
   if (ui.showLabels || ui.hoverVehicle) drawLabels(t);
   if (ui.hoverStation) {
     const st = state.stationsById.get(ui.hoverStation);
@@ -513,9 +523,15 @@ function connect() {
 
 const controlStatus = document.getElementById("control-status");
 
+// A report clears itself after a while; an error stays until a later request works.
+const SAY_CLEAR_MS = 6000;
+let sayTimer = null;
+
 function say(text, isError = false) {
   controlStatus.textContent = text;
   controlStatus.className = isError ? "status error" : "status";
+  clearTimeout(sayTimer);
+  if (text && !isError) sayTimer = setTimeout(() => say(""), SAY_CLEAR_MS);
 }
 
 async function post(path, body) {
@@ -648,19 +664,22 @@ canvas.addEventListener("mousemove", (event) => {
     view.layerDirty = true;
     return;
   }
-  ui.hoverStation = stationAt(sx, sy);
-  const v = ui.hoverStation ? null : vehicleAt(sx, sy);
+  // An AGV wins over the station it stands on: it is what the pointer shows on top.
+  const v = vehicleAt(sx, sy);
   ui.hoverVehicle = v ? v.id : null;
-  canvas.classList.toggle("over-station", Boolean(ui.hoverStation));
+  ui.hoverStation = v ? null : stationAt(sx, sy);
+  const st = ui.hoverStation ? state.stationsById.get(ui.hoverStation) : null;
+  canvas.classList.toggle("over-station", Boolean(v) || Boolean(st && takesTasks(st)));
   if (v) {
     tooltip.hidden = false;
     tooltip.textContent =
       `${v.id}  ${v.status}\ntask ${v.task ?? "–"}\nhull length ${v.hull_length.toFixed(2)} m\n` +
-      `locked ${v.locked.length}  requested ${v.requested.length}`;
-  } else if (ui.hoverStation) {
-    const st = state.stationsById.get(ui.hoverStation);
+      `locked ${v.locked.length}  requested ${v.requested.length}\nclick: details and route`;
+  } else if (st) {
     tooltip.hidden = false;
-    tooltip.textContent = `${st.id} (${st.kind})\nclick to add a task`;
+    tooltip.textContent = takesTasks(st)
+      ? `${st.id} (${st.kind})\nclick: add a transport task here`
+      : `${st.id} (${st.kind})\nno tasks start here`;
   } else {
     tooltip.hidden = true;
   }
@@ -691,9 +710,18 @@ canvas.addEventListener("mouseup", (event) => {
   canvas.classList.remove("dragging");
   if (wasDrag) return;
   const [sx, sy] = localPoint(event);
-  const st = stationAt(sx, sy);
-  if (st) addTask(st);
+  const v = vehicleAt(sx, sy);
+  if (v) {
+    document.dispatchEvent(new CustomEvent("vehicle-select", { detail: v.id }));
+    return;
+  }
+  const st = state.stationsById.get(stationAt(sx, sy));
+  if (st && takesTasks(st)) addTask(st.id);
 });
+
+function takesTasks(station) {
+  return TASK_KINDS.includes(station.kind);
+}
 
 canvas.addEventListener("dblclick", () => {
   fitView();
@@ -716,10 +744,21 @@ canvas.addEventListener(
 
 // ---- controls ---------------------------------------------------------------------------
 
-document.getElementById("btn-pause").addEventListener("click", () => post("/api/sim/pause"));
-document.getElementById("btn-resume").addEventListener("click", () => post("/api/sim/resume"));
+// The answer is the fleet's clock state: show it at once rather than at the next delta.
+async function simAction(path, body) {
+  const sim = await post(path, body);
+  if (sim) {
+    state.sim = { paused: sim.paused, speed: sim.speed };
+    state.panelsDirty = true;
+    updatePanels();
+    say(sim.paused ? "fleet paused" : `fleet running at ${sim.speed}×`);
+  }
+}
+
+document.getElementById("btn-pause").addEventListener("click", () => simAction("/api/sim/pause"));
+document.getElementById("btn-resume").addEventListener("click", () => simAction("/api/sim/resume"));
 const speedSelect = document.getElementById("speed");
-speedSelect.addEventListener("change", () => post("/api/sim/speed", { factor: Number(speedSelect.value) }));
+speedSelect.addEventListener("change", () => simAction("/api/sim/speed", { factor: Number(speedSelect.value) }));
 document.getElementById("toggle-circles").addEventListener("change", (e) => (ui.showCircles = e.target.checked));
 document.getElementById("toggle-sessions").addEventListener("change", (e) => (ui.showSessions = e.target.checked));
 document.getElementById("toggle-labels").addEventListener("change", (e) => (ui.showLabels = e.target.checked));
@@ -812,6 +851,8 @@ function updatePanels() {
   setText(el.sessionCount, String(state.sessions.size));
   el.pause.classList.toggle("active", state.sim.paused);
   el.resume.classList.toggle("active", !state.sim.paused);
+  el.pause.disabled = state.sim.paused;
+  el.resume.disabled = !state.sim.paused;
   const speed = String(state.sim.speed);
   if (document.activeElement !== speedSelect && speedSelect.value !== speed) {
     if (![...speedSelect.options].some((o) => o.value === speed)) {
@@ -1023,6 +1064,23 @@ window.__dashboard = {
     return out;
   },
   fit: fitView,
+  /** Viewport (client) coordinates of a world point. */
+  screenPosition(x, y) {
+    const rect = canvas.getBoundingClientRect();
+    const [sx, sy] = toScreen(x, y);
+    return { x: rect.left + sx, y: rect.top + sy };
+  },
+  /** Viewport coordinates of an AGV's centre as drawn now, or null. */
+  vehicleScreenPosition(id) {
+    const v = state.vehicles.get(id);
+    if (!v) return null;
+    const [dx, dy] = drawnOffset(v, interpolation(performance.now()));
+    return this.screenPosition(v.x + dx, v.y + dy);
+  },
+  /** Draw `fn(ctx, {px, position})` in world coordinates on every frame, above the fleet. */
+  addOverlay(fn) {
+    overlays.push(fn);
+  },
 };
 
 new ResizeObserver(() => resize()).observe(canvas);
