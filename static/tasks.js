@@ -11,9 +11,15 @@ const filter = document.getElementById("tasks-state");
 const status = document.getElementById("tasks-status");
 const note = document.getElementById("tasks-note");
 
+// A report clears itself after a while; an error stays until the next cancel.
+const SAY_CLEAR_MS = 6000;
+let sayTimer = null;
+
 function say(text, isError = false) {
   status.textContent = text;
   status.className = isError ? "status error" : "status";
+  clearTimeout(sayTimer);
+  if (text && !isError) sayTimer = setTimeout(() => say(""), SAY_CLEAR_MS);
 }
 
 function fmtSeconds(s) {
