@@ -46,6 +46,8 @@ from agv_app.tasks.desk import TaskDesk, pick_stations
 from agv_app.tasks.free_flow import FreeFlowBound, FreeFlowTimer
 from agv_app.tasks.load import TaskArrivals
 from agv_app.traffic.monitor import SafetyMonitor
+from agv_app.vda5050.monitor import BrokerMonitor
+from agv_app.vda5050.topics import parse_broker_url
 from agv_app.vehicle.kinematics import VehicleSpec
 from objectplaces import RoleActivator
 from objectplaces.mesh import MeshNode, start_node
@@ -80,6 +82,8 @@ class MeshFleet(FleetSourceBase):
         python: the interpreter that runs the AGV processes.
         capture_output: keep the children's stdout and stderr off this process's
             terminal (they go to files in the run's temp dir).
+        vda5050: ``mqtt://HOST:PORT`` of a broker: every AGV process speaks VDA 5050
+            over it (docs/vda5050.md), and ``metrics()`` adds the broker's figures.
 
     Raises:
         ValueError: ``agvs`` < 1, ``start_tasks`` < 0, or more AGVs than parking spots.
@@ -100,6 +104,7 @@ class MeshFleet(FleetSourceBase):
         stop_timeout: float = 5.0,
         python: str = sys.executable,
         capture_output: bool = True,
+        vda5050: str | None = None,
     ) -> None:
         if agvs < 1:
             raise ValueError(f"agvs must be at least 1, got {agvs!r}")
@@ -142,6 +147,9 @@ class MeshFleet(FleetSourceBase):
             ),
         )
         self.processes = AgvProcesses(python=python, capture_output=capture_output)
+        self.vda5050 = vda5050
+        self.broker_monitor = None if vda5050 is None else BrokerMonitor(parse_broker_url(vda5050))
+        self._monitor_task: asyncio.Task[None] | None = None
         self.observer: MeshNode | None = None
         self._station_nodes: dict[str, MeshNode] = {}
         self._watcher: asyncio.Task[None] | None = None
@@ -217,9 +225,12 @@ class MeshFleet(FleetSourceBase):
                     "--t-update", str(self.t_update),
                     "--dwell", str(self.dwell),
                     "--expect-peers", str(peers),
+                    *([] if self.vda5050 is None else ["--vda5050", self.vda5050]),
                 ],
             )  # fmt: skip
         self._watcher = loop.create_task(self._watch(), name="mesh-fleet-watch")
+        if self.broker_monitor is not None:
+            self._monitor_task = loop.create_task(self.broker_monitor.run(), name="vda5050-monitor")
 
     async def wait_ready(self) -> None:
         """Wait until the observer has heard every AGV's position (bound it with
@@ -252,11 +263,12 @@ class MeshFleet(FleetSourceBase):
         if self._stopped:
             return
         self._stopped = True
-        watcher, self._watcher = self._watcher, None
-        if watcher is not None:
-            watcher.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await watcher
+        for task in (self._watcher, self._monitor_task):
+            if task is not None:
+                task.cancel()
+                with contextlib.suppress(asyncio.CancelledError):
+                    await task
+        self._watcher = self._monitor_task = None
         await self.processes.reap(self.stop_timeout)
         for node in [*self._station_nodes.values(), *([self.observer] if self.observer else [])]:
             await node.close()
@@ -384,6 +396,7 @@ class MeshFleet(FleetSourceBase):
             "deadlocks": float(self.stalls.deadlocks),
             "stalls_60s": float(self.stalls.long_waits),
             "max_wait": self.stalls.max_wait,
+            **({} if self.broker_monitor is None else self.broker_monitor.status()),
         }
 
     def set_speed(self, factor: float) -> None:
