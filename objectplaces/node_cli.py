@@ -1,4 +1,7 @@
-"""``objectplaces node``: run one ObjectPlaces node on the WebSocket mesh.
+"""``objectplaces node``: run one ObjectPlaces node on the WebSocket mesh or on Zenoh.
+
+``--transport zenoh`` puts the node on Zenoh (``--listen``/``--connect`` take Zenoh
+endpoints such as ``tcp/127.0.0.1:7447``; ``--mode client`` connects to a router).
 
 Registered as a plugin of the ``objectplaces`` command (entry point group
 ``objectplaces.commands``, name ``node``). The node publishes the properties it is given
@@ -40,13 +43,25 @@ from objectplaces.core.groups import GroupDefinition
 from objectplaces.core.ids import InitiatorRef, ParticipantRef
 from objectplaces.core.roles import Initiator, Participant
 from objectplaces.mesh import MeshNode, MeshOptions, start_node
+from objectplaces.zenoh_node import ZenohNode
 
-__all__ = ["SECRET_ENV", "Collector", "EchoVoter", "emit", "main", "register", "run_node"]
+__all__ = [
+    "SECRET_ENV",
+    "Collector",
+    "EchoVoter",
+    "emit",
+    "main",
+    "read_secret",
+    "register",
+    "run_node",
+]
 
 SECRET_ENV = "OBJECTPLACES_SECRET"
 """Environment variable holding the mesh secret when ``--secret-file`` is not given."""
 
 _MAX_LINE = 1 << 16
+
+AnyNode = MeshNode | ZenohNode
 
 
 def emit(event: str, **fields: Any) -> None:
@@ -127,11 +142,27 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
     """Add the ``node`` subcommand to the ``objectplaces`` command line."""
     parser = subcommands.add_parser(
         "node",
-        help="run one node on the WebSocket mesh",
-        description="Run one ObjectPlaces node on the WebSocket mesh (JSON events on stdout).",
+        help="run one node on the WebSocket mesh or on Zenoh",
+        description="Run one ObjectPlaces node (JSON events on stdout).",
     )
     parser.add_argument("--id", required=True, help="node id, unique in the mesh")
-    parser.add_argument("--listen", default="127.0.0.1:0", help="host:port to listen on")
+    parser.add_argument(
+        "--transport", choices=["websocket", "zenoh"], default="websocket", help="how nodes talk"
+    )
+    parser.add_argument(
+        "--listen",
+        help="host:port to listen on (zenoh: an endpoint, default tcp/127.0.0.1:0)",
+    )
+    parser.add_argument(
+        "--connect",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help="zenoh: a peer or router endpoint to connect to",
+    )
+    parser.add_argument("--mode", choices=["peer", "client"], default="peer", help="zenoh mode")
+    parser.add_argument("--fleet", default="default", help="zenoh: the fleet's name")
+    parser.add_argument("--lease", type=float, default=2.0, help="zenoh: link lease, s")
     parser.add_argument(
         "--join", action="append", default=[], metavar="HOST:PORT", help="a node to join through"
     )
@@ -161,12 +192,13 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
     parser.set_defaults(func=run_node)
 
 
-def _secret(args: argparse.Namespace) -> bytes:
+def read_secret(args: argparse.Namespace) -> bytes:
+    """The secret from ``args.secret_file``, else from the environment (exits if neither)."""
     if args.secret_file is not None:
         return Path(args.secret_file).read_bytes().rstrip(b"\r\n")
     value = os.environ.get(SECRET_ENV, "")
     if not value:
-        raise SystemExit(f"objectplaces node: give --secret-file or set {SECRET_ENV}")
+        raise SystemExit(f"objectplaces: give --secret-file or set {SECRET_ENV}")
     return value.encode()
 
 
@@ -190,7 +222,7 @@ def run_node(args: argparse.Namespace) -> int:
     logging.basicConfig(
         level=args.log_level.upper(), stream=sys.stderr, format="%(levelname)s %(message)s"
     )
-    secret = _secret(args)
+    secret = read_secret(args)
     EchoVoter.tick = args.tick
     try:
         return asyncio.run(_run(args, secret))
@@ -202,7 +234,7 @@ def run_node(args: argparse.Namespace) -> int:
 class _Controller:
     """Carries out the commands read from stdin."""
 
-    def __init__(self, node: MeshNode, args: argparse.Namespace, stop: asyncio.Event) -> None:
+    def __init__(self, node: AnyNode, args: argparse.Namespace, stop: asyncio.Event) -> None:
         self.node = node
         self.args = args
         self.stop = stop
@@ -272,7 +304,7 @@ async def _read_commands(controller: _Controller) -> None:
             controller.handle(line)
 
 
-async def _watch_peers(node: MeshNode) -> None:
+async def _watch_peers(node: AnyNode) -> None:
     seen: list[str] | None = None
     while True:
         peers = node.peers()
@@ -282,17 +314,36 @@ async def _watch_peers(node: MeshNode) -> None:
         await node.links_changed()
 
 
-async def _run(args: argparse.Namespace, secret: bytes) -> int:
-    node = await start_node(
+async def _start(args: argparse.Namespace, secret: bytes) -> AnyNode:
+    if args.transport == "zenoh":
+        return await start_node(
+            args.id,
+            transport="zenoh",
+            secret=secret,
+            listen=[args.listen or "tcp/127.0.0.1:0"],
+            connect=args.connect,
+            mode=args.mode,
+            fleet=args.fleet,
+            lease=args.lease,
+            max_frame=args.max_frame,
+            interest_radius=args.interest_radius,
+            property_interval=args.property_interval,
+            failure_timeout=args.failure_timeout,
+        )
+    return await start_node(
         args.id,
-        listen=args.listen,
-        join=args.join,
         secret=secret,
+        listen=args.listen or "127.0.0.1:0",
+        join=args.join,
+        options=_options(args),
         interest_radius=args.interest_radius,
         property_interval=args.property_interval,
         failure_timeout=args.failure_timeout,
-        options=_options(args),
     )
+
+
+async def _run(args: argparse.Namespace, secret: bytes) -> int:
+    node = await _start(args, secret)
     stop = asyncio.Event()
     controller = _Controller(node, args, stop)
     stopped: str | None = None

@@ -27,6 +27,7 @@ from objectplaces.core import codec
 from objectplaces.core.errors import LocalProtocolError
 from objectplaces.core.node import NodeConfig, NodeMachine
 from objectplaces.runtime.aio import AsyncioRunner
+from objectplaces.transport.options import PeerStats
 from objectplaces.transport.zenoh_config import Mode, ZenohOptions, resolve_ports
 from objectplaces.transport.zenoh_transport import ZenohTransport
 from tuplespace import TupleSpace
@@ -90,7 +91,7 @@ class ZenohNode(RoleActivator):
         """Nodes of the fleet alive now (their liveliness token is up), sorted."""
         return self._transport.peers()
 
-    def peer_stats(self) -> dict[str, object]:
+    def peer_stats(self) -> dict[str, PeerStats]:
         """Per-peer link counters: none on Zenoh, which keeps the links (see counters)."""
         return {}
 
