@@ -9,9 +9,11 @@ The process starts a mesh node, builds an :class:`~agv_app.vehicle.controller.Ag
 demo warehouse and steps it in real time (fixed ``--dt``). Besides what the controller
 publishes (position, hull length, status, task, last done), it publishes what an
 observer needs to draw the vehicle, each only when it changes: ``heading`` (radians),
-``state`` (the dashboard's finer status), ``size`` (``[length, width]``) and ``locked``
+``state`` (the dashboard's finer status), ``size`` (``[length, width]``), ``locked``
 and ``requested`` (its projections in the compact form of
-:func:`~agv_app.geometry.polygon_to_coords`).
+:func:`~agv_app.geometry.polygon_to_coords`) and ``route`` (the vertices ahead); and
+what the dashboard shows of its node: ``sessions``, ``roles`` and ``traffic``
+(:mod:`agv_app.fleet.remote`).
 
 It stops by itself, always through a graceful ``node.close()``: when ``--run-seconds``
 pass, when its stdin (a pipe from its parent) closes, when its parent process dies, or
@@ -36,6 +38,7 @@ from pathlib import Path
 from typing import Any
 
 from agv_app.fleet.parking import home_heading
+from agv_app.fleet.remote import roles_wire, sessions_wire, traffic_wire
 from agv_app.geometry import Area, polygon_to_coords
 from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
 from agv_app.vda5050.process import bridge_for, vehicle_class
@@ -62,17 +65,33 @@ def _area_coords(areas: list[Area]) -> list[list[list[float]]]:
     return polygon_to_coords(Area.union_of(areas), margin_m=0.0)
 
 
+def _route_ahead(agv: AgvController) -> list[list[float]]:
+    """The vertices of the route still ahead (to centimetres), the last where it stops;
+    empty at rest or failed. Changes only at a vertex or with a new route."""
+    vehicle = agv.vehicle
+    if agv.failed or vehicle.remaining() <= 1e-9:
+        return []
+    ahead = vehicle.route.slice(vehicle.s, vehicle.route.length).coords[1:]
+    return [[round(x, 2), round(y, 2)] for x, y in ahead]
+
+
 class DisplayPublisher:
-    """Publishes what an observer needs to draw one AGV, each property only on change.
+    """Publishes what an observer needs to draw one AGV, each property only on change,
+    and what the dashboard shows of its node (``agv_app.fleet.remote``).
 
     Args:
         agv: the AGV component (its node publishes).
         min_move_m: re-publish the position when the vehicle moved at least this far.
+        traffic_interval_s: least time between two publications of the traffic.
     """
 
-    def __init__(self, agv: AgvController, *, min_move_m: float = 0.01) -> None:
+    def __init__(
+        self, agv: AgvController, *, min_move_m: float = 0.01, traffic_interval_s: float = 1.0
+    ) -> None:
         self.agv = agv
         self.min_move_m = min_move_m
+        self.traffic_interval_s = traffic_interval_s
+        self._next_traffic = -math.inf
         self._last: dict[str, Any] = {}
         self._pose: tuple[float, float, float] | None = None
         agv.node.update_node_property("size", [agv.spec.length_m, agv.spec.width_m])
@@ -102,6 +121,19 @@ class DisplayPublisher:
         locks, request = agv.areas()
         self._set("locked", _area_coords(locks))
         self._set("requested", _area_coords([] if request is None else [request]))
+        self._set("route", _route_ahead(agv))
+        self.publish_introspection()
+
+    def publish_introspection(self) -> None:
+        """Publish the sessions and roles of the node, on change, and its traffic, at
+        most every ``traffic_interval_s``: what the dashboard shows of a node."""
+        node = self.agv.node
+        self._set("sessions", sessions_wire(node.sessions()))
+        self._set("roles", roles_wire(node.participations()))
+        now = node.now()
+        if now >= self._next_traffic:
+            self._next_traffic = now + self.traffic_interval_s
+            self._set("traffic", traffic_wire(node.stats()))
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

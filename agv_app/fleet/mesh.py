@@ -34,11 +34,14 @@ from typing import Any
 
 from agv_app.fleet.base import FleetSourceBase
 from agv_app.fleet.metrics import FleetMetrics
-from agv_app.fleet.observed import LastingOverlaps, ObservedAgv, vehicle_state
+from agv_app.fleet.observed import LastingOverlaps
 from agv_app.fleet.parking import ParkingPlan
 from agv_app.fleet.processes import AgvProcesses
+from agv_app.fleet.remote import RemoteNode
+from agv_app.fleet.roster import AgvRoster
 from agv_app.fleet.stalls import StallWatch
 from agv_app.fleet.view import OBSERVER_ID, VehicleState
+from agv_app.geometry import XY
 from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
 from agv_app.layout.graph import Layout
 from agv_app.protocol import AGV_KIND
@@ -157,7 +160,9 @@ class MeshFleet(FleetSourceBase):
         self._stopped = False
         self._advanced = 0.0
         self._next_task_at: float | None = None
-        self._observed: dict[str, ObservedAgv] = {}
+        self.roster = AgvRoster(
+            self.agv_ids, self._agv_views, clock_offset=lambda: self._started_at or 0.0
+        )
 
     # -- life cycle -------------------------------------------------------------------
 
@@ -206,6 +211,7 @@ class MeshFleet(FleetSourceBase):
         observer = await start_node(OBSERVER_ID, listen=f"{_HOST}:0", **node_args)
         self.observer = observer
         observer.register_node_property_observer(self._on_property)
+        observer.register_node_departure_observer(lambda node_id, _: self._departed(node_id))
         join = [observer.address]
         for sid in pick_stations(self.layout):
             node = await start_node(f"st:{sid}", listen=f"{_HOST}:0", join=join, **node_args)
@@ -286,6 +292,10 @@ class MeshFleet(FleetSourceBase):
             if isinstance(task, str):
                 book.start(task, node_id, now=self.now)
 
+    def _departed(self, node_id: str) -> None:
+        if self.started:
+            self.roster.departed(node_id)
+
     def _agv_views(self) -> list[tuple[str, Mapping[str, Any]]]:
         if self.observer is None or self.observer.closed:
             return []
@@ -310,7 +320,7 @@ class MeshFleet(FleetSourceBase):
         """
         now = self.now
         vehicles = self.vehicles()
-        self.overlaps.check(now, vehicles, self._observed)
+        self.overlaps.check(now, vehicles, self.roster.observed())
         for v in vehicles:
             self.stalls.observe(v.id, stalled=v.status == "waiting", now=now)
 
@@ -336,34 +346,61 @@ class MeshFleet(FleetSourceBase):
 
     # -- FleetSource ----------------------------------------------------------------------
 
-    def vehicles(self) -> Sequence[VehicleState]:
-        """Every AGV the observer hears, by id, as it last heard it."""
-        out: list[VehicleState] = []
-        for agv_id, props in self._agv_views():
-            seen = self._observed.get(agv_id)
-            if seen is None:
-                seen = self._observed[agv_id] = ObservedAgv()
-            out.append(vehicle_state(agv_id, props, seen))
-        return out
+    def _note_exits(self) -> None:
+        if self.started:
+            self.roster.exited(self.processes.exited())
 
-    def nodes(self) -> Mapping[str, RoleActivator]:
-        """The nodes in this process: the observer and the stations (the AGVs are
-        remote; the observer's view shows them)."""
-        out: dict[str, RoleActivator] = {}
+    def vehicles(self) -> Sequence[VehicleState]:
+        """Every AGV the observer hears, by id, as it last heard it; a failed one (its
+        process exited, or its node departed) where it was last heard, ``failed``."""
+        self._note_exits()
+        return self.roster.vehicles()
+
+    def vehicle_route(self, vehicle_id: str) -> tuple[XY, ...]:
+        """The rest of an AGV's route as it last published it, from where it stands;
+        ``()`` at rest or failed.
+
+        Raises:
+            KeyError: no AGV has that id.
+        """
+        vehicle = next((v for v in self.vehicles() if v.id == vehicle_id), None)
+        if vehicle is None:
+            raise KeyError(vehicle_id)
+        props = dict(self._agv_views()).get(vehicle_id, {})
+        ahead = props.get("route")
+        if vehicle.status == "failed" or not isinstance(ahead, list | tuple):
+            return ()
+        points = [
+            (float(p[0]), float(p[1]))
+            for p in ahead
+            if isinstance(p, list | tuple)
+            and len(p) == 2
+            and all(isinstance(c, int | float) and not isinstance(c, bool) for c in p)
+        ]
+        return ((vehicle.x, vehicle.y), *points) if points else ()
+
+    def nodes(self) -> Mapping[str, RoleActivator | RemoteNode]:
+        """The observer and the stations, and a read-only stand-in for every live AGV
+        the observer hears (its node runs in its process; ``agv_app.fleet.remote``)."""
+        out: dict[str, RoleActivator | RemoteNode] = {}
         if self.observer is not None and not self.observer.closed:
             out[OBSERVER_ID] = self.observer
         for node in self._station_nodes.values():
             if not node.closed:
                 out[node.node_id] = node
+        self._note_exits()
+        out.update(self.roster.nodes())
         return out
+
+    def _local_nodes(self) -> list[MeshNode]:
+        nodes = [*self._station_nodes.values(), *([self.observer] if self.observer else [])]
+        return [n for n in nodes if not n.closed]
 
     def _traffic(self) -> tuple[int, int]:
         """Frames and bytes on the links of the nodes in this process, each frame once."""
-        local = self.nodes()
+        local = {n.node_id: n for n in self._local_nodes()}
         messages = bytes_ = 0
         for node in local.values():
-            if not isinstance(node, MeshNode):
-                continue
             for peer, stats in node.peer_stats().items():
                 messages += stats.messages_out
                 bytes_ += stats.bytes_out
@@ -377,9 +414,12 @@ class MeshFleet(FleetSourceBase):
         book = self.desk.book
         done = book.counts["done"]
         messages, bytes_ = self._traffic()
+        self._note_exits()
+        failed = self.roster.failed()
         hours = self.now / 3600.0
         return {
-            "agvs": float(self.agv_count),
+            "agvs": float(self.agv_count - len(failed)),
+            "agvs_failed": float(len(failed)),
             "agvs_seen": float(len(self._agv_views())),
             "processes_running": float(self.processes.running()),
             "tasks_created": float(book.counts["created"]),

@@ -65,7 +65,7 @@ async def test_agv_processes_take_a_task_and_are_reaped() -> None:
             assert v.status == "idle"
             assert v.task_id is None
             assert v.locked, f"{v.id} holds its own hull from the start"
-        assert set(fleet.nodes()) == {OBSERVER_ID, *(f"st:{s}" for s in fleet.stations)}
+        assert set(fleet.nodes()) == {OBSERVER_ID, *AGVS, *(f"st:{s}" for s in fleet.stations)}
 
         task = fleet.create_task(PICK)
         taken = None
