@@ -177,7 +177,13 @@ async function refreshView() {
 
 function show() {
   const parsed = parseDefinition();
-  if (parsed === null) return;
+  if (parsed === null) {
+    // The map must not go on showing a group for a definition no longer typed.
+    live.definition = null;
+    live.members = [];
+    clearButton.disabled = true;
+    return;
+  }
   live.definition = JSON.stringify(parsed);
   live.node = nodeSelect.value || null;
   live.members = [];

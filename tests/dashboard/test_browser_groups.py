@@ -1,0 +1,127 @@
+"""The groups panel in real headless chromium over the real AGV fleet: a session's
+members and history of joins and leaves; a typed definition's live group on the map."""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Iterator
+from typing import Any
+
+import httpx
+import pytest
+
+from agv_app.fleet import Fleet, FleetConfig
+from tests.dashboard.browser import BROWSER_MARKS, chromium_page, load_dashboard
+from tests.dashboard.served import Served
+
+pytestmark = BROWSER_MARKS
+
+
+@pytest.fixture(scope="module")
+def groups_page() -> Iterator[tuple[Any, Served]]:
+    fleet = Fleet(config=FleetConfig(agvs=4, seed=3, task_until=0.0))
+    fleet.set_speed(4.0)
+    with Served(fleet) as served:
+        with chromium_page() as (page, problems):
+            load_dashboard(page, served.url)
+            yield page, served
+        # A refused definition (422) is logged by chromium as a failed resource.
+        assert [p for p in problems if "422" not in p] == [], problems
+
+
+def wait_for(predicate: Any, timeout: float, what: str) -> Any:
+    deadline = time.monotonic() + timeout
+    while True:
+        value = predicate()
+        if value:
+            return value
+        assert time.monotonic() < deadline, f"not within {timeout} s: {what}"
+        time.sleep(0.2)  # polling a live server, not an assertion
+
+
+def test_a_sessions_members_and_history(groups_page: tuple[Any, Served]) -> None:
+    page, served = groups_page
+    httpx.post(f"{served.url}/api/tasks", json={"station": "pick-A1-1"}, timeout=5)
+
+    def a_session_with_joins() -> str | None:
+        listed = httpx.get(f"{served.url}/api/membership", timeout=5).json()
+        return next((s["id"] for s in listed if s["joins"] > 0), None)
+
+    sid = wait_for(a_session_with_joins, 30.0, "a session gains a member")
+    page.wait_for_function(
+        "sid => [...document.querySelectorAll('#groups-session option')]"
+        ".some(o => o.value === sid)",
+        arg=sid,
+        timeout=5_000,
+    )
+    page.select_option("#groups-session", sid)
+    page.wait_for_function(
+        "sid => window.__groupsPanel.history && window.__groupsPanel.history.id === sid",
+        arg=sid,
+        timeout=5_000,
+    )
+    history = page.evaluate("window.__groupsPanel.history")
+    joined = [c["node"] for c in history["changes"] if c["change"] == "joined"]
+    assert joined
+    page.wait_for_function(
+        "document.querySelectorAll('#groups-history tr[data-change]').length > 0", timeout=5_000
+    )
+    rows = page.locator("#groups-history tr[data-change=joined]")
+    assert rows.count() >= 1
+    note = page.locator("#groups-session-note").text_content()
+    assert history["node"] in note
+    assert f"{history['joins']} joins" in note
+
+
+def test_a_typed_definition_is_shown_live_on_the_map(groups_page: tuple[Any, Served]) -> None:
+    page, served = groups_page
+    page.wait_for_function(
+        "[...document.querySelectorAll('#groups-node option')].some(o => o.value === 'agv-01')",
+        timeout=10_000,
+    )
+    page.select_option("#groups-node", "agv-01")
+    # Every template is a definition the server takes.
+    for kind in ("circles_overlap", "within", "property_equals", "and", "or"):
+        page.select_option("#groups-template", kind)
+        assert json.loads(page.locator("#groups-definition").input_value())["type"] == kind
+    definition = {"type": "within", "distance": 1000}
+    page.fill("#groups-definition", json.dumps(definition))
+    page.click("#groups-show")
+    expected = httpx.get(
+        f"{served.url}/api/groups/view",
+        params={"node": "agv-01", "definition": json.dumps(definition)},
+        timeout=5,
+    ).json()["members"]
+    assert len(expected) >= 3, "the other AGVs and the stations are within 1 km"
+    page.wait_for_function("window.__groupsPanel.members.length > 0", timeout=5_000)
+    assert set(page.evaluate("window.__groupsPanel.members")) == set(expected)
+    page.wait_for_function("window.__groupsPanel.drawn >= 3", timeout=5_000)
+    status = page.locator("#groups-status")
+    assert "in the group from agv-01" in status.text_content()
+    assert status.get_attribute("class") == "status"
+
+    # Not JSON, then refused by the server: each says why; a good one clears the error.
+    page.fill("#groups-definition", "{bad")
+    page.click("#groups-show")
+    assert "not JSON" in status.text_content()
+    assert "error" in status.get_attribute("class")
+    assert page.evaluate("window.__groupsPanel.members") == []
+    page.fill("#groups-definition", '{"type": "within"}')
+    page.click("#groups-show")
+    page.wait_for_function(
+        "document.getElementById('groups-status').textContent.includes('distance')",
+        timeout=5_000,
+    )
+    assert page.evaluate("window.__groupsPanel.members") == []
+    page.fill("#groups-definition", '{"type": "property_equals", "name": "kind", "value": "agv"}')
+    page.click("#groups-show")
+    page.wait_for_function(
+        "document.getElementById('groups-status').className === 'status'"
+        " && window.__groupsPanel.members.length > 0",
+        timeout=5_000,
+    )
+    assert all(m.startswith("agv") for m in page.evaluate("window.__groupsPanel.members"))
+    page.click("#groups-clear")
+    page.wait_for_function("window.__groupsPanel.drawn === 0", timeout=5_000)
+    assert status.text_content() == ""
