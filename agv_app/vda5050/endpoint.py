@@ -109,6 +109,9 @@ class VdaEndpoint:
         except OrderRejected as rejected:
             self._error(rejected.error)
             return
+        except Exception as exc:  # a message must never stop the vehicle
+            self._error(VdaError("orderError", f"the order could not be taken: {exc!r}"))
+            return
         if outcome == "accepted":
             # The errors of earlier orders are resolved by the next order taken.
             self.errors.clear()
