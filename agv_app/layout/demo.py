@@ -1,25 +1,34 @@
-"""The built-in demo warehouse: aisles, a two-way main lane, docks and 200+ parking spots.
+"""The built-in demo warehouse: one-way loops, aisles, docks and 200+ parking spots.
 
 Plan (x east, y north, metres; about 60 x 40)::
 
     y=39   P-row north spurs (parking, some charging)
-    y=36.5 P lane, one-way westbound ............................ <-+
-    y=34   P-row south spurs (parking)                              |
+    y=36.5 P lane, one-way westbound <----------------------------- P@E
+    y=34   P-row south spurs (parking)                              ^
     y=31.5 N-row north spurs (parking, some charging)               |
-    y=29   N lane, one-way eastbound (x=8..55.5) ----------------> E column
-           8 aisles, alternately north- and southbound, each with   | (x=58,
-           3 station spurs to the east (pick / pickdrop / drop)     |  one-way
-    y=9    main lane M, bidirectional, joins every aisle        north)
-    y=6.5  S-row north spurs (parking)                              |
-    y=4    S lane, one-way eastbound ------------------------------>+
+    y=29   W@N --> N lane, one-way eastbound (x=8..55.5) ------->  N@E
+     |     8 aisles, alternately north- and southbound, each with   ^ E column
+     |     3 station spurs to the east (pick / pickdrop / drop)     | (x=58,
+     v     (W column, x=2, one-way southbound from P@W)             |  one-way
+    y=9    M@W <-- main lane M, one-way westbound <------------- M@E  north)
+    y=6.5  S-row north spurs (parking)                              ^
+    y=4    S@W --> S lane, one-way eastbound -----------------> S@E
     y=1.5  S-row south spurs (parking, 4 docks: inbound "pick", outbound "drop")
-    W column (x=2), one-way southbound from the P lane to the S lane.
 
-Every station sits at the end of its own short two-way spur, so a vehicle can
-stop there without blocking a lane, and every spur junction is a passing place.
-Spurs are 2.5 m long and 1.25 m apart: a 2 m x 1 m vehicle parked at a spur end
-keeps at least 0.25 m from its neighbours and 1 m from vehicles passing (or
-turning) on the lane; lanes are far enough apart that hulls on them never touch.
+Every lane is one-way, so no two AGVs ever meet head-on on one and an AGV may wait
+anywhere on a lane: traffic flows in three counter-clockwise loops. The lower loop
+(S lane east, E column north, M lane west, W column south) joins the docks and the
+S row to the aisles; the upper loop (N lane east, E column north, P lane west, W column
+south) the N and P rows; between M and N, each northbound aisle with any southbound
+aisle east of it makes a loop (N east, down the southbound aisle, M west, up the
+northbound one), so an AGV gets from any aisle to any other without crossing the floor.
+
+Every station sits at the end of its own short two-way spur, off the lanes, so a
+vehicle can stop there without blocking a lane; the spur is the only two-way stretch,
+and its end is a dead end, a passing place. Spurs are 2.5 m long and 1.25 m apart: a
+2 m x 1 m vehicle parked at a spur end keeps at least 0.25 m from its neighbours and
+1 m from vehicles passing (or turning) on the lane; lanes are far enough apart that
+hulls on them never touch.
 """
 
 from __future__ import annotations
@@ -86,15 +95,15 @@ def demo_warehouse() -> Layout:
     m_lane = [b.point("M@W", _X_WEST, _Y_M)]
     m_lane += [b.point(f"M{round(x * 100):04d}", x, _Y_M) for x in _AISLE_XS]
     m_lane.append(b.point("M@E", _X_EAST, _Y_M))
-    w_mid = b.point("W@mid", _X_WEST, (_Y_M + _Y_P) / 2)
+    w_n = b.point("W@N", _X_WEST, _Y_N)
     e_mid = b.point("E@mid", _X_EAST, (_Y_M + _Y_N) / 2)
 
     b.chain(s_lane)
-    b.chain(n_lane)
+    b.chain([w_n, *n_lane])
     b.chain(p_lane)
-    b.chain(m_lane, bidirectional=True)
+    b.chain(m_lane[::-1])  # westbound: from the E column to the W column
     b.chain(["S@E", "M@E", e_mid, "N@E", "P@E"])  # E column, northbound
-    b.chain(["P@W", w_mid, "M@W", "S@W"])  # W column, southbound
+    b.chain(["P@W", w_n, "M@W", "S@W"])  # W column, southbound
 
     # Aisles: even ones northbound (M -> N), odd ones southbound.
     for j, x in enumerate(_AISLE_XS):

@@ -41,9 +41,11 @@ def test_a_request_reaching_into_the_run_covers_all_of_it() -> None:
     assert plan.next_stop(24.5, 5.0) == 30.0  # a sliver before the end goes to the end
 
 
-def test_a_request_covers_at_least_the_passing_extent_on_the_demo_main_lane() -> None:
+def test_a_request_covers_at_least_the_passing_extent_between_two_demo_spurs() -> None:
     layout = demo_warehouse()
-    route = layout.route("M@W", "M@E")
+    # From one parking spur across the one-way S lane into the next: two two-way runs
+    # whose no-rest zones meet, so the whole trip is one request.
+    route = layout.route("S0350n", "S0475n")
     plan = StopPlan.for_route(layout, route, clearance_m=DEFAULT_CLEARANCE_M)
     for i, seg in enumerate(route.segments):
         if layout.segment(seg).bidirectional:
