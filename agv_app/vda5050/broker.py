@@ -14,11 +14,12 @@ import socket
 import subprocess
 import tempfile
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
-from agv_app.vda5050.topics import BrokerAddress
+from agv_app.vda5050.topics import BrokerAddress, parse_broker_url
 
-__all__ = ["LocalBroker", "find_mosquitto"]
+__all__ = ["LOCAL", "LocalBroker", "demo_broker", "find_mosquitto"]
 
 _HOST = "127.0.0.1"
 _CANDIDATES = ("/usr/sbin/mosquitto", "/usr/local/sbin/mosquitto", "/opt/homebrew/sbin/mosquitto")
@@ -126,3 +127,28 @@ class LocalBroker:
 
     def __exit__(self, *exc: object) -> None:
         self.stop()
+
+
+LOCAL = "local"
+"""The ``--vda5050`` value (or the flag alone) that starts a broker for the demo."""
+
+
+@contextlib.contextmanager
+def demo_broker(value: str | None) -> Iterator[str | None]:
+    """The broker URL for ``objectplaces demo --vda5050 [URL]``, started here if asked.
+
+    None stays None (no VDA 5050); :data:`LOCAL` starts mosquitto on 127.0.0.1 and a
+    free port for as long as the block runs; any other value must be ``mqtt://HOST:PORT``.
+
+    Raises:
+        ValueError: a malformed address.
+        FileNotFoundError: :data:`LOCAL` without mosquitto installed.
+    """
+    if value is None:
+        yield None
+        return
+    if value != LOCAL:
+        yield parse_broker_url(value).url
+        return
+    with LocalBroker() as address:
+        yield address.url
