@@ -15,6 +15,9 @@ __all__ = ["DEMO_AGVS", "demo_source"]
 DEMO_AGVS = 12
 """AGVs of the simulated demo fleet by default."""
 
+VDA5050_AGVS = 6
+"""AGV processes of the demo with VDA 5050 when ``processes`` is not given."""
+
 
 def demo_source(
     args: argparse.Namespace | None = None,
@@ -23,6 +26,7 @@ def demo_source(
     seed: int | None = None,
     processes: int = 0,
     load: float | None = None,
+    vda5050: str | None = None,
 ) -> Fleet | MeshFleet:
     """The fleet ``objectplaces demo`` shows: the demo warehouse, tasks arriving for ever.
 
@@ -34,6 +38,10 @@ def demo_source(
     AGVs busy (default :data:`~agv_app.tasks.load.DEFAULT_LOAD`), and about ``load``
     times the AGVs get a task at the start, so most of them move within seconds.
 
+    With ``vda5050`` (``mqtt://HOST:PORT``) every AGV is its own process speaking VDA
+    5050 over that broker (``processes`` of them, :data:`VDA5050_AGVS` if 0), and no
+    task arrives by itself: the master control sends orders (docs/vda5050.md).
+
     Raises:
         ValueError: ``processes`` is negative or more than the layout can park, or
             ``load`` is not in (0, 1].
@@ -43,10 +51,15 @@ def demo_source(
         seed = getattr(args, "seed", seed)
         processes = getattr(args, "processes", processes) or 0
         load = getattr(args, "load", load)
+        vda5050 = getattr(args, "vda5050", vda5050)
     load = check_load(DEFAULT_LOAD if load is None else load)
     seed = 1 if seed is None else seed
     if processes < 0:
         raise ValueError(f"processes must be 0 or more, got {processes!r}")
+    if vda5050 is not None:
+        return MeshFleet(
+            agvs=processes or VDA5050_AGVS, seed=seed, task_interval=None, vda5050=vda5050
+        )
     if processes:
         layout = demo_warehouse()
         spec = VehicleSpec(DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M)
