@@ -7,6 +7,7 @@ Registered as a plugin of the ``objectplaces`` command (entry point group
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import ipaddress
 import os
@@ -78,6 +79,15 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
         "processes); not with --agvs",
     )
     parser.add_argument(
+        "--vda5050",
+        nargs="?",
+        const="local",
+        default=None,
+        metavar="mqtt://HOST:PORT",
+        help="every AGV its own process speaking VDA 5050 over this MQTT broker (the flag "
+        "alone: a mosquitto started on 127.0.0.1 for the demo); no automatic tasks",
+    )
+    parser.add_argument(
         "--token",
         default=os.environ.get(TOKEN_ENV),
         help=f"token for changes (POST/DELETE); required off loopback (env {TOKEN_ENV})",
@@ -101,7 +111,11 @@ def build_source(args: argparse.Namespace) -> FleetSource:
         raise SystemExit("objectplaces demo: agv_app.fleet offers no demo_source()")
     try:
         # --agvs left out (None): the demo fleet's own default.
-        return make(agvs=args.agvs, seed=args.seed, processes=args.processes, load=args.load)
+        vda5050 = getattr(args, "vda5050", None)
+        extra = {} if vda5050 is None else {"vda5050": vda5050}
+        return make(
+            agvs=args.agvs, seed=args.seed, processes=args.processes, load=args.load, **extra
+        )
     except ValueError as exc:
         raise SystemExit(f"objectplaces demo: {exc}") from exc
 
@@ -172,6 +186,20 @@ def run_demo(args: argparse.Namespace, *, builder: SourceBuilder = build_source)
             file=sys.stderr,
         )
         return 2
-    source = builder(args)
-    serve(source, host=args.host, port=args.port, token=args.token, open_browser=args.open)
+    from agv_app.vda5050.broker import demo_broker
+
+    vda5050 = getattr(args, "vda5050", None)
+    if vda5050 is not None and args.agvs is not None:
+        print("objectplaces demo: --vda5050 runs AGV processes: give --processes", file=sys.stderr)
+        return 2
+    with contextlib.ExitStack() as stack:
+        try:
+            args.vda5050 = stack.enter_context(demo_broker(vda5050))
+        except (ValueError, OSError, RuntimeError) as exc:
+            print(f"objectplaces demo: --vda5050: {exc}", file=sys.stderr)
+            return 2
+        if args.vda5050 is not None:
+            print(f"VDA 5050 over {args.vda5050}", flush=True)
+        source = builder(args)
+        serve(source, host=args.host, port=args.port, token=args.token, open_browser=args.open)
     return 0
