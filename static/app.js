@@ -14,6 +14,8 @@ const LABEL_LIMIT = 80;
 const KEY_METRICS = [
   "tasks_created", "tasks_completed", "tasks_per_hour", "messages", "bytes",
   "collisions", "lock_overlaps", "deadlocks",
+  // With VDA 5050 (objectplaces demo --vda5050): the bridge's broker.
+  "vda5050_broker_connected", "vda5050_messages_per_s", "vda5050_vehicles_online",
 ];
 const STATION_HIT_PX = 12;
 // Station kinds where a click creates a transport task (the fleet's pick stations).
