@@ -84,6 +84,7 @@ class PropertyView:
         "_readonly",
         "_scope",
         "_seqs",
+        "_tops",
         "scoped",
     )
 
@@ -97,6 +98,7 @@ class PropertyView:
         self._proxies: dict[str, Mapping[str, Any]] = {}
         self._readonly: Mapping[str, Mapping[str, Any]] = MappingProxyType(self._proxies)
         self._seqs: dict[str, dict[str, int]] = {}
+        self._tops: dict[str, int] = {}  # per node, the highest seq it has in ``_seqs``
         self._heard: dict[str, float] = {}
         self._indexes: dict[str, GridIndex] = {}
         self._maxima: dict[str, RunningMax] = {}
@@ -165,11 +167,20 @@ class PropertyView:
                 self._asked.pop(source, None)
         elif source not in self._complete:
             self._want_snapshot(source, now)
-        seqs = self._seqs[source]
         seq = update.seq
+        values = update.values
+        tops = self._tops
+        if seq > tops.get(source, -1):
+            tops[source] = seq
+            if props == values:
+                # Newer than every property held and equal to them all (a heartbeat of a
+                # node standing still): only the sequence numbers move, set in one pass.
+                self._seqs[source] = dict.fromkeys(values, seq)
+                return False
+        seqs = self._seqs[source]
         changed = False
         indexes, maxima, observers = self._indexes, self._maxima, self._observers
-        for name, value in update.values.items():
+        for name, value in values.items():
             if seq <= seqs.get(name, -1):
                 continue
             seqs[name] = seq
@@ -207,6 +218,7 @@ class PropertyView:
         last = self._props.pop(node, None)
         self._proxies.pop(node, None)
         self._seqs.pop(node, None)
+        self._tops.pop(node, None)
         self._heard.pop(node, None)
         self._complete.discard(node)
         self._asked.pop(node, None)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import heapq
 import itertools
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from typing import Any
 
 __all__ = ["EventLoop"]
@@ -24,7 +24,21 @@ class EventLoop:
 
     def call_at(self, when: float, fn: Callable[..., Any], *args: Any) -> None:
         """Run ``fn(*args)`` at virtual time ``when`` (now if it lies in the past)."""
-        heapq.heappush(self._queue, (max(when, self.now), next(self._seq), fn, args))
+        now = self.now
+        heapq.heappush(self._queue, (when if when > now else now, next(self._seq), fn, args))
+
+    def call_each(
+        self, fn: Callable[..., Any], calls: Iterable[tuple[float, tuple[Any, ...]]]
+    ) -> None:
+        """``call_at(when, fn, *args)`` for each ``(when, args)``, in that order.
+
+        The simulated network schedules one arrival per recipient of a frame: one call
+        for them all saves a method call and an argument tuple per recipient.
+        """
+        queue, seq, now = self._queue, self._seq, self.now
+        push = heapq.heappush
+        for when, args in calls:
+            push(queue, (when if when > now else now, next(seq), fn, args))
 
     def next_time(self) -> float | None:
         """When the next event runs, or None when none is queued."""
@@ -42,12 +56,25 @@ class EventLoop:
         """
         queue = self._queue
         pop = heapq.heappop
-        while queue and queue[0][0] <= end:
-            when, _, fn, args = pop(queue)
-            self.now = when
-            fn(*args)
-            self.events_run += 1
-            if stop is not None and stop():
-                return True
-        self.now = max(self.now, end)
+        if stop is None:
+            # The loop of every simulation step: nothing checked between events.
+            ran = 0
+            try:
+                while queue and queue[0][0] <= end:
+                    when, _, fn, args = pop(queue)
+                    self.now = when
+                    ran += 1
+                    fn(*args)
+            finally:
+                self.events_run += ran
+        else:
+            while queue and queue[0][0] <= end:
+                when, _, fn, args = pop(queue)
+                self.now = when
+                fn(*args)
+                self.events_run += 1
+                if stop():
+                    return True
+        if end > self.now:
+            self.now = end
         return False

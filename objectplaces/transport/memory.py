@@ -195,6 +195,10 @@ class MemoryNetwork:
         # Frames over plain default links all arrive together: one event carries them all.
         plain = not (defaults.jitter or defaults.loss or defaults.duplicate or defaults.reorder)
         together: list[tuple[str, int]] = []
+        # Arrivals one by one (links with jitter, loss ...): scheduled together at the end,
+        # in the order drawn, so the event queue sees the same calls in the same order.
+        arrivals: list[tuple[float, tuple[str, int | None, str, int, Message | bytes, int, str]]]
+        arrivals = []
         count = 0
         for target in targets:
             count += 1
@@ -213,12 +217,21 @@ class MemoryNetwork:
             for _ in range(copies):
                 delay = link.delay
                 if link.jitter:
-                    delay = max(0.0, delay + link.jitter * (2.0 * rng.random() - 1.0))
+                    delay += link.jitter * (2.0 * rng.random() - 1.0)
+                    if delay < 0.0:
+                        delay = 0.0
                 if link.reorder and rng.random() < link.reorder:
                     delay += rng.random() * 4.0 * (link.delay + link.jitter)
-                loop.call_at(
-                    now + delay, self._arrive, source, run, target, incarnation, message, size, kind
+                arrivals.append(
+                    (now + delay, (source, run, target, incarnation, message, size, kind))
                 )
+        if arrivals:
+            call_each = getattr(loop, "call_each", None)
+            if call_each is not None:
+                call_each(self._arrive, arrivals)
+            else:
+                for when, args in arrivals:
+                    loop.call_at(when, self._arrive, *args)
         if together:
             arrive = self._arrive_together
             loop.call_at(now + defaults.delay, arrive, source, run, together, message, size, kind)
