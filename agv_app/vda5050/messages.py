@@ -17,6 +17,7 @@ from agv_app.vda5050.vehicle import OrderAgv
 
 __all__ = [
     "INSTANT_ACTIONS",
+    "SERIES_NAME",
     "ActionState",
     "Headers",
     "connection_message",
@@ -25,6 +26,9 @@ __all__ = [
     "timestamp",
     "visualization_message",
 ]
+
+SERIES_NAME = "ObjectPlaces demo AGV"
+"""The vehicles' ``seriesName`` in the factsheet."""
 
 INSTANT_ACTIONS = ("cancelOrder", "startPause", "stopPause", "factsheetRequest", "stateRequest")
 """The instant actions the vehicle carries out."""
@@ -152,7 +156,7 @@ def factsheet_message(
     return {
         **headers.make("factsheet"),
         "typeSpecification": {
-            "seriesName": "ObjectPlaces demo AGV",
+            "seriesName": SERIES_NAME,
             "seriesDescription": "A simulated carrier; traffic control by ObjectPlaces groups",
             "mobileRobotKinematics": "DIFFERENTIAL",
             "mobileRobotClass": "CARRIER",

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from typing import Any, Literal
 
 from agv_app.layout.graph import Layout
+from agv_app.vda5050.mapping import edge_fits
 from agv_app.vda5050.validation import schema_errors
 
 __all__ = ["OrderBook", "OrderEdge", "OrderNode", "Outcome", "VdaError"]
@@ -158,7 +159,7 @@ def _parse(order: Mapping[str, Any], layout: Layout) -> tuple[list[OrderNode], l
                 )
             )
     for a, b, edge in zip(nodes, nodes[1:], edges, strict=False):
-        if layout.segment_between(a.node_id, b.node_id) != edge.edge_id:
+        if not edge_fits(layout, a.node_id, b.node_id, edge.edge_id):
             raise OrderRejected(
                 VdaError(
                     "noRouteError",

@@ -9,6 +9,7 @@ from agv_app.fleet.parking import ParkingPlan, home_heading
 from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
 from agv_app.layout.graph import Layout
 from agv_app.vda5050.endpoint import VdaEndpoint
+from agv_app.vda5050.mapping import vda_edge_id
 from agv_app.vda5050.messages import timestamp
 from agv_app.vda5050.topics import MANUFACTURER, PROTOCOL_VERSION, VehicleTopics
 from agv_app.vda5050.vehicle import OrderAgv
@@ -48,7 +49,7 @@ def make_order(
     ]
     edges: list[dict[str, Any]] = [
         {
-            "edgeId": layout.segment_between(a, b),
+            "edgeId": vda_edge_id(layout, a, b),
             "sequenceId": first_sequence + 2 * i + 1,
             "released": i + 1 < base,
             "actions": [],
