@@ -1,4 +1,5 @@
-"""``--processes`` in real headless chromium: a killed AGV process raises its alarm.
+"""``--processes`` in real headless chromium: the AGVs' sessions are listed, and a
+killed AGV process raises its alarm within 10 s.
 
 Real AGV processes on 127.0.0.1 behind a real server; every wait is bounded, and the
 processes are reaped when the server stops.
@@ -20,7 +21,7 @@ from tests.dashboard.served import Served
 pytestmark = [*BROWSER_MARKS, pytest.mark.processes, pytest.mark.timeout(120)]
 
 
-def test_an_agv_process_killed_with_sigkill_shows_its_alarm_within_10_s() -> None:
+def test_agv_sessions_show_and_a_process_killed_with_sigkill_raises_its_alarm() -> None:
     fleet = MeshFleet(agvs=2, seed=8, task_interval=None, run_seconds=100.0)
     with Served(fleet) as served, chromium_page() as (page, problems):
         load_dashboard(page, served.url)
@@ -28,6 +29,10 @@ def test_an_agv_process_killed_with_sigkill_shows_its_alarm_within_10_s() -> Non
             "Object.keys(window.__dashboard.vehicles()).length === 2", timeout=40_000
         )
         page.locator("#nodes-panel tr[data-node-id='agv-01']").wait_for(timeout=10_000)
+        r = httpx.post(f"{served.url}/api/tasks", json={"station": "pick-A3-1"}, timeout=5)
+        assert r.status_code == 201, r.text
+        # The AGV that takes it asks its neighbours for floor: its sessions are listed.
+        page.locator("#sessions-panel tr[data-session-id^='agv-']").first.wait_for(timeout=30_000)
         victim = fleet.agv_ids[0]
         os.kill(fleet.pids()[0], signal.SIGKILL)
         killed_at = time.monotonic()
