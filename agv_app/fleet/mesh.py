@@ -348,7 +348,7 @@ class MeshFleet(FleetSourceBase):
 
     def _note_exits(self) -> None:
         if self.started:
-            self.roster.exited(self.processes.exited())
+            self.roster.exited(self.processes.exit_codes())
 
     def vehicles(self) -> Sequence[VehicleState]:
         """Every AGV the observer hears, by id, as it last heard it; a failed one (its
@@ -418,7 +418,7 @@ class MeshFleet(FleetSourceBase):
         failed = self.roster.failed()
         hours = self.now / 3600.0
         return {
-            "agvs": float(self.agv_count - len(failed)),
+            "agvs": float(self.agv_count - len(failed) - len(self.roster.left())),
             "agvs_failed": float(len(failed)),
             "agvs_seen": float(len(self._agv_views())),
             "processes_running": float(self.processes.running()),

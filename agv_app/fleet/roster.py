@@ -1,7 +1,9 @@
 """Which AGVs of a mesh fleet are alive, which failed, and what the observer heard of each.
 
-An AGV process fails when it exits while the fleet runs (``kill -9`` included) or when
-the observer stops hearing it (its node departs after the failure timeout). A failed
+An AGV process fails when it exits while the fleet runs (``kill -9``, or any exit status
+but 0) or when the observer stops hearing it (its node departs after the failure
+timeout); one that exits with status 0 ended its run and has left (it is gone from the
+vehicles and the nodes, and is no failure). A failed
 AGV stays on the floor where it was last heard, as a vehicle with status ``failed``
 and no locks (nobody honours them any more), so the operator sees the wreck and the
 dashboard raises its alarm; its node leaves ``nodes()``. A node that departed and is
@@ -15,7 +17,7 @@ stand-ins (:class:`~agv_app.fleet.remote.RemoteNode`) from one consistent look, 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable, Collection, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from agv_app.fleet.observed import ObservedAgv, vehicle_state
@@ -53,12 +55,17 @@ class AgvRoster:
         self._departed: set[str] = set()
         self._failed: dict[str, VehicleState] = {}
         self._gone: set[str] = set()
+        self._left: set[str] = set()
 
     # -- what happened ----------------------------------------------------------------
 
-    def exited(self, agv_ids: Collection[str]) -> None:
-        """These AGVs' processes have exited (for good)."""
-        self._exited.update(a for a in agv_ids if a in self.agv_ids)
+    def exited(self, codes: Mapping[str, int | None]) -> None:
+        """The processes' exit statuses by AGV id (None: running): 0 has left, any
+        other has failed, for good."""
+        for agv_id, code in codes.items():
+            if code is None or agv_id not in self.agv_ids:
+                continue
+            (self._left if code == 0 else self._exited).add(agv_id)
 
     def departed(self, agv_id: str) -> None:
         """The observer stopped hearing this AGV (its node failed or left)."""
@@ -79,7 +86,7 @@ class AgvRoster:
         out = {
             agv_id: self._state(agv_id, props)
             for agv_id, props in views
-            if agv_id not in self._failed
+            if agv_id not in self._failed and agv_id not in self._left
         }
         out.update(self._failed)
         return [out[k] for k in sorted(out)]
@@ -92,8 +99,12 @@ class AgvRoster:
         return {
             agv_id: RemoteNode(agv_id, self._reader(agv_id), clock_offset=offset)
             for agv_id, _ in views
-            if agv_id not in self._failed
+            if agv_id not in self._failed and agv_id not in self._left
         }
+
+    def left(self) -> list[str]:
+        """Ids of the AGVs whose process ended its run (exit status 0), sorted."""
+        return sorted(self._left)
 
     def observed(self) -> Mapping[str, ObservedAgv]:
         """The decoded projections of every AGV seen (for the safety check)."""
@@ -118,7 +129,7 @@ class AgvRoster:
     def _refresh(self, views: list[tuple[str, Mapping[str, Any]]]) -> None:
         heard = {agv_id for agv_id, _ in views}
         self._departed -= heard  # heard again: the departure was only lateness
-        gone = self._gone = self._exited | self._departed
+        gone = self._gone = (self._exited | self._departed) - self._left
         for agv_id in gone - set(self._failed):
             last = self._last.get(agv_id)
             if last is None:

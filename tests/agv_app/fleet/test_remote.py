@@ -130,7 +130,7 @@ def test_an_exited_agv_stays_on_the_floor_as_failed_and_leaves_the_nodes() -> No
     assert [v.id for v in roster.vehicles()] == ["agv-1", "agv-2"]
     assert sorted(roster.nodes()) == ["agv-1", "agv-2"]
     assert roster.vehicles()[0].locked
-    roster.exited(["agv-1"])
+    roster.exited({"agv-1": -9, "agv-2": None})
     vehicles = {v.id: v for v in roster.vehicles()}
     assert vehicles["agv-1"].status == FAILED
     assert (vehicles["agv-1"].x, vehicles["agv-1"].y) == (10.0, 9.0)
@@ -162,6 +162,20 @@ def test_a_departed_agv_fails_and_is_alive_again_when_heard_again() -> None:
 def test_an_agv_that_exits_before_it_is_heard_counts_as_failed_without_a_wreck() -> None:
     heard = Heard()
     roster = AgvRoster(["agv-1", "agv-2", "agv-3"], heard, clock_offset=lambda: 0.0)
-    roster.exited(["agv-3", "not-ours"])
+    roster.exited({"agv-3": 1, "not-ours": -9})
     assert roster.failed() == ["agv-3"]
     assert [v.id for v in roster.vehicles()] == ["agv-1", "agv-2"]
+
+
+def test_an_agv_whose_process_ended_its_run_has_left_and_did_not_fail() -> None:
+    heard = Heard()
+    roster = AgvRoster(["agv-1", "agv-2"], heard, clock_offset=lambda: 0.0)
+    roster.vehicles()
+    roster.departed("agv-1")  # its node said goodbye before its exit status is seen
+    del heard.props["agv-1"]
+    assert roster.failed() == ["agv-1"]
+    roster.exited({"agv-1": 0})
+    assert roster.failed() == []
+    assert roster.left() == ["agv-1"]
+    assert [v.id for v in roster.vehicles()] == ["agv-2"]
+    assert sorted(roster.nodes()) == ["agv-2"]
