@@ -9,7 +9,8 @@ const REFRESH_MS = 1000;
 const LIST_MS = 2000;
 const NODES_MS = 10000;
 const HISTORY_ROWS = 100;
-const GROUP_COLOR = "#ffffff";
+// One colour for the drawing and the legend's swatch: the page's --group.
+const GROUP_COLOR = getComputedStyle(document.documentElement).getPropertyValue("--group").trim() || "#ffffff";
 
 const TEMPLATES = {
   circles_overlap: { type: "circles_overlap", position: "position", radius: "hull_length" },

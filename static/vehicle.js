@@ -6,7 +6,8 @@
 // window.__vehiclePanel.
 
 const REFRESH_MS = 500;
-const ROUTE_COLOR = "#c6ff00";
+// One colour for the drawing and the legend's swatch: the page's --route.
+const ROUTE_COLOR = getComputedStyle(document.documentElement).getPropertyValue("--route").trim() || "#c6ff00";
 
 const panel = document.getElementById("vehicle-panel");
 const idLabel = document.getElementById("vehicle-id");

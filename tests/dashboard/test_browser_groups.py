@@ -13,6 +13,7 @@ import pytest
 
 from agv_app.fleet import Fleet, FleetConfig
 from tests.dashboard.browser import BROWSER_MARKS, chromium_page, load_dashboard
+from tests.dashboard.canvas import LEGEND_BORDER_RGB, PIXEL
 from tests.dashboard.served import Served
 
 pytestmark = BROWSER_MARKS
@@ -97,6 +98,11 @@ def test_a_typed_definition_is_shown_live_on_the_map(groups_page: tuple[Any, Ser
     page.wait_for_function("window.__groupsPanel.members.length > 0", timeout=5_000)
     assert set(page.evaluate("window.__groupsPanel.members")) == set(expected)
     page.wait_for_function("window.__groupsPanel.drawn >= 3", timeout=5_000)
+    # A member standing still (a station's node) is ringed in the legend's colour.
+    assert "st:pick-A1-1" in expected
+    at = page.evaluate("window.__dashboard.stationScreenPosition('pick-A1-1')")
+    ring = page.evaluate(LEGEND_BORDER_RGB, "#legend .sw.group")
+    assert page.evaluate(PIXEL, [at["x"] + 14, at["y"]]) == ring
     status = page.locator("#groups-status")
     assert "in the group from agv-01" in status.text_content()
     assert status.get_attribute("class") == "status"

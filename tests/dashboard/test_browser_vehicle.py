@@ -12,20 +12,10 @@ import pytest
 
 from agv_app.fleet import Fleet, FleetConfig
 from tests.dashboard.browser import BROWSER_MARKS, chromium_page, load_dashboard
+from tests.dashboard.canvas import LEGEND_RGB, PIXEL
 from tests.dashboard.served import Served
 
 pytestmark = BROWSER_MARKS
-
-ROUTE_RGB = [198, 255, 0]  # ROUTE_COLOR of static/vehicle.js
-
-PIXEL = """([x, y]) => {
-    const canvas = document.getElementById('floor');
-    const rect = canvas.getBoundingClientRect();
-    const k = canvas.width / rect.width;
-    const px = canvas.getContext('2d').getImageData(
-        Math.round((x - rect.left) * k), Math.round((y - rect.top) * k), 1, 1).data;
-    return [px[0], px[1], px[2]];
-}"""
 
 
 @pytest.fixture(scope="module")
@@ -119,10 +109,12 @@ def test_the_panel_shows_a_moving_agvs_route(fleet_page: tuple[Any, Served]) -> 
     assert page.locator("#vehicle-traffic tr").count() > 0
     assert page.evaluate("window.__dashboard.lastTask") is None, "an AGV click adds no task"
 
-    # The route's end is marked in the route colour on the canvas.
+    # The route's end is marked on the canvas in the colour the legend gives the route.
     detail = page.evaluate("window.__vehiclePanel.detail")
     end = page.evaluate("([x, y]) => window.__dashboard.screenPosition(x, y)", detail["route"][-1])
-    assert page.evaluate(PIXEL, [end["x"], end["y"]]) == ROUTE_RGB
+    route_rgb = page.evaluate(LEGEND_RGB, "#legend .sw.route")
+    assert route_rgb == [198, 255, 0]
+    assert page.evaluate(PIXEL, [end["x"], end["y"]]) == route_rgb
 
     # Moving on, the route left shrinks.
     left = detail["route_length"]
