@@ -32,6 +32,7 @@ from agv_app.tasks.load import (
     task_interval_for_load,
 )
 from agv_app.traffic.monitor import SafetyMonitor, SafetyViolation
+from agv_app.traffic.reach import interest_radius
 from agv_app.vehicle.controller import AgvConfig, AgvController
 from agv_app.vehicle.kinematics import VehicleSpec
 from objectplaces import RoleActivator
@@ -48,13 +49,20 @@ class FleetConfig:
         agvs: number of AGVs.
         seed: seeds the network and the task generator.
         dt: simulation step.
-        t_update: property update interval (heartbeat); safe time is twice this.
+        t_update: property update interval; the safe time is twice this. It is the
+            heartbeat too, unless ``heartbeat`` is given.
         delay: one-way network delay.
         jitter: delay variation.
         loss: frame loss probability.
         reorder: probability a frame is held back (reordering).
         duplicate: probability a frame is duplicated.
         broadcast: vote with every AGV instead of the collision group.
+        scoped: with collision groups, each AGV node hears only the nodes within its
+            interest radius (:func:`agv_app.traffic.reach.interest_radius`); stations
+            and the observer hear every node. Broadcast runs are never scoped.
+        interest_radius: the AGVs' interest radius when scoped (None: from the layout).
+        heartbeat: seconds between republications of every property (None: ``t_update``);
+            a node unheard for three heartbeats counts as failed.
         load: target share of busy AGVs, in (0, 1]; the task rate follows from it and
             the layout (:mod:`agv_app.tasks.load`) unless ``task_interval`` is given.
         task_interval: mean seconds between new tasks (None: from ``load``).
@@ -77,6 +85,9 @@ class FleetConfig:
     reorder: float = 0.0
     duplicate: float = 0.0
     broadcast: bool = False
+    scoped: bool = True
+    interest_radius: float | None = None
+    heartbeat: float | None = None
     load: float = DEFAULT_LOAD
     task_interval: float | None = None
     start_tasks: int | None = None
@@ -92,6 +103,10 @@ class FleetConfig:
             self.task_interval > 0 and math.isfinite(self.task_interval)
         ):
             raise ValueError(f"task_interval must be a positive number, got {self.task_interval!r}")
+        for name in ("interest_radius", "heartbeat"):
+            value = getattr(self, name)
+            if value is not None and not (value > 0 and math.isfinite(value)):
+                raise ValueError(f"{name} must be a positive number, got {value!r}")
         if self.start_tasks is not None and self.start_tasks < 0:
             raise ValueError(f"start_tasks must be 0 or more, got {self.start_tasks!r}")
 
@@ -125,6 +140,7 @@ class Fleet(FleetSourceBase):
         self.layout = layout or demo_warehouse()
         self.config = cfg = config or FleetConfig()
         self.spec = spec or VehicleSpec(DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M)
+        heartbeat = cfg.t_update if cfg.heartbeat is None else cfg.heartbeat
         self.net = SimulatedNetwork(
             cfg.seed,
             delay=cfg.delay,
@@ -132,8 +148,8 @@ class Fleet(FleetSourceBase):
             loss=cfg.loss,
             reorder=cfg.reorder,
             duplicate=cfg.duplicate,
-            property_interval=cfg.t_update,
-            failure_timeout=3 * cfg.t_update,
+            property_interval=heartbeat,
+            failure_timeout=3 * heartbeat,
         )
         self.rng = random.Random(cfg.seed)
         self.metrics_raw = FleetMetrics()
@@ -168,11 +184,13 @@ class Fleet(FleetSourceBase):
             ),
         )
         self.agv_config = AgvConfig(t_update=cfg.t_update, dwell=cfg.dwell, broadcast=cfg.broadcast)
+        self.interest_radius = self._interest_radius()
+        """The AGV nodes' interest radius (None: they hear every node)."""
         self.agvs: dict[str, AgvController] = {}
         width = max(2, len(str(cfg.agvs)))
         for i, home in enumerate(self.parking.homes):
             agv_id = f"agv-{i + 1:0{width}d}"
-            node = self.net.add_node(agv_id)
+            node = self.net.add_node(agv_id, interest_radius=self.interest_radius)
             start = home if starts is None else starts[i]
             self.agvs[agv_id] = AgvController(
                 node,
@@ -204,6 +222,16 @@ class Fleet(FleetSourceBase):
             None if self.task_interval is None else TaskArrivals(self.task_interval, self.rng)
         )
         self._next_task_at = self._draw_interval()
+
+    def _interest_radius(self) -> float | None:
+        cfg = self.config
+        if cfg.broadcast or not cfg.scoped:
+            return None
+        if cfg.interest_radius is not None:
+            return cfg.interest_radius
+        # A held-back frame waits up to four more delays (SimulatedNetwork's reorder).
+        worst_delay = (cfg.delay + cfg.jitter) * (5 if cfg.reorder else 1)
+        return interest_radius(self.layout, self.spec, self.agv_config, delay_s=worst_delay)
 
     def _relocate(self, agv: AgvController) -> str | None:
         """A free rest point for an idle AGV that stands in the way (nearest ahead).
@@ -243,7 +271,7 @@ class Fleet(FleetSourceBase):
 
     def recover(self, agv_id: str) -> None:
         """Bring a crashed AGV back on a fresh node."""
-        self.agvs[agv_id].restart(self.net.add_node(agv_id))
+        self.agvs[agv_id].restart(self.net.add_node(agv_id, interest_radius=self.interest_radius))
 
     # -- running --------------------------------------------------------------------------
 

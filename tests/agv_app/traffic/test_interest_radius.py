@@ -1,0 +1,203 @@
+"""The interest radius keeps every possible collider of every request in the requester's
+view (agv_app/traffic/reach.py, docs/traffic.md).
+
+After every network step of a scoped fleet, every pair of AGVs whose published circles
+overlap hear each other, every published hull length stays within the bound the radius
+is built from, and the safety monitor finds nothing. A radius that is too small is
+caught by the same check.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+
+from agv_app.fleet import Fleet, FleetConfig
+from agv_app.fleet.view import OBSERVER_ID
+from agv_app.layout import Layout, Point, Segment, Station
+from agv_app.layout.demo import demo_warehouse
+from agv_app.traffic.deadlock import StopPlan, clearance_for
+from agv_app.traffic.reach import (
+    interest_radius,
+    largest_hull_length,
+    longest_no_rest_zone,
+    unheard_colliders,
+)
+from agv_app.vehicle.controller import AgvConfig
+from agv_app.vehicle.kinematics import VehicleSpec
+from tests.agv_app.test_random_layouts import Floor, floors
+
+SPEC = VehicleSpec(2.0, 1.0)
+CLEARANCE = clearance_for(SPEC.length_m, SPEC.width_m)
+
+
+class ScopeWatch:
+    """Checks a fleet after every network step: who hears whom, how far hulls reach."""
+
+    def __init__(self, fleet: Fleet) -> None:
+        self.fleet = fleet
+        self.missed: list[tuple[float, str, str]] = []
+        self.checks = 0
+        self.longest_hull = 0.0
+        run_for = fleet.net.run_for
+
+        def run_and_check(seconds: float) -> None:
+            run_for(seconds)
+            self.check()
+
+        fleet.net.run_for = run_and_check  # type: ignore[method-assign]
+
+    def check(self) -> None:
+        """Every frame sent in the previous step has arrived: the views are settled."""
+        agvs = self.fleet.agvs
+        published = {a: agv.node.properties for a, agv in agvs.items() if not agv.failed}
+        heard = {a: agv.node.view().keys() for a, agv in agvs.items() if not agv.failed}
+        now = self.fleet.now
+        self.missed += [(now, a, b) for a, b in unheard_colliders(published, heard)]
+        self.checks += 1
+        for props in published.values():
+            length = props.get("hull_length")
+            if isinstance(length, float):
+                self.longest_hull = max(self.longest_hull, length)
+
+
+def _scoped_fleet(radius: float | None, seconds: float) -> tuple[Fleet, ScopeWatch]:
+    config = FleetConfig(agvs=12, seed=3, load=0.5, interest_radius=radius)
+    fleet = Fleet(config=config)
+    watch = ScopeWatch(fleet)
+    fleet.run(seconds)
+    return fleet, watch
+
+
+@pytest.fixture(scope="module")
+def scoped_run() -> tuple[Fleet, ScopeWatch]:
+    return _scoped_fleet(None, 150.0)
+
+
+def test_scoped_fleet_hears_every_possible_collider(scoped_run: tuple[Fleet, ScopeWatch]) -> None:
+    fleet, watch = scoped_run
+    assert fleet.interest_radius is not None
+    assert watch.checks == 1500
+    assert watch.missed == []
+    assert fleet.monitor.collisions == fleet.monitor.lock_overlaps == 0
+    assert fleet.summary()["tasks_completed"] >= 3
+
+
+def test_published_hull_lengths_stay_within_the_bound(
+    scoped_run: tuple[Fleet, ScopeWatch],
+) -> None:
+    fleet, watch = scoped_run
+    bound = largest_hull_length(fleet.layout, fleet.spec, fleet.agv_config)
+    assert 4.0 < watch.longest_hull <= bound
+    assert fleet.interest_radius == pytest.approx(
+        interest_radius(fleet.layout, fleet.spec, fleet.agv_config, delay_s=0.007)
+    )
+
+
+def test_a_radius_too_small_is_caught() -> None:
+    fleet, watch = _scoped_fleet(6.0, 60.0)
+    assert fleet.interest_radius == 6.0
+    assert watch.missed, "a 6 m radius must leave colliders unheard"
+
+
+def test_stations_and_observer_hear_every_node(scoped_run: tuple[Fleet, ScopeWatch]) -> None:
+    fleet, _ = scoped_run
+    stations = [n for n in fleet.nodes() if n.startswith("st:")]
+    assert stations
+    for node_id in [OBSERVER_ID, *stations]:
+        assert set(fleet.nodes()[node_id].view()) >= set(fleet.agvs)
+
+
+def test_broadcast_and_unscoped_fleets_hear_every_node() -> None:
+    assert Fleet(config=FleetConfig(agvs=2, broadcast=True)).interest_radius is None
+    assert Fleet(config=FleetConfig(agvs=2, scoped=False)).interest_radius is None
+    assert Fleet(config=FleetConfig(agvs=2, interest_radius=30.0)).interest_radius == 30.0
+
+
+@pytest.mark.parametrize("field", ["interest_radius", "heartbeat"])
+@pytest.mark.parametrize("value", [0.0, -1.0, float("inf")])
+def test_config_refuses_bad_radius_and_heartbeat(field: str, value: float) -> None:
+    with pytest.raises(ValueError, match=field):
+        FleetConfig(**{field: value})  # type: ignore[arg-type]
+
+
+def _property_frames(heartbeat: float | None) -> int:
+    fleet = Fleet(config=FleetConfig(agvs=2, heartbeat=heartbeat, start_tasks=0, load=0.01))
+    fleet.run(12.0)
+    frames: int = fleet.net.stats().per_node["agv-01"].sent["property"][0]
+    return frames
+
+
+def test_a_slower_heartbeat_republishes_less() -> None:
+    # Idle AGVs publish nothing new: every frame after the first is a heartbeat.
+    assert 3 * _property_frames(5.0) < _property_frames(None)
+
+
+# -- the bound itself -------------------------------------------------------------------
+
+
+def _longest_zone_and_request(layout: Layout, advance_m: float) -> tuple[float, float]:
+    """The longest no-rest zone and request of every route between any two points."""
+    zone = request = 0.0
+    for a, b in itertools.permutations(sorted(layout.points), 2):
+        if layout.distance(a, b) == float("inf"):
+            continue
+        plan = StopPlan.for_route(layout, layout.route(a, b), clearance_m=CLEARANCE)
+        zone = max([zone, *(hi - lo for lo, hi in plan.zones)])
+        steps = max(1, int(plan.length / 0.25))
+        for k in range(steps + 1):
+            s = plan.length * k / steps
+            request = max(request, plan.next_stop(s, advance_m) - s)
+    return zone, request
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(floor=floors())
+def test_no_route_has_a_longer_zone_or_request_than_the_bound(floor: Floor) -> None:
+    advance = AgvConfig().advance_m
+    bound = longest_no_rest_zone(floor.layout, CLEARANCE)
+    zone, request = _longest_zone_and_request(floor.layout, advance)
+    assert zone <= bound + 1e-9
+    assert request <= 1.25 * advance + bound + 1e-9
+
+
+def test_zone_bound_on_a_two_way_lane_between_one_way_stretches() -> None:
+    """Two two-way runs joined by a one-way piece shorter than twice the clearance merge."""
+    points = [Point(p, x, 0.0) for p, x in (("a", 0.0), ("b", 10.0), ("c", 13.0), ("d", 25.0))]
+    points += [Point("e", 12.0, 8.0)]
+    segments = [
+        Segment("ab", "a", "b", bidirectional=True),
+        Segment("bc", "b", "c"),
+        Segment("ce", "c", "e"),
+        Segment("eb", "e", "b"),
+        Segment("cd", "c", "d", bidirectional=True),
+    ]
+    stations = [Station("sa", "a", "pickdrop"), Station("sd", "d", "pickdrop")]
+    layout = Layout(points, segments, stations, name="joined")
+    zone, _ = _longest_zone_and_request(layout, AgvConfig().advance_m)
+    assert zone == pytest.approx(10.0 + 3.0 + 12.0 + 2 * CLEARANCE)
+    assert longest_no_rest_zone(layout, CLEARANCE) >= zone
+
+
+def test_one_way_layout_has_no_zone_and_demo_radius_is_bounded() -> None:
+    points = [Point("a", 0.0, 0.0), Point("b", 10.0, 0.0)]
+    layout = Layout(points, [Segment("ab", "a", "b")], [], name="one-way")
+    assert longest_no_rest_zone(layout, CLEARANCE) == 0.0
+    demo = demo_warehouse()
+    x0, y0, x1, y1 = demo.bounds()
+    longest = largest_hull_length(demo, SPEC, AgvConfig())
+    assert longest <= ((x1 - x0) ** 2 + (y1 - y0) ** 2) ** 0.5 + 2.0
+    assert interest_radius(demo, SPEC, AgvConfig(), delay_s=0.01) > 2 * longest
+
+
+def test_unheard_colliders_finds_overlapping_circles_only() -> None:
+    published: dict[str, dict[str, object]] = {
+        "a": {"position": (0.0, 0.0), "hull_length": 5.0},
+        "b": {"position": (9.0, 0.0), "hull_length": 5.0},
+        "c": {"position": (30.0, 0.0), "hull_length": 5.0},
+        "d": {"kind": "agv"},
+    }
+    heard: dict[str, set[str]] = {"a": {"c"}, "b": {"a"}, "c": set(), "d": set()}
+    assert unheard_colliders(published, heard) == [("a", "b")]
