@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import pytest
 
@@ -10,7 +11,8 @@ from agv_app.fleet import Fleet, FleetConfig
 from dashboard.app import create_app
 from dashboard.state import DashboardState
 from dashboard.vehicle_detail import route_length
-from tests.dashboard.conftest import TestClient
+from tests.dashboard.bodies import poll_body
+from tests.dashboard.conftest import NetworkSource, TestClient, advance
 
 
 @pytest.fixture
@@ -29,7 +31,7 @@ def dashboard(client: TestClient) -> DashboardState:
     return state
 
 
-def run_until_driving(fleet: Fleet, client: TestClient, task_id: str) -> dict[str, object]:
+def run_until_driving(fleet: Fleet, client: TestClient, task_id: str) -> dict[str, Any]:
     """Advance the fleet (publishing as the driver does) until the task's AGV drives."""
     state = dashboard(client)
     for _ in range(400):
@@ -76,8 +78,8 @@ def test_a_driving_vehicle_shows_its_route_locks_sessions_and_traffic(
     # It asked the others for floor (a session it initiates) and voted in theirs or not:
     # both lists agree with the node's own view.
     node = fleet.nodes()[str(detail["id"])]
-    assert {s["id"] for s in detail["initiated"]} == {str(i.session_id) for i in node.sessions()}  # type: ignore[union-attr, index]
-    assert {p["session_id"] for p in detail["participating"]} == {  # type: ignore[union-attr, index]
+    assert {s["id"] for s in detail["initiated"]} == {str(i.session_id) for i in node.sessions()}
+    assert {p["session_id"] for p in detail["participating"]} == {
         str(p.session_id) for p in node.participations()
     }
 
@@ -127,3 +129,42 @@ def test_bad_panel_requests_are_4xx(client: TestClient, url: str, status: int) -
     r = client.get(url)
     assert r.status_code == status, r.text
     assert r.json()["detail"]
+
+
+def test_an_api_sessions_members_join_and_leave_as_they_move(source: NetworkSource) -> None:
+    client = TestClient(create_app(source))
+    state = dashboard(client)
+    # agv-1 at (10, 9) polls within 5 m: agv-2 at (14, 9) is in, then moves away.
+    r = client.post("/api/sessions", json=poll_body("agv-1", {"type": "within", "distance": 5.0}))
+    sid = r.json()["id"]
+    path = "/api/membership/" + sid.replace("#", "%23")
+    for _ in range(10):
+        advance(source, 0.2)
+        state.publish()
+    one = client.get(path).json()
+    assert one["members"] == ["agv-2"]
+    assert [(c["node"], c["change"]) for c in one["changes"]] == [("agv-2", "joined")]
+    assert one["definition"]["type"] == "within"
+    source.nodes()["agv-2"].update_node_property("position", (40.0, 9.0))
+    for _ in range(10):
+        advance(source, 0.2)
+        state.publish()
+    one = client.get(path).json()
+    assert one["members"] == []
+    assert [(c["node"], c["change"]) for c in one["changes"]] == [
+        ("agv-2", "joined"),
+        ("agv-2", "left"),
+    ]
+    assert one["changes"][0]["time"] < one["changes"][1]["time"]
+    assert client.delete("/api/sessions/" + sid.replace("#", "%23")).status_code == 200
+    state.publish()
+    ended = client.get(path).json()
+    assert ended["ended_at"] is not None
+    assert client.get("/api/membership").json()[0]["id"] == sid
+
+
+def test_a_fleet_without_vehicles_has_no_vehicle_detail(source: NetworkSource) -> None:
+    client = TestClient(create_app(source))
+    r = client.get("/api/vehicles/agv-1/detail")  # a node, but no vehicle
+    assert r.status_code == 404
+    assert "agv-1" in r.json()["detail"]
