@@ -3,8 +3,7 @@
 The pose, status and lock state come from the fleet's ``VehicleView``; the sessions and
 the traffic from the AGV's own node (an AGV's id is its node id); how long it has been
 waiting from the dashboard's watch; the route ahead from the fleet when it can tell
-(``RouteSource``, optional: a fleet of separate processes does not know its AGVs' routes,
-and then the route is empty).
+(``RouteSource``, optional: for a fleet without it the route is empty).
 """
 
 from __future__ import annotations
