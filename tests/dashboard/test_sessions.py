@@ -37,7 +37,7 @@ def test_a_start_that_fails_on_bad_input_is_undone_and_422(source: NetworkSource
     kept = node.start_interaction(PollInitiator("status"), groups.within(5.0), "poll-responder")
     failing = FailsAfterStarting(node, OverflowError("cannot convert float infinity"))
     with pytest.raises(HTTPException) as refused:
-        start_or_undo(failing, PollInitiator("status"), groups.within(5.0), "poll-responder")  # type: ignore[arg-type]
+        start_or_undo(failing, PollInitiator("status"), groups.within(5.0), "poll-responder")
     assert refused.value.status_code == 422
     assert "cannot start the session: cannot convert float infinity" in refused.value.detail
     assert live_ids(node) == [str(kept.session_id)]
@@ -47,7 +47,7 @@ def test_a_start_that_fails_otherwise_is_undone_and_reraised(source: NetworkSour
     node = source.nodes()["agv-1"]
     failing = FailsAfterStarting(node, MemoryError())
     with pytest.raises(MemoryError):
-        start_or_undo(failing, PollInitiator("status"), groups.within(5.0), "poll-responder")  # type: ignore[arg-type]
+        start_or_undo(failing, PollInitiator("status"), groups.within(5.0), "poll-responder")
     assert live_ids(node) == []
 
 
