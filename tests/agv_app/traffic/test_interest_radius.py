@@ -201,3 +201,54 @@ def test_unheard_colliders_finds_overlapping_circles_only() -> None:
     }
     heard: dict[str, set[str]] = {"a": {"c"}, "b": {"a"}, "c": set(), "d": set()}
     assert unheard_colliders(published, heard) == [("a", "b")]
+
+
+# -- a floor longer than the radius: the scope really leaves nodes out ------------------
+
+
+def long_loop(length_m: float = 300.0) -> Layout:
+    """A one-way loop ``length_m`` long and 20 m wide: parking spurs off the south lane
+    every 5 m, station spurs off the north lane every 20 m."""
+    points: list[Point] = []
+    segments: list[Segment] = []
+    stations: list[Station] = []
+    xs = [5.0 * k for k in range(int(length_m / 5) + 1)]
+    south = [f"s{k}" for k in range(len(xs))]
+    north = [f"n{k}" for k in range(len(xs))]
+    points += [Point(p, x, 0.0) for p, x in zip(south, xs, strict=True)]
+    points += [Point(p, x, 20.0) for p, x in zip(north, xs, strict=True)]
+    lane = [*south, *reversed(north), south[0]]  # east along y=0, west along y=20
+    segments += [Segment(f"{a}>{b}", a, b) for a, b in itertools.pairwise(lane)]
+    kinds = ("pick", "drop", "pickdrop")
+    for k in range(1, len(xs) - 1):
+        points.append(Point(f"park{k}", xs[k], 2.5))
+        segments.append(Segment(f"s{k}-park{k}", f"s{k}", f"park{k}", bidirectional=True))
+        stations.append(Station(f"park-{k}", f"park{k}", "parking"))
+        if k % 4 == 0:
+            points.append(Point(f"dock{k}", xs[k], 17.5))
+            segments.append(Segment(f"n{k}-dock{k}", f"n{k}", f"dock{k}", bidirectional=True))
+            stations.append(Station(f"dock-{k}", f"dock{k}", kinds[(k // 4) % 3]))
+    return Layout(points, segments, stations, name="long-loop")
+
+
+def test_on_a_long_floor_agvs_hear_only_their_neighbourhood() -> None:
+    config = FleetConfig(agvs=12, seed=5, load=0.6)
+    fleet = Fleet(long_loop(), config)
+    watch = ScopeWatch(fleet)
+    heard_fewer = 0
+
+    def count_scoped() -> None:
+        nonlocal heard_fewer
+        for agv in fleet.agvs.values():
+            heard = set(agv.node.view()) & set(fleet.agvs)
+            heard_fewer += len(heard) < len(fleet.agvs) - 1
+
+    for _ in range(15):
+        fleet.run(10.0)
+        count_scoped()
+    assert fleet.interest_radius is not None
+    assert fleet.interest_radius < 100.0
+    assert heard_fewer > 0, "on a 300 m floor some AGVs must be out of each other's scope"
+    assert watch.missed == []
+    assert fleet.monitor.collisions == fleet.monitor.lock_overlaps == 0
+    assert fleet.summary()["tasks_completed"] >= 1
