@@ -18,6 +18,7 @@ from agv_app.fleet import Fleet, FleetConfig
 from agv_app.fleet.view import OBSERVER_ID
 from agv_app.layout import Layout, Point, Segment, Station
 from agv_app.layout.demo import demo_warehouse
+from agv_app.layout.elements import StationKind
 from agv_app.traffic.deadlock import StopPlan, clearance_for
 from agv_app.traffic.reach import (
     interest_radius,
@@ -219,7 +220,7 @@ def long_loop(length_m: float = 300.0) -> Layout:
     points += [Point(p, x, 20.0) for p, x in zip(north, xs, strict=True)]
     lane = [*south, *reversed(north), south[0]]  # east along y=0, west along y=20
     segments += [Segment(f"{a}>{b}", a, b) for a, b in itertools.pairwise(lane)]
-    kinds = ("pick", "drop", "pickdrop")
+    kinds: tuple[StationKind, ...] = ("pick", "drop", "pickdrop")
     for k in range(1, len(xs) - 1):
         points.append(Point(f"park{k}", xs[k], 2.5))
         segments.append(Segment(f"s{k}-park{k}", f"s{k}", f"park{k}", bidirectional=True))
