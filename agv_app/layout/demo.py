@@ -15,20 +15,30 @@ Plan (x east, y north, metres; about 60 x 40)::
     y=4    S@W --> S lane, one-way eastbound -----------------> S@E
     y=1.5  S-row south spurs (parking, 4 docks: inbound "pick", outbound "drop")
 
-Every lane is one-way, so no two AGVs ever meet head-on on one and an AGV may wait
-anywhere on a lane: traffic flows in three counter-clockwise loops. The lower loop
-(S lane east, E column north, M lane west, W column south) joins the docks and the
-S row to the aisles; the upper loop (N lane east, E column north, P lane west, W column
-south) the N and P rows; between M and N, each northbound aisle with any southbound
-aisle east of it makes a loop (N east, down the southbound aisle, M west, up the
-northbound one), so an AGV gets from any aisle to any other without crossing the floor.
+Every lane is one-way, so no two AGVs ever meet head-on on one and an AGV may wait on
+a lane anywhere but in a keep-clear box (below). Traffic flows in counter-clockwise
+loops. The lower loop (S lane east, E column north, M lane west, W column south) joins
+the docks and the S row to the aisles; the upper loop (N lane east, E column north,
+P lane west, W column south) the N and P rows; between M and N, each northbound aisle
+with any southbound aisle east of it makes a loop (N east, down the southbound aisle,
+M west, up the northbound one), so an AGV gets from any aisle to any other within
+about 130 m.
+
+Every merge (a southbound aisle into the M lane, a northbound one into the N lane, the
+M lane into the W column, the N lane into the E column) ends in a keep-clear box: its
+last 1.5 m are marked two-way, although no route drives them the other way (from the
+junction the box leads nowhere). The traffic rules let no AGV rest on a two-way
+stretch, so one that merges waits with its hull clear of the lane it joins and
+crosses the junction, turn included, on one lock. Without the box it may stop on the
+junction still facing the way it came, a vehicle on the lane pulls up behind it into
+the room its turn needs, and each waits for the other for ever.
 
 Every station sits at the end of its own short two-way spur, off the lanes, so a
-vehicle can stop there without blocking a lane; the spur is the only two-way stretch,
-and its end is a dead end, a passing place. Spurs are 2.5 m long and 1.25 m apart: a
-2 m x 1 m vehicle parked at a spur end keeps at least 0.25 m from its neighbours and
-1 m from vehicles passing (or turning) on the lane; lanes are far enough apart that
-hulls on them never touch.
+vehicle can stop there without blocking a lane; its end is a dead end, a passing
+place, and leaving it is a merge the spur itself keeps clear. Spurs are 2.5 m long and
+1.25 m apart: a 2 m x 1 m vehicle parked at a spur end keeps at least 0.25 m from its
+neighbours and 1 m from vehicles passing (or turning) on the lane; lanes are far enough
+apart that hulls on them never touch.
 """
 
 from __future__ import annotations
@@ -55,6 +65,7 @@ _N_XS = [8.0 + _PITCH * k for k in range(39)]  # N row: 8.0 .. 55.5
 _AISLE_XS = [8.0 + 6.25 * j for j in range(8)]  # 8.0 .. 51.75, on the N grid
 _AISLE_STATION_YS = (14.0, 19.0, 24.0)
 _AISLE_KINDS: tuple[StationKind, ...] = ("pick", "pickdrop", "drop")
+_BOX = 1.5  # keep-clear box before a merge: a hull there is clear of the lane it joins
 
 
 class _Builder:
@@ -70,6 +81,12 @@ class _Builder:
     def chain(self, ids: list[str], *, bidirectional: bool = False) -> None:
         for a, b in itertools.pairwise(ids):
             self.segments.append(Segment(f"{a}>{b}", a, b, bidirectional=bidirectional))
+
+    def merge(self, ids: list[str], box: str) -> None:
+        """One-way along ``ids``, the last piece (from ``box`` on) a keep-clear box."""
+        self.chain([*ids[:-1], box])
+        end = ids[-1]
+        self.segments.append(Segment(f"{box}>{end}", box, end, bidirectional=True))
 
     def spur(self, base: str, end: str, station: str, kind: StationKind) -> None:
         self.segments.append(Segment(f"{base}>{end}", base, end, bidirectional=True))
@@ -98,10 +115,13 @@ def demo_warehouse() -> Layout:
     w_n = b.point("W@N", _X_WEST, _Y_N)
     e_mid = b.point("E@mid", _X_EAST, (_Y_M + _Y_N) / 2)
 
+    n_box = b.point("N@E-box", _X_EAST - _BOX, _Y_N)
+    m_box = b.point("M@W-box", _X_WEST + _BOX, _Y_M)
+
     b.chain(s_lane)
-    b.chain([w_n, *n_lane])
+    b.merge([w_n, *n_lane], n_box)  # joins the E column
     b.chain(p_lane)
-    b.chain(m_lane[::-1])  # westbound: from the E column to the W column
+    b.merge(m_lane[::-1], m_box)  # westbound, joins the W column
     b.chain(["S@E", "M@E", e_mid, "N@E", "P@E"])  # E column, northbound
     b.chain(["P@W", w_n, "M@W", "S@W"])  # W column, southbound
 
@@ -110,7 +130,12 @@ def demo_warehouse() -> Layout:
         atag = round(x * 100)
         stops = [b.point(f"A{j + 1}-{k + 1}", x, y) for k, y in enumerate(_AISLE_STATION_YS)]
         ids = [f"M{atag:04d}", *stops, f"N{atag:04d}"]
-        b.chain(ids if j % 2 == 0 else ids[::-1])
+        if j % 2 == 0:
+            box = b.point(f"A{j + 1}-box", x, _Y_N - _BOX)
+            b.merge(ids, box)
+        else:
+            box = b.point(f"A{j + 1}-box", x, _Y_M + _BOX)
+            b.merge(ids[::-1], box)
         for k, (stop, y) in enumerate(zip(stops, _AISLE_STATION_YS, strict=True)):
             end = b.point(f"{stop}e", x + _SPUR, y)
             aisle_kind = _AISLE_KINDS[k]
