@@ -41,6 +41,7 @@ from agv_app.fleet.parking import home_heading
 from agv_app.fleet.remote import roles_wire, sessions_wire, traffic_wire
 from agv_app.geometry import Area, polygon_to_coords
 from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
+from agv_app.traffic.reach import interest_radius
 from agv_app.vda5050.process import bridge_for, vehicle_class
 from agv_app.vehicle.controller import AgvConfig, AgvController
 from agv_app.vehicle.kinematics import VehicleSpec
@@ -164,9 +165,22 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     )
     parser.add_argument("--dwell", type=float, default=5.0, help="seconds at a station")
     parser.add_argument(
+        "--interest-radius",
+        default="auto",
+        help="scoped dissemination radius, m; 'auto' (default): from the layout's largest "
+        "hull projection (agv_app.traffic.reach); 'none': hear every node",
+    )
+    parser.add_argument(
         "--vda5050", default=None, metavar="mqtt://HOST:PORT", help="speak VDA 5050 over MQTT"
     )
     args = parser.parse_args(argv)
+    if args.interest_radius not in ("auto", "none"):
+        try:
+            args.interest_radius = float(args.interest_radius)
+        except ValueError:
+            args.interest_radius = -1.0
+        if not (args.interest_radius > 0 and math.isfinite(args.interest_radius)):
+            parser.error("--interest-radius must be 'auto', 'none' or a number > 0")
     for name in ("dt", "t_update", "publish_interval", "run_seconds"):
         if not getattr(args, name) > 0:
             parser.error(f"--{name.replace('_', '-')} must be > 0, got {getattr(args, name)!r}")
@@ -263,6 +277,12 @@ async def run(args: argparse.Namespace, secret: bytes) -> int:
     stop = asyncio.Event()
     for signum in (signal.SIGTERM, signal.SIGINT):
         loop.add_signal_handler(signum, stop.set)
+    spec = VehicleSpec(DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M)
+    config = AgvConfig(t_update=args.t_update, dwell=args.dwell)
+    radius = args.interest_radius
+    if radius == "auto":
+        # A loaded machine delays frames by up to the largest step lag.
+        radius = interest_radius(layout, spec, config, delay_s=_MAX_LAG_S)
     node = await start_node(
         args.id,
         listen=args.listen,
@@ -270,15 +290,16 @@ async def run(args: argparse.Namespace, secret: bytes) -> int:
         secret=secret,
         property_interval=args.t_update,
         failure_timeout=3 * args.t_update,
+        interest_radius=None if radius == "none" else radius,
     )
     try:
         agv = vehicle_class(args.vda5050)(
             node,
             layout,
-            VehicleSpec(DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M),
+            spec,
             args.home,
             heading_rad=home_heading(layout, args.home),
-            config=AgvConfig(t_update=args.t_update, dwell=args.dwell),
+            config=config,
         )
         display = DisplayPublisher(agv)
         display.publish()
