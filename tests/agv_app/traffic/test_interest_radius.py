@@ -14,7 +14,7 @@ import itertools
 import pytest
 from hypothesis import HealthCheck, given, settings
 
-from agv_app.fleet import Fleet, FleetConfig
+from agv_app.fleet import Fleet, FleetConfig, agv_process
 from agv_app.fleet.view import OBSERVER_ID
 from agv_app.layout import Layout, Point, Segment, Station
 from agv_app.layout.demo import demo_warehouse
@@ -253,3 +253,22 @@ def test_on_a_long_floor_agvs_hear_only_their_neighbourhood() -> None:
     assert watch.missed == []
     assert fleet.monitor.collisions == fleet.monitor.lock_overlaps == 0
     assert fleet.summary()["tasks_completed"] >= 1
+
+
+# -- the AGV process on the mesh --------------------------------------------------------
+
+_PROCESS_ARGS = ["--id", "agv-1", "--secret-file", "secret", "--home", "P0350n"]
+
+
+@pytest.mark.parametrize(
+    ("given", "expected"), [(None, "auto"), ("none", "none"), ("40", 40.0), ("12.5", 12.5)]
+)
+def test_agv_process_takes_an_interest_radius(given: str | None, expected: object) -> None:
+    extra = [] if given is None else ["--interest-radius", given]
+    assert agv_process.parse_args([*_PROCESS_ARGS, *extra]).interest_radius == expected
+
+
+@pytest.mark.parametrize("given", ["0", "-3", "far", "inf"])
+def test_agv_process_refuses_a_bad_interest_radius(given: str) -> None:
+    with pytest.raises(SystemExit):
+        agv_process.parse_args([*_PROCESS_ARGS, "--interest-radius", given])
