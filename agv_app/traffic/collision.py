@@ -17,20 +17,22 @@ Roles on ObjectPlaces (DESIGN.md, "The AGV application"):
   ``recheck`` seconds (its view of the requester may catch up).
 
 A voter that allowed a request must not later win a conflict with it: its own
-requests that overlap a request it allowed (still pending: the voter is still in its
-session) get a lower priority than that one (:meth:`LockBook.next_priority`). Within
-that rule an AGV keeps the priority of its first attempt at a stretch across retries,
-so the one that has waited longest goes first (no starvation at a busy two-way lane).
+requests that overlap a request it allowed (until the requester says it ended, an
+``end`` message, or ``keep_allowed`` passed) get a lower priority than that one
+(:meth:`LockBook.next_priority`). Within that rule an AGV keeps the priority of its
+first attempt at a stretch across retries, so the one that has waited longest wins.
 
-One addition keeps requests from waiting on each other in a circle: a voter that
-defers because of one of its *locks* says so, and a requester still held up by a lock
-after ``patience`` seconds withdraws (stops the session and drops its request) and
-retries later with a fresh priority. (Most locks are released within that time as
-their owners drive on; keeping the request meanwhile keeps its place in line.) A request
-blocked by a lock can only proceed once that lock's owner moves, and the owner may
-need area the blocked request holds as "requested" with a higher priority; withdrawing
-frees it. A pending request is thus only ever held up by requests of higher priority,
-and the highest one in any cluster is held up by nothing.
+Fairness and the wait for locks (docs/traffic.md, "Why no cycle of waits can form"):
+
+* A request held up by a *lock* stays pending (``patience`` None), so it keeps its
+  place in line and no younger request slips past it. Instead the voter that holds it
+  up with a lock inherits its priority (``("blocking", ...)``: the AGV's next request
+  ranks just above it), and the waiting AGV *steps aside* for that lock's owner only:
+  its voter allows the owner's request, withdraws its own and asks again at once,
+  ranked below the owner's.
+* A request held up by an *older request* for ``queue_patience`` withdraws and retries
+  (same age): the last resort that lets a younger AGV whose allow ranks another AGV's
+  request above its own be overtaken.
 
 The bookkeeping all of them share lives in the node's tuplespace
 (:mod:`agv_app.traffic.lockbook`).
@@ -135,6 +137,12 @@ def _covers(circle: tuple[float, float, float] | None, area: Area) -> bool:
     return hull_length((x, y), [area]) <= r + _WIRE_GROWTH_M + 0.05
 
 
+def _outwaited(since: Mapping[str, float], patience: float | None, now: float) -> bool:
+    if patience is None:
+        return False
+    return any(now - t >= patience - 1e-9 for t in since.values())
+
+
 class Requester(Initiator):
     """Asks the collision group to allow one hull projection, then locks it.
 
@@ -143,7 +151,10 @@ class Requester(Initiator):
         safe_time: seconds to wait at least before locking (``2 * t_update``).
         group_view: the node's current view of the collision group (``view_group``).
         on_done: called once with ``"locked"`` or ``"withdrawn"``.
-        patience: seconds a voter's lock may hold the request up before it withdraws.
+        patience: seconds a voter's lock may hold the request up before it withdraws
+            (None: never; the AGV then steps aside for the lock's owner instead).
+        queue_patience: seconds a voter's older request may hold it up before it
+            withdraws (None: never).
         tally: counts the messages sent.
     """
 
@@ -152,7 +163,8 @@ class Requester(Initiator):
         entry: RequestEntry,
         *,
         safe_time: float,
-        patience: float = 4.0,
+        patience: float | None = 4.0,
+        queue_patience: float | None = None,
         group_view: Callable[[], frozenset[str]],
         on_done: Callable[[str], None],
         tally: MessageTally | None = None,
@@ -163,6 +175,8 @@ class Requester(Initiator):
         self._on_done = on_done
         self._tally = tally
         self.patience = patience
+        self.queue_patience = queue_patience
+        self._queued: dict[str, float] = {}
         self._votes: dict[str, bool] = {}
         self._blocked: dict[str, float] = {}
         self._message: dict[str, Any] = {
@@ -205,6 +219,7 @@ class Requester(Initiator):
         """
         self._votes.pop(participant.node_id, None)
         self._blocked.pop(participant.node_id, None)
+        self._queued.pop(participant.node_id, None)
         self.call_later(0.0, self._check)
 
     def receive(self, participant: ParticipantRef, message: Any) -> None:
@@ -215,25 +230,41 @@ class Requester(Initiator):
         if message.get("t") == "allow":
             self._votes[node] = True
             self._blocked.pop(node, None)
+            self._queued.pop(node, None)
             self._check()
         elif message.get("t") == "defer":
-            if message.get("why") != "lock":
-                self._blocked.pop(node, None)
-            elif node not in self._blocked:
-                self._blocked[node] = self.now()
-                self.call_later(self.patience, self._check)
+            why = message.get("why")
+            self._track(self._blocked, node, why == "lock", self.patience)
+            self._track(self._queued, node, why == "priority", self.queue_patience)
+
+    def _track(
+        self, since: dict[str, float], node: str, held: bool, patience: float | None
+    ) -> None:
+        if not held:
+            since.pop(node, None)
+        elif node not in since:
+            since[node] = self.now()
+            if patience is not None:
+                self.call_later(patience, self._check)
 
     def check(self) -> None:
         """Re-check whether the lock can be taken (the driver calls it periodically)."""
         self._check()
+
+    def withdraw(self) -> None:
+        """Drop the request now (the AGV steps aside, or asks again with a new priority)."""
+        if not self.done and self._started_at is not None:
+            self._finish("withdrawn")
 
     def _check(self) -> None:
         if self.done or self._started_at is None:
             return
         book = LockBook(self.space)
         now = self.now()
-        if book.hits_stale(self.entry.area) or any(
-            now - since >= self.patience - 1e-9 for since in self._blocked.values()
+        if (
+            book.hits_stale(self.entry.area)
+            or _outwaited(self._blocked, self.patience, now)
+            or _outwaited(self._queued, self.queue_patience, now)
         ):
             self._finish("withdrawn")
             return
@@ -252,6 +283,12 @@ class Requester(Initiator):
             book.grant(self.entry.key)
         else:
             book.withdraw(self.entry.key)
+        # Those that allowed need no longer rank below this request (written after the
+        # lock, so their next requests meet it as a lock).
+        end: dict[str, Any] = {"t": "end"}
+        for member in self.members:
+            if self._votes.get(member.node_id) and self.send(member, end):
+                tally_send(self._tally, "vote", end)
         self.stop()
         self._on_done(outcome)
 
@@ -264,6 +301,9 @@ class Voter(Participant):
         view: the node's view of the others' properties (``RoleActivator.view``).
         recheck: seconds between re-evaluations of a deferred request.
         keep_allowed: seconds an allowed request lowers this node's own priorities.
+        blockers: the nodes whose locks hold up this node's own pending request.
+        step_aside: withdraws this node's pending request and asks again at once (its
+            new priority ranks below the request just allowed).
         tally: counts the messages sent.
     """
 
@@ -274,9 +314,13 @@ class Voter(Participant):
         view: Callable[[], Mapping[str, Mapping[str, Any]]] | None = None,
         recheck: float = 0.5,
         keep_allowed: float = 30.0,
+        blockers: Callable[[], frozenset[str]] | None = None,
+        step_aside: Callable[[], None] | None = None,
         tally: MessageTally | None = None,
     ) -> None:
         self._group_view = group_view
+        self._blockers = blockers
+        self._step_aside = step_aside
         self._view = view
         self._keep = keep_allowed
         self._recheck = recheck
@@ -307,7 +351,13 @@ class Voter(Participant):
         self._watches = []
 
     def receive(self, message: Any) -> None:
-        """The request: evaluate it at once."""
+        """The request: evaluate it at once. Its end: forget that we allowed it."""
+        if isinstance(message, dict) and message.get("t") == "end":
+            # The request is locked (the requester's voter now defers for its lock) or
+            # withdrawn: our allow no longer needs to lower our own priorities.
+            if self._said == "allow":
+                LockBook(self.space).forget_allowed(self.session_id)
+            return
         if not isinstance(message, dict) or message.get("t") != "req" or self._area is not None:
             return
         try:
@@ -343,10 +393,20 @@ class Voter(Participant):
             self._group_view(),
             self._circle_of(requester),
         )
-        if verdict == "allow":
+        aside = (
+            verdict == "priority"
+            and self._blockers is not None
+            and self._step_aside is not None
+            and requester in self._blockers()
+        )
+        if verdict == "allow" or aside:
             self._unwatch()
             self._said = "allow"
             book.note_allowed(self.session_id, self._area, self._priority, keep=self._keep)
+            if aside and self._step_aside is not None:
+                # The requester's lock holds up our request, so it must move first: our
+                # request goes, and comes back ranked below the one we allow.
+                self._step_aside()
             message: dict[str, Any] = {"t": "allow"}
             self.send(message)
             tally_send(self._tally, "vote", message)
@@ -360,8 +420,10 @@ class Voter(Participant):
             ]
             self._schedule_recheck()
         if verdict == "lock":
-            # Tell our AGV that it stands in someone's way (an idle one moves off).
+            # Tell our AGV that it stands in someone's way (an idle one moves off), and
+            # let it inherit the priority of the request it holds up.
             self.space.out(("in_the_way", requester), lease=self._recheck * 2)
+            book.note_blocking(self.session_id, self._priority, lease=self._recheck * 3)
         if verdict != self._said:
             self._said = verdict
             message = {"t": "defer", "why": verdict}

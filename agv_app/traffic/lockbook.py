@@ -11,7 +11,10 @@ node's tuplespace (:class:`LockBook` is typed access to these tuples):
 * ``("in_the_way", requester)``: a voter deferred a request because of a lock
   (leased), so an idle AGV knows to move off;
 * ``("allowed", session, area, priority)``: a request this node's voter allowed
-  (leased: kept ``keep_allowed`` seconds).
+  (leased: kept ``keep_allowed`` seconds, or until its requester says it ended);
+* ``("blocking", session, priority)``: a request this node's voter defers because of
+  one of its locks (leased, renewed while it defers): the AGV inherits that request's
+  priority, so it gets out of the older request's way before younger ones.
 """
 
 from __future__ import annotations
@@ -130,6 +133,21 @@ class LockBook:
         """
         self.space.in_all(("allowed", session_id, ANY, ANY))
         self.space.out(("allowed", session_id, area, priority), lease=keep)
+
+    def forget_allowed(self, session_id: str) -> None:
+        """Forget that this node allowed the request of ``session_id``: its requester
+        said it is locked or withdrawn, so it no longer outranks our requests."""
+        self.space.in_all(("allowed", session_id, ANY, ANY))
+
+    def note_blocking(self, session_id: str, priority: Priority, *, lease: float) -> None:
+        """Remember for ``lease`` seconds that one of our locks holds up a request."""
+        self.space.in_all(("blocking", session_id, ANY))
+        self.space.out(("blocking", session_id, priority), lease=lease)
+
+    def inherited(self) -> float | None:
+        """The oldest start time of the requests our locks hold up (None: none)."""
+        times = [float(t[2][0]) for t in self.space.rd_all(("blocking", ANY, ANY))]
+        return min(times, default=None)
 
     def next_priority(self, wanted: float, node_id: str, area: Area) -> Priority:
         """A priority for a new request over ``area``, at time ``wanted`` if it may.

@@ -54,6 +54,10 @@ class AgvConfig:
         yield_after: seconds an AGV that stands where it may not rest (inside a two-way
             run: a dead-end dock) waits for its first lock before it backs off to a
             waiting place (``traffic/deadlock.py``, "Yielding").
+        patience: seconds a request held up by someone's lock stays pending before it
+            is withdrawn (None: never; it steps aside for the lock's owner instead).
+        queue_patience: seconds a request held up by an older request stays pending
+            before it is withdrawn (None: never); see docs/traffic.md.
     """
 
     t_update: float = 1.0
@@ -63,6 +67,8 @@ class AgvConfig:
     hull_margin_m: float = 0.05
     broadcast: bool = False
     yield_after: float = 15.0
+    patience: float | None = None
+    queue_patience: float | None = 30.0
 
 
 class AgvController:
@@ -133,6 +139,7 @@ class AgvController:
         self._stalled = False
         self._first_try: tuple[float, float] | None = None
         self._route_started_at = 0.0
+        self._asking_again = False
         self._resume: str | None = None
         """Where a yielding AGV goes once it has reached its waiting place."""
         self.node = node
@@ -170,6 +177,8 @@ class AgvController:
                 self._group_view,
                 view=self.node.view,
                 recheck=self.config.t_update / 2,
+                blockers=self._blockers,
+                step_aside=self._ask_again,
                 tally=self.tally,
             ),
         )
@@ -183,6 +192,35 @@ class AgvController:
 
     def _group_view(self) -> frozenset[str]:
         return self.node.view_group(self.definition)
+
+    def _blockers(self) -> frozenset[str]:
+        requester = self._requester
+        return frozenset() if requester is None else requester.blocked_by
+
+    def _ask_again(self) -> None:
+        """Withdraw the pending request and make a new one at once (no gap in which
+        younger requests would find our area free); its priority is worked out anew."""
+        requester = self._requester
+        if requester is None:
+            return
+        self._asking_again = True
+        try:
+            requester.withdraw()
+        finally:
+            self._asking_again = False
+        self._retry_at = 0.0
+        self._request_ahead(self.node.now())
+
+    def _priority_for(self, area: Area) -> tuple[float, str]:
+        """The priority of a request over ``area``: when the AGV started waiting for this
+        stretch, or the older priority of a request its locks hold up (inherited), then
+        ranked below the pending requests this node allowed."""
+        assert self._first_try is not None
+        wanted = self._first_try[1]
+        inherited = self.book.inherited()
+        if inherited is not None and inherited < wanted:
+            wanted = inherited - 1e-6
+        return self.book.next_priority(wanted, self.node_id, area)
 
     def _departed(self, node_id: str, last: Mapping[str, Any]) -> None:
         if last.get("kind") != AGV_KIND:
@@ -327,6 +365,7 @@ class AgvController:
                 self._next_release = now + self.config.t_update
                 if self._requester is not None:
                     self._requester.check()
+                    self._review_request(now)
                 if vehicle.s > self._released_at_s + 1e-6:
                     self._release()
             if vehicle.speed == 0.0 and vehicle.remaining() < 1e-6:
@@ -335,6 +374,23 @@ class AgvController:
         else:
             self._stalled = False
             self._idle(now)
+
+    def _review_request(self, now: float) -> None:
+        """Withdraw the pending request to yield (see ``_must_yield``), or ask again if
+        it would now rank higher (an inherited priority).
+
+        Not while a lock holds it up: asking again would restart its ``patience``.
+        """
+        requester = self._requester
+        if requester is None or requester.done:
+            return
+        if requester.blocked_by:
+            if self._must_yield(now):
+                requester.withdraw()
+            return
+        entry = requester.entry
+        if self._priority_for(entry.area) < entry.priority:
+            self._ask_again()
 
     @property
     def stalled(self) -> bool:
@@ -362,13 +418,14 @@ class AgvController:
         self._key += 1
         if self._first_try is None or self._first_try[0] != lock_end:
             self._first_try = (lock_end, now)
-        priority = book.next_priority(self._first_try[1], self.node_id, area)
-        entry = RequestEntry(self._key, end, area, priority)
+        entry = RequestEntry(self._key, end, area, self._priority_for(area))
         book.add_request(entry)
         self.publish()
         requester = Requester(
             entry,
             safe_time=safe_time,
+            patience=self.config.patience,
+            queue_patience=self.config.queue_patience,
             group_view=self._group_view,
             on_done=lambda outcome: self._request_done(requester, outcome),
             tally=self.tally,
@@ -382,9 +439,9 @@ class AgvController:
         self._requester = None
         now = self.node.now()
         if outcome == "locked":
-            if self._on_lock_wait is not None:
-                self._on_lock_wait(now - requester.entry.priority[0])
-        else:
+            if self._on_lock_wait is not None and self._first_try is not None:
+                self._on_lock_wait(now - self._first_try[1])
+        elif not self._asking_again:
             self._retry_at = now + self.config.retry
             if requester.blocked_by and self._must_yield(now):
                 self._yield()
