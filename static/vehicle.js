@@ -149,6 +149,7 @@ function select(id) {
   panel.hidden = !id;
   if (id) {
     idLabel.textContent = id;
+    panel.scrollIntoView({ block: "nearest" });
     refresh();
   }
 }
