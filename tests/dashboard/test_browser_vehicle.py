@@ -74,6 +74,18 @@ def test_an_agv_over_its_parking_station_wins_the_hover(fleet_page: tuple[Any, S
         "document.getElementById('tooltip').textContent.startsWith('pick-A1-1')", timeout=5_000
     )
     assert "click: add a transport task here" in tooltip.text_content()
+    # A drop station takes no task from a click, and its tooltip says so.
+    drop = page.evaluate("window.__dashboard.stationScreenPosition('drop-A1-3')")
+    page.mouse.move(drop["x"], drop["y"])
+    page.wait_for_function(
+        "document.getElementById('tooltip').textContent.startsWith('drop-A1-3')", timeout=5_000
+    )
+    assert "no tasks start here" in tooltip.text_content()
+    page.mouse.click(drop["x"], drop["y"])
+    # A request the click sent would have been answered well within this.
+    page.wait_for_timeout(500)
+    assert page.evaluate("window.__dashboard.lastTask") is None
+    assert page.locator("#control-status").text_content() == ""
     page.mouse.move(1, 1)
 
 
