@@ -18,7 +18,7 @@ from agv_app.fleet import Fleet, FleetConfig, agv_process
 from agv_app.fleet.view import OBSERVER_ID
 from agv_app.layout import Layout, Point, Segment, Station
 from agv_app.layout.demo import demo_warehouse
-from agv_app.layout.elements import StationKind
+from agv_app.layout.loop import long_loop
 from agv_app.traffic.deadlock import StopPlan, clearance_for
 from agv_app.traffic.reach import (
     interest_radius,
@@ -207,31 +207,6 @@ def test_unheard_colliders_finds_overlapping_circles_only() -> None:
 # -- a floor longer than the radius: the scope really leaves nodes out ------------------
 
 
-def long_loop(length_m: float = 300.0) -> Layout:
-    """A one-way loop ``length_m`` long and 20 m wide: parking spurs off the south lane
-    every 5 m, station spurs off the north lane every 20 m."""
-    points: list[Point] = []
-    segments: list[Segment] = []
-    stations: list[Station] = []
-    xs = [5.0 * k for k in range(int(length_m / 5) + 1)]
-    south = [f"s{k}" for k in range(len(xs))]
-    north = [f"n{k}" for k in range(len(xs))]
-    points += [Point(p, x, 0.0) for p, x in zip(south, xs, strict=True)]
-    points += [Point(p, x, 20.0) for p, x in zip(north, xs, strict=True)]
-    lane = [*south, *reversed(north), south[0]]  # east along y=0, west along y=20
-    segments += [Segment(f"{a}>{b}", a, b) for a, b in itertools.pairwise(lane)]
-    kinds: tuple[StationKind, ...] = ("pick", "drop", "pickdrop")
-    for k in range(1, len(xs) - 1):
-        points.append(Point(f"park{k}", xs[k], 2.5))
-        segments.append(Segment(f"s{k}-park{k}", f"s{k}", f"park{k}", bidirectional=True))
-        stations.append(Station(f"park-{k}", f"park{k}", "parking"))
-        if k % 4 == 0:
-            points.append(Point(f"dock{k}", xs[k], 17.5))
-            segments.append(Segment(f"n{k}-dock{k}", f"n{k}", f"dock{k}", bidirectional=True))
-            stations.append(Station(f"dock-{k}", f"dock{k}", kinds[(k // 4) % 3]))
-    return Layout(points, segments, stations, name="long-loop")
-
-
 def test_on_a_long_floor_agvs_hear_only_their_neighbourhood() -> None:
     config = FleetConfig(agvs=12, seed=5, load=0.6)
     fleet = Fleet(long_loop(), config)
@@ -272,3 +247,14 @@ def test_agv_process_takes_an_interest_radius(given: str | None, expected: objec
 def test_agv_process_refuses_a_bad_interest_radius(given: str) -> None:
     with pytest.raises(SystemExit):
         agv_process.parse_args([*_PROCESS_ARGS, "--interest-radius", given])
+
+
+def test_long_loop_is_one_loop_with_two_way_spurs_only() -> None:
+    layout = long_loop(100.0)
+    assert layout.bounds() == (0.0, 0.0, 100.0, 20.0)
+    assert set(layout.usable_stations()) == set(layout.stations)
+    assert all(
+        "park" in s.id or "dock" in s.id for s in layout.segments.values() if s.bidirectional
+    )
+    with pytest.raises(ValueError, match="length_m"):
+        long_loop(10.0)
