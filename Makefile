@@ -34,9 +34,9 @@ lint: $(STAMP)
 	$(BIN)/ruff format --check .
 	$(BIN)/mypy
 
-BENCHMARKS := tuplespace groups mesh fleet dashboard
+BENCHMARKS := tuplespace groups mesh fleet dashboard vda5050
 
-bench: $(STAMP) chromium
+bench: $(STAMP) chromium mosquitto
 	for name in $(BENCHMARKS); do $(BIN)/python -m bench.$$name || exit 1; done
 
 # The simulation suite (docs/soak.md): SEEDS seeds from 1, on two worker processes; a
