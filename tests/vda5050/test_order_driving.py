@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+from agv_app.tasks.auction import TaskSpec
 from agv_app.vda5050.validation import schema_errors
 from tests.vda5050.harness import OneVehicle, instant, make_order
 
@@ -181,3 +182,26 @@ def test_factsheet_and_state_requests_answer_with_valid_messages() -> None:
         assert schema_errors(o.subtopic, o.message) == []
     v.endpoint.handle("instantActions", json.dumps(instant("agv-01", ("x", "liftUp"))).encode())
     assert v.state()["instantActionStates"][-1]["actionStatus"] == "FAILED"
+
+
+def test_an_order_and_a_desk_task_never_run_at_once() -> None:
+    v = OneVehicle()
+    path = far_point(v)
+    pick = sorted(v.layout.stations)[0]
+    task = TaskSpec("task-1", pick, pick)
+    assert v.agv.bid_for(task) is not None, "idle without an order: it bids"
+    v.endpoint.handle("order", json.dumps(make_order(v.layout, "agv-01", path)).encode())
+    assert v.agv.status == "busy"
+    assert v.agv.bid_for(task) is None, "running an order: no bid"
+    v.run(150)
+    assert v.state()["nodeStates"] == []
+    assert v.agv.bid_for(task) is not None
+    v.agv.take(task)
+    back = list(v.layout.shortest_path(v.agv.point, v.home))
+    v.endpoint.handle(
+        "order", json.dumps(make_order(v.layout, "agv-01", back, order_id="o2")).encode()
+    )
+    error = v.state()["errors"][-1]
+    assert error["errorType"] == "orderError"
+    assert "task" in error["errorDescription"]
+    assert v.state()["orderId"] == "order-1"
