@@ -228,6 +228,15 @@ template.addEventListener("change", () => {
   definition.value = JSON.stringify(TEMPLATES[template.value]);
 });
 sessionSelect.addEventListener("change", refreshHistory);
+// A click on a row of the sessions panel picks that session here too.
+document.getElementById("sessions-body").addEventListener("click", (event) => {
+  const row = event.target.closest("tr[data-session-id]");
+  if (!row) return;
+  const id = row.getAttribute("data-session-id");
+  if (![...sessionSelect.options].some((o) => o.value === id)) sessionSelect.add(new Option(id, id));
+  sessionSelect.value = id;
+  refreshHistory();
+});
 nodeSelect.addEventListener("change", () => {
   if (live.definition) show();
 });
