@@ -27,6 +27,7 @@ from agv_app.layout.elements import Route
 from agv_app.layout.graph import Layout
 from agv_app.protocol import AGV_KIND, MessageTally
 from agv_app.tasks.auction import Bidder, TaskSpec
+from agv_app.traffic.central import CentralRequest, CentralScheduler
 from agv_app.traffic.collision import Requester, Voter, broadcast_group, collision_group
 from agv_app.traffic.deadlock import StopPlan, clearance_for
 from agv_app.traffic.lockbook import LockBook, LockEntry, RequestEntry, StaleRecord
@@ -88,6 +89,8 @@ class AgvController:
         on_lock_wait: called with the seconds a granted request waited.
         relocate: asked for another parking point when the idle AGV stands in someone's
             way, or when it must yield and its home is no waiting place (None: stay).
+        central: grant locks through this central scheduler instead of asking the
+            collision group (the baseline, :mod:`agv_app.traffic.central`).
     """
 
     def __init__(
@@ -105,6 +108,7 @@ class AgvController:
         on_task_done: Callable[[str], None] | None = None,
         on_lock_wait: Callable[[float], None] | None = None,
         relocate: Callable[[AgvController], str | None] | None = None,
+        central: CentralScheduler | None = None,
     ) -> None:
         self.layout = layout
         self.spec = spec
@@ -132,7 +136,8 @@ class AgvController:
         self._dest: str | None = None
         self._dwell_until = 0.0
         self._key = 0
-        self._requester: Requester | None = None
+        self._requester: Requester | CentralRequest | None = None
+        self._central = central
         self._retry_at = 0.0
         self._next_release = 0.0
         self._released_at_s = 0.0
@@ -144,6 +149,8 @@ class AgvController:
         """Where a yielding AGV goes once it has reached its waiting place."""
         self.node = node
         self.attach(node)
+        if central is not None:
+            central.register(self.node_id, lambda: self.book)
 
     # -- node -------------------------------------------------------------------------
 
@@ -421,6 +428,13 @@ class AgvController:
         entry = RequestEntry(self._key, end, area, self._priority_for(area))
         book.add_request(entry)
         self.publish()
+        if self._central is not None:
+            request = self._central.submit(
+                self.node_id, entry, lambda outcome: self._request_done(request, outcome)
+            )
+            self._requester = request
+            request.check()
+            return
         requester = Requester(
             entry,
             safe_time=safe_time,
@@ -433,7 +447,7 @@ class AgvController:
         self._requester = requester
         self.node.start_interaction(requester, self.definition, "voter")
 
-    def _request_done(self, requester: Requester, outcome: str) -> None:
+    def _request_done(self, requester: Requester | CentralRequest, outcome: str) -> None:
         if self._requester is not requester:
             return
         self._requester = None
