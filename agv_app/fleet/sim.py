@@ -31,6 +31,7 @@ from agv_app.tasks.load import (
     initial_tasks,
     task_interval_for_load,
 )
+from agv_app.traffic.central import CentralScheduler
 from agv_app.traffic.monitor import SafetyMonitor, SafetyViolation
 from agv_app.traffic.reach import interest_radius
 from agv_app.vehicle.controller import AgvConfig, AgvController
@@ -38,7 +39,10 @@ from agv_app.vehicle.kinematics import VehicleSpec
 from objectplaces import RoleActivator
 from objectplaces.sim import SimulatedNetwork
 
-__all__ = ["Fleet", "FleetConfig", "SafetyError"]
+__all__ = ["TRAFFIC_MODES", "Fleet", "FleetConfig", "SafetyError"]
+
+TRAFFIC_MODES = ("protocol", "central")
+"""How locks are granted: by the AGVs' collision groups, or by one central scheduler."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -57,6 +61,8 @@ class FleetConfig:
         reorder: probability a frame is held back (reordering).
         duplicate: probability a frame is duplicated.
         broadcast: vote with every AGV instead of the collision group.
+        traffic: ``"protocol"`` (the AGVs' own collision groups) or ``"central"`` (one
+            scheduler grants every lock, :mod:`agv_app.traffic.central`).
         scoped: with collision groups, each AGV node hears only the nodes within its
             interest radius (:func:`agv_app.traffic.reach.interest_radius`); stations
             and the observer hear every node. Broadcast runs are never scoped.
@@ -85,6 +91,7 @@ class FleetConfig:
     reorder: float = 0.0
     duplicate: float = 0.0
     broadcast: bool = False
+    traffic: str = "protocol"
     scoped: bool = True
     interest_radius: float | None = None
     heartbeat: float | None = None
@@ -99,6 +106,8 @@ class FleetConfig:
 
     def __post_init__(self) -> None:
         check_load(self.load)
+        if self.traffic not in TRAFFIC_MODES:
+            raise ValueError(f"traffic must be one of {TRAFFIC_MODES}, got {self.traffic!r}")
         if self.task_interval is not None and not (
             self.task_interval > 0 and math.isfinite(self.task_interval)
         ):
@@ -186,6 +195,7 @@ class Fleet(FleetSourceBase):
         self.agv_config = AgvConfig(t_update=cfg.t_update, dwell=cfg.dwell, broadcast=cfg.broadcast)
         self.interest_radius = self._interest_radius()
         """The AGV nodes' interest radius (None: they hear every node)."""
+        self.central = CentralScheduler() if cfg.traffic == "central" else None
         self.agvs: dict[str, AgvController] = {}
         width = max(2, len(str(cfg.agvs)))
         for i, home in enumerate(self.parking.homes):
@@ -207,6 +217,7 @@ class Fleet(FleetSourceBase):
                 on_task_done=self._task_done,
                 on_lock_wait=self.metrics_raw.lock_waits.append,
                 relocate=self._relocate,
+                central=self.central,
             )
             self.parking.claim(agv_id, home)
         for sid in pick_stations(self.layout):
@@ -286,6 +297,8 @@ class Fleet(FleetSourceBase):
         if (cfg.task_until is None or now < cfg.task_until) and now >= self._next_task_at:
             self.desk.create_random()
             self._next_task_at = self._draw_interval()
+        if self.central is not None:
+            self.central.grant_waiting()
         for agv_id, agv in self.agvs.items():
             agv.step(dt)
             m.agv_seconds += dt
