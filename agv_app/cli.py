@@ -14,7 +14,7 @@ import time
 from pathlib import Path
 
 from agv_app.fleet.parking import parking_capacity
-from agv_app.fleet.sim import Fleet, FleetConfig
+from agv_app.fleet.sim import TRAFFIC_MODES, Fleet, FleetConfig
 from agv_app.layout.elements import LayoutError
 from agv_app.layout.graph import Layout
 from agv_app.layout.json_format import load_any
@@ -77,6 +77,13 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
         "--broadcast", action="store_true", help="vote with every AGV (no collision groups)"
     )
     p.add_argument(
+        "--traffic",
+        choices=TRAFFIC_MODES,
+        default="protocol",
+        help="who grants locks: the AGVs' collision groups (protocol) or one central "
+        "first-come-first-served scheduler with no network (central, the baseline)",
+    )
+    p.add_argument(
         "--load",
         type=float,
         default=DEFAULT_LOAD,
@@ -125,6 +132,7 @@ def run_sim(args: argparse.Namespace) -> int:
             jitter=args.delay / 2000,
             loss=args.loss,
             broadcast=args.broadcast,
+            traffic=args.traffic,
             load=args.load,
             task_interval=args.task_interval,
         )
