@@ -3,13 +3,18 @@
 from __future__ import annotations
 
 import functools
+import json
+from pathlib import Path
+from typing import Any
 
+import pytest
 import shapely
 
 from agv_app.fleet import Fleet, FleetConfig
 from agv_app.geometry import Area
 from agv_app.traffic import LockBook, LockEntry, RequestEntry
 from agv_app.traffic.central import CentralScheduler
+from objectplaces.cli import main
 from tests.agv_app.test_random_layouts import single_track, two_docks_one_lane
 from tuplespace import ANY, TupleSpace
 
@@ -122,3 +127,24 @@ def test_central_fleet_on_a_single_track_stays_safe_and_delivers() -> None:
     figures = fleet.summary()
     assert figures["collisions"] == figures["lock_overlaps"] == 0
     assert figures["tasks_completed"] >= 4
+
+
+def test_sim_command_runs_the_central_baseline(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    made: list[FleetConfig] = []
+    real_init = Fleet.__init__
+
+    def spy(self: Fleet, *args: Any, **kwargs: Any) -> None:
+        real_init(self, *args, **kwargs)
+        made.append(self.config)
+
+    monkeypatch.setattr(Fleet, "__init__", spy)
+    out = tmp_path / "central.json"
+    args = ["sim", "--agvs", "3", "--minutes", "0.5", "--traffic", "central"]
+    code = main([*args, "--quiet", "--json", str(out)])
+    assert code == 0
+    assert [c.traffic for c in made] == ["central"]
+    assert json.loads(out.read_text())["lock_overlaps"] == 0
+    with pytest.raises(SystemExit):
+        main(["sim", "--traffic", "nobody", "--quiet"])
