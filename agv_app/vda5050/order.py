@@ -17,7 +17,7 @@ from agv_app.layout.graph import Layout
 from agv_app.vda5050.mapping import edge_fits
 from agv_app.vda5050.validation import schema_errors
 
-__all__ = ["OrderBook", "OrderEdge", "OrderNode", "Outcome", "VdaError"]
+__all__ = ["OrderBook", "OrderEdge", "OrderNode", "OrderRejected", "Outcome", "VdaError"]
 
 Outcome = Literal["accepted", "updated", "duplicate", "rejected"]
 
