@@ -101,6 +101,8 @@ def test_a_radius_too_small_is_caught() -> None:
     fleet, watch = _scoped_fleet(6.0, 60.0)
     assert fleet.interest_radius == 6.0
     assert watch.missed, "a 6 m radius must leave colliders unheard"
+    # And an unheard collider is a real danger: locks granted over each other.
+    assert fleet.monitor.lock_overlaps > 0
 
 
 def test_stations_and_observer_hear_every_node(scoped_run: tuple[Fleet, ScopeWatch]) -> None:
