@@ -14,7 +14,7 @@ import collections
 import contextlib
 import threading
 from collections.abc import Callable
-from typing import Any
+from typing import Any, TypeVar
 
 import msgpack
 import zenoh
@@ -22,13 +22,15 @@ import zenoh
 from objectplaces.transport.routing import Cell
 from objectplaces.transport.zenoh_keys import FleetKeys
 
-__all__ = ["Item", "ZenohInbox"]
+__all__ = ["Item", "ZenohInbox", "direct"]
 
 Item = tuple[Any, ...]
 """``("frame", source, data)``, ``("alive" | "gone", node, incarnation)`` or
 ``("query", asker, cells)`` (cells None: the asker hears everything)."""
 
 _MAX_CELLS = 4096
+
+T = TypeVar("T")
 
 
 class ZenohInbox:
@@ -68,7 +70,7 @@ class ZenohInbox:
 
     # ------------------------------------------------------------------ Zenoh's threads
 
-    def data_callback(self, keys: FleetKeys) -> Callable[[zenoh.Sample], None]:
+    def data_callback(self, keys: FleetKeys) -> zenoh.handlers.Callback[zenoh.Sample]:
         """The callback of a data subscriber of ``keys``' fleet."""
         max_frame = self._max_frame
 
@@ -83,9 +85,9 @@ class ZenohInbox:
             else:
                 self._push(("frame", inbound.source, sample.payload.to_bytes()))
 
-        return on_sample
+        return direct(on_sample)
 
-    def alive_callback(self, keys: FleetKeys) -> Callable[[zenoh.Sample], None]:
+    def alive_callback(self, keys: FleetKeys) -> zenoh.handlers.Callback[zenoh.Sample]:
         """The callback of the liveliness subscriber of ``keys``' fleet."""
 
         def on_token(sample: zenoh.Sample) -> None:
@@ -96,9 +98,9 @@ class ZenohInbox:
             kind = "alive" if sample.kind == zenoh.SampleKind.PUT else "gone"
             self._push((kind, *parsed))
 
-        return on_token
+        return direct(on_token)
 
-    def query_callback(self) -> Callable[[zenoh.Query], None]:
+    def query_callback(self) -> zenoh.handlers.Callback[zenoh.Query]:
         """The callback of a node's queryable: who asks, and which cells it hears."""
 
         def on_query(query: zenoh.Query) -> None:
@@ -109,7 +111,7 @@ class ZenohInbox:
             else:
                 self._push(("query", *asked))
 
-        return on_query
+        return direct(on_query)
 
     def _drop(self, name: str) -> None:
         with self._lock:
@@ -144,6 +146,13 @@ class ZenohInbox:
         items = [queue.popleft() for _ in range(len(queue))]
         if items and not self._closed:
             self._on_items(items)
+
+
+def direct(fn: Callable[[T], None]) -> zenoh.handlers.Callback[T]:
+    """``fn`` run on the Zenoh thread that received the item. Zenoh's default runs each
+    callback on a Python thread of its own: one more hop per sample, and threads that
+    keep the interpreter from exiting while a session is open."""
+    return zenoh.handlers.Callback(fn, indirect=False)
 
 
 def _parse_query(data: bytes) -> tuple[str, frozenset[Cell] | None] | None:

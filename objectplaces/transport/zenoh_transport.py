@@ -40,7 +40,7 @@ from objectplaces.transport.zenoh_config import (
     derive_credentials,
     zenoh_config,
 )
-from objectplaces.transport.zenoh_inbox import Item, ZenohInbox
+from objectplaces.transport.zenoh_inbox import Item, ZenohInbox, direct
 from objectplaces.transport.zenoh_keys import FleetKeys
 
 __all__ = ["ZenohTransport"]
@@ -251,7 +251,7 @@ class ZenohTransport:
         cells = None if self._subscription is None else sorted(self._subscription)
         payload = msgpack.packb([self.node_id, cells])
         try:
-            session.get(selector, _ignore_reply, payload=payload, timeout=_QUERY_TIMEOUT)
+            session.get(selector, _IGNORE_REPLY, payload=payload, timeout=_QUERY_TIMEOUT)
         except zenoh.ZError:
             self._count("dropped_query_failed")
 
@@ -302,3 +302,6 @@ class ZenohTransport:
 
 def _ignore_reply(_reply: zenoh.Reply) -> None:
     """Answers travel on the asker's inbox key, not as replies."""
+
+
+_IGNORE_REPLY = direct(_ignore_reply)

@@ -9,6 +9,7 @@ import zenoh
 
 from objectplaces.transport.zenoh_config import (
     CredentialsFile,
+    Mode,
     ZenohOptions,
     derive_credentials,
     zenoh_config,
@@ -16,10 +17,12 @@ from objectplaces.transport.zenoh_config import (
 
 
 async def open_fleet_session(
-    secret: bytes, connect: Sequence[str], *, fleet: str = "default"
+    secret: bytes, connect: Sequence[str], *, fleet: str = "default", mode: Mode = "client"
 ) -> zenoh.Session:
-    """A bare client session (no node) holding credentials derived from ``secret``."""
-    options = ZenohOptions(mode="client", connect=tuple(connect), fleet=fleet, listen=())
+    """A bare session (no node) holding credentials derived from ``secret``: a client
+    (which fails to open unless a router takes its credentials) or a peer (which opens,
+    linked or not)."""
+    options = ZenohOptions(mode=mode, connect=tuple(connect), fleet=fleet, listen=())
     credentials = derive_credentials(secret, fleet)
     file = CredentialsFile(credentials)
     try:
