@@ -79,6 +79,12 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
         "processes); not with --agvs",
     )
     parser.add_argument(
+        "--transport",
+        choices=["websocket", "zenoh"],
+        default="websocket",
+        help="how the AGV processes talk (with --processes): the WebSocket mesh or Zenoh",
+    )
+    parser.add_argument(
         "--vda5050",
         nargs="?",
         const="local",
@@ -112,7 +118,9 @@ def build_source(args: argparse.Namespace) -> FleetSource:
     try:
         # --agvs left out (None): the demo fleet's own default.
         vda5050 = getattr(args, "vda5050", None)
-        extra = {} if vda5050 is None else {"vda5050": vda5050}
+        extra: dict[str, str] = {} if vda5050 is None else {"vda5050": vda5050}
+        if getattr(args, "transport", "websocket") != "websocket":
+            extra["transport"] = args.transport
         return make(
             agvs=args.agvs, seed=args.seed, processes=args.processes, load=args.load, **extra
         )

@@ -47,6 +47,7 @@ from agv_app.vehicle.controller import AgvConfig, AgvController
 from agv_app.vehicle.kinematics import VehicleSpec
 from objectplaces.core.errors import LocalProtocolError
 from objectplaces.mesh import MeshNode, start_node
+from objectplaces.zenoh_node import ZenohNode, start_zenoh_node
 
 __all__ = ["DisplayPublisher", "main", "parse_args", "run"]
 
@@ -149,6 +150,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "--join", action="append", default=[], metavar="HOST:PORT", help="a node to join through"
     )
     parser.add_argument(
+        "--transport", choices=["websocket", "zenoh"], default="websocket", help="how nodes talk"
+    )
+    parser.add_argument(
+        "--connect", action="append", default=[], metavar="ENDPOINT", help="zenoh: a peer"
+    )
+    parser.add_argument(
         "--secret-file", type=Path, required=True, help="file holding the mesh secret"
     )
     parser.add_argument("--home", required=True, help="layout point of the AGV's parking spot")
@@ -224,7 +231,7 @@ async def _watch_parent(stop: asyncio.Event, parent: int) -> None:
             return
 
 
-async def _settle(node: MeshNode, args: argparse.Namespace) -> None:
+async def _settle(node: MeshNode | ZenohNode, args: argparse.Namespace) -> None:
     """Wait (bounded) until the expected peers are linked and have been heard.
 
     Moving earlier is safe (the requester waits the safe time for late members), but
@@ -283,15 +290,18 @@ async def run(args: argparse.Namespace, secret: bytes) -> int:
     if radius == "auto":
         # A loaded machine delays frames by up to the largest step lag.
         radius = interest_radius(layout, spec, config, delay_s=_MAX_LAG_S)
-    node = await start_node(
-        args.id,
-        listen=args.listen,
-        join=args.join,
-        secret=secret,
-        property_interval=args.t_update,
-        failure_timeout=3 * args.t_update,
-        interest_radius=None if radius == "none" else radius,
-    )
+    timing: dict[str, Any] = {
+        "property_interval": args.t_update,
+        "failure_timeout": 3 * args.t_update,
+        "interest_radius": None if radius == "none" else radius,
+    }
+    node: MeshNode | ZenohNode
+    if args.transport == "zenoh":
+        node = await start_zenoh_node(args.id, secret=secret, connect=args.connect, **timing)
+    else:
+        node = await start_node(
+            args.id, listen=args.listen, join=args.join, secret=secret, **timing
+        )
     try:
         agv = vehicle_class(args.vda5050)(
             node,

@@ -27,6 +27,7 @@ def demo_source(
     processes: int = 0,
     load: float | None = None,
     vda5050: str | None = None,
+    transport: str = "websocket",
 ) -> Fleet | MeshFleet:
     """The fleet ``objectplaces demo`` shows: the demo warehouse, tasks arriving for ever.
 
@@ -52,6 +53,7 @@ def demo_source(
         processes = getattr(args, "processes", processes) or 0
         load = getattr(args, "load", load)
         vda5050 = getattr(args, "vda5050", vda5050)
+        transport = getattr(args, "transport", transport)
     load = check_load(DEFAULT_LOAD if load is None else load)
     seed = 1 if seed is None else seed
     if processes < 0:
@@ -73,5 +75,6 @@ def demo_source(
             ),
             start_tasks=initial_tasks(agvs=processes, load=load),
             dwell=dwell,
+            transport=transport,
         )
     return Fleet(demo_warehouse(), FleetConfig(agvs=agvs or DEMO_AGVS, seed=seed, load=load))

@@ -108,6 +108,7 @@ class MeshFleet(FleetSourceBase):
         python: str = sys.executable,
         capture_output: bool = True,
         vda5050: str | None = None,
+        transport: str = "websocket",
     ) -> None:
         if agvs < 1:
             raise ValueError(f"agvs must be at least 1, got {agvs!r}")
@@ -123,6 +124,7 @@ class MeshFleet(FleetSourceBase):
         self.station_range = station_range
         self.dwell = dwell
         self.stop_timeout = stop_timeout
+        self.transport = transport
         self.python = python
         self.capture_output = capture_output
         spec = VehicleSpec(DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M)
@@ -208,13 +210,20 @@ class MeshFleet(FleetSourceBase):
             "property_interval": self.t_update,
             "failure_timeout": 3 * self.t_update,
         }
-        observer = await start_node(OBSERVER_ID, listen=f"{_HOST}:0", **node_args)
+        zenoh = self.transport == "zenoh"
+        if zenoh:  # every node a Zenoh peer; the others find each other through the observer
+            node_args.update(transport="zenoh", listen=[f"tcp/{_HOST}:0"])
+        else:
+            node_args["listen"] = f"{_HOST}:0"
+        observer = await start_node(OBSERVER_ID, **node_args)
         self.observer = observer
         observer.register_node_property_observer(self._on_property)
         observer.register_node_departure_observer(lambda node_id, _: self._departed(node_id))
         join = [observer.address]
+        link: dict[str, Any] = {"connect": join} if zenoh else {"join": join}
+        link_args = ["--transport", "zenoh", "--connect"] if zenoh else ["--join"]
         for sid in pick_stations(self.layout):
-            node = await start_node(f"st:{sid}", listen=f"{_HOST}:0", join=join, **node_args)
+            node = await start_node(f"st:{sid}", **link, **node_args)
             self._station_nodes[sid] = node
             self.desk.open_station(sid, node)
         peers = 1 + len(self._station_nodes) + self.agv_count - 1
@@ -223,7 +232,7 @@ class MeshFleet(FleetSourceBase):
                 agv_id,
                 [
                     "--listen", f"{_HOST}:0",
-                    "--join", observer.address,
+                    *link_args, observer.address,
                     "--secret-file", str(secret_file),
                     "--home", home,
                     "--seed", str(self.seed * 1000 + i),
