@@ -1,0 +1,54 @@
+"""``objectplaces demo --processes N --transport zenoh``: AGV processes on Zenoh take a
+task and drive it, seen by the observer node, and leave cleanly."""
+
+from __future__ import annotations
+
+import asyncio
+import math
+
+import pytest
+
+from agv_app.fleet import OBSERVER_ID, MeshFleet
+from objectplaces.cli import build_parser
+
+pytestmark = [pytest.mark.processes, pytest.mark.timeout(90)]
+
+AGVS = ["agv-01", "agv-02", "agv-03"]
+
+
+def test_demo_takes_the_transport_flag() -> None:
+    args = build_parser().parse_args(["demo", "--processes", "3", "--transport", "zenoh"])
+    assert args.transport == "zenoh"
+
+
+async def test_agv_processes_on_zenoh_take_a_task() -> None:
+    fleet = MeshFleet(agvs=3, seed=2, task_interval=None, run_seconds=80.0, transport="zenoh")
+    await fleet.start()
+    try:
+        try:
+            async with asyncio.timeout(40):
+                await fleet.wait_ready()
+        except TimeoutError:
+            pytest.fail(f"unheard: {fleet.missing()}; logs: {fleet.child_logs()}")
+        assert set(fleet.nodes()) == {OBSERVER_ID, *AGVS, *(f"st:{s}" for s in fleet.stations)}
+        task = fleet.create_task("pick-A3-1")
+        taken = None
+        async with asyncio.timeout(30):
+            while taken is None:
+                fleet.advance(0.1)
+                taken = next((v for v in fleet.vehicles() if v.task_id == task), None)
+                await asyncio.sleep(0.1)
+        start = (taken.x, taken.y)
+        async with asyncio.timeout(20):
+            while True:
+                now = next(v for v in fleet.vehicles() if v.id == taken.id)
+                if math.dist(start, (now.x, now.y)) > 1.0:
+                    break
+                await asyncio.sleep(0.1)
+        fleet.check()
+        metrics = fleet.metrics()
+        assert metrics["collisions"] == 0
+        assert metrics["lock_overlaps"] == 0
+    finally:
+        await fleet.stop()
+    assert fleet.exit_codes() == dict.fromkeys(AGVS, 0), "each left the fleet gracefully"
