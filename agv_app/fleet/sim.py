@@ -134,6 +134,9 @@ class Fleet(FleetSourceBase):
         homes: each AGV's parking point (default: spread over the parking stations).
         starts: where each AGV stands at first (default: its home).
         headings: each AGV's first heading (default: along the way into its spot).
+        vehicle: builds each AGV component, with the arguments of
+            :class:`~agv_app.vehicle.controller.AgvController` (e.g. one that also
+            follows VDA 5050 orders).
     """
 
     def __init__(
@@ -145,6 +148,7 @@ class Fleet(FleetSourceBase):
         homes: Sequence[str] | None = None,
         starts: Sequence[str] | None = None,
         headings: Sequence[float] | None = None,
+        vehicle: Callable[..., AgvController] = AgvController,
     ) -> None:
         self.layout = layout or demo_warehouse()
         self.config = cfg = config or FleetConfig()
@@ -202,7 +206,7 @@ class Fleet(FleetSourceBase):
             agv_id = f"agv-{i + 1:0{width}d}"
             node = self.net.add_node(agv_id, interest_radius=self.interest_radius)
             start = home if starts is None else starts[i]
-            self.agvs[agv_id] = AgvController(
+            self.agvs[agv_id] = vehicle(
                 node,
                 self.layout,
                 self.spec,
