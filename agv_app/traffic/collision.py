@@ -18,7 +18,8 @@ Roles on ObjectPlaces (DESIGN.md, "The AGV application"):
 
 A voter that allowed a request must not later win a conflict with it: its own
 requests that overlap a request it allowed (until the requester says it ended, an
-``end`` message, or ``keep_allowed`` passed) get a lower priority than that one
+``end`` message, or ``keep_allowed`` after the voter left its session) get a lower
+priority than that one
 (:meth:`LockBook.next_priority`). Within that rule an AGV keeps the priority of its
 first attempt at a stretch across retries, so the one that has waited longest wins.
 
@@ -300,7 +301,8 @@ class Voter(Participant):
         group_view: the node's current view of the collision group (``view_group``).
         view: the node's view of the others' properties (``RoleActivator.view``).
         recheck: seconds between re-evaluations of a deferred request.
-        keep_allowed: seconds an allowed request lowers this node's own priorities.
+        keep_allowed: seconds an allowed request still lowers this node's own priorities
+            once this node left its session (while in it: until the request ends).
         blockers: the nodes whose locks hold up this node's own pending request.
         step_aside: withdraws this node's pending request and asks again at once (its
             new priority ranks below the request just allowed).
@@ -341,9 +343,12 @@ class Voter(Participant):
         self._active = True
 
     def out_group_of(self, initiator: Any) -> None:
-        """The session ended or this node left the group: stop watching."""
+        """The session ended or this node left the group: stop watching; remember an
+        allow for ``keep_allowed`` more (its requester may not have heard yet)."""
         self._active = False
         self._unwatch()
+        if self._said == "allow":
+            LockBook(self.space).keep_allowed(self.session_id, self._keep)
 
     def _unwatch(self) -> None:
         for handle in self._watches:
@@ -402,7 +407,7 @@ class Voter(Participant):
         if verdict == "allow" or aside:
             self._unwatch()
             self._said = "allow"
-            book.note_allowed(self.session_id, self._area, self._priority, keep=self._keep)
+            book.note_allowed(self.session_id, self._area, self._priority)
             if aside and self._step_aside is not None:
                 # The requester's lock holds up our request, so it must move first: our
                 # request goes, and comes back ranked below the one we allow.

@@ -10,8 +10,9 @@ node's tuplespace (:class:`LockBook` is typed access to these tuples):
   nobody may lock into;
 * ``("in_the_way", requester)``: a voter deferred a request because of a lock
   (leased), so an idle AGV knows to move off;
-* ``("allowed", session, area, priority)``: a request this node's voter allowed
-  (leased: kept ``keep_allowed`` seconds, or until its requester says it ended);
+* ``("allowed", session, area, priority)``: a request this node's voter allowed,
+  kept until its requester says it ended, or ``keep_allowed`` seconds after the voter
+  left its session;
 * ``("blocking", session, priority)``: a request this node's voter defers because of
   one of its locks (leased, renewed while it defers): the AGV inherits that request's
   priority, so it gets out of the older request's way before younger ones.
@@ -124,15 +125,22 @@ class LockBook:
         self.space.in_all(("lock", ANY, ANY, ANY))
         self.space.in_all(("request", ANY, ANY, ANY, ANY))
 
-    def note_allowed(self, session_id: str, area: Area, priority: Priority, *, keep: float) -> None:
-        """Remember for ``keep`` seconds that this node allowed a request.
-
-        Not forgotten when the voter leaves the session: the request may still be
-        pending (our vote merely stopped counting), and remembering too long only
-        lowers our own priority, which is always safe.
-        """
+    def note_allowed(self, session_id: str, area: Area, priority: Priority) -> None:
+        """Remember that this node allowed a request, as long as our vote may count:
+        until its requester says it ended (:meth:`forget_allowed`), or a while after
+        the voter left the session (:meth:`keep_allowed`)."""
         self.space.in_all(("allowed", session_id, ANY, ANY))
-        self.space.out(("allowed", session_id, area, priority), lease=keep)
+        self.space.out(("allowed", session_id, area, priority))
+
+    def keep_allowed(self, session_id: str, keep: float) -> None:
+        """Remember the allowed request of ``session_id`` for ``keep`` seconds more.
+
+        For when the voter left the session: the request may still be pending (our vote
+        merely stopped counting, or its requester has not yet heard that we left), and
+        remembering too long only lowers our own priority, which is always safe.
+        """
+        for t in self.space.in_all(("allowed", session_id, ANY, ANY)):
+            self.space.out(t, lease=keep)
 
     def forget_allowed(self, session_id: str) -> None:
         """Forget that this node allowed the request of ``session_id``: its requester
