@@ -1,0 +1,149 @@
+"""Fleet bandwidth: bytes per AGV with collision groups and scoped dissemination against
+``--broadcast``, side by side in one run.
+
+Each floor runs at each size three ways: groups with each AGV node scoped to its interest
+radius (``agv_app.traffic.reach``, the default), groups without the scope, and broadcast
+(every AGV votes on every request, every node hears every node). The figure is the bytes
+the AGVs' nodes send per AGV per second, split into properties (heartbeats and changes)
+and sessions (channel frames and acks). Each configuration runs once with the heartbeat
+at ``t_update`` (1 s) and once with a slower one, to show how much of the bill the
+heartbeat is. Floors: the demo warehouse (56 m x 37.5 m, smaller than the radius) and a
+300 m one-way loop (``agv_app.layout.loop``, longer than the radius).
+
+    python -m bench.fleet_bandwidth [--sizes 20,50] [--minutes 5] [--heartbeats 1,10]
+                                    [--floors demo,loop] [--seed 1] [--jobs 1]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from concurrent.futures import ProcessPoolExecutor
+
+from agv_app.fleet import Fleet, FleetConfig
+from agv_app.layout.demo import demo_warehouse
+from agv_app.layout.graph import Layout
+from agv_app.layout.loop import long_loop
+from agv_app.tasks import DEFAULT_LOAD
+from bench.report import markdown_table, publish
+
+__all__ = ["MODES", "main", "run_one"]
+
+MODES = ("scoped", "groups", "broadcast")
+"""Groups + scoped dissemination, groups hearing everyone, broadcast."""
+
+_FLOORS = {"demo": demo_warehouse, "loop": long_loop}
+
+
+def _floor(name: str) -> Layout:
+    return _FLOORS[name]()
+
+
+def run_one(
+    floor: str, agvs: int, mode: str, heartbeat: float, minutes: float, seed: int, load: float
+) -> dict[str, float]:
+    """Run one fleet and return its figures, plus its interest radius (0: none)."""
+    config = FleetConfig(
+        agvs=agvs,
+        seed=seed,
+        load=load,
+        broadcast=mode == "broadcast",
+        scoped=mode == "scoped",
+        heartbeat=heartbeat,
+    )
+    fleet = Fleet(_floor(floor), config)
+    started = time.process_time()
+    fleet.run(minutes * 60)
+    figures = dict(fleet.summary(time.process_time() - started))
+    figures["interest_radius"] = fleet.interest_radius or 0.0
+    return figures
+
+
+def _bytes(figures: dict[str, float], kinds: tuple[str, ...]) -> float:
+    return sum(figures.get(f"wire_{kind}_bytes_per_agv_per_s", 0.0) for kind in kinds)
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Run the benchmark and publish its section of BENCHMARKS.md."""
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--sizes", default="20,50")
+    parser.add_argument("--minutes", type=float, default=5.0, help="simulated minutes per run")
+    parser.add_argument("--heartbeats", default="1,10", help="heartbeat intervals, s")
+    parser.add_argument("--floors", default="demo,loop", help=f"of {', '.join(_FLOORS)}")
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--load", type=float, default=DEFAULT_LOAD)
+    parser.add_argument("--jobs", type=int, default=1, help="runs in parallel")
+    args = parser.parse_args(argv)
+    sizes = [int(s) for s in args.sizes.split(",") if s]
+    heartbeats = [float(h) for h in args.heartbeats.split(",") if h]
+    floors = [f for f in args.floors.split(",") if f]
+    unknown = [f for f in floors if f not in _FLOORS]
+    if unknown:
+        raise SystemExit(f"bench.fleet_bandwidth: unknown floor(s) {', '.join(unknown)}")
+    plan = [(f, n, m, h) for f in floors for n in sizes for h in heartbeats for m in MODES]
+    with ProcessPoolExecutor(max_workers=max(1, args.jobs)) as pool:
+        futures = {
+            key: pool.submit(run_one, *key[:2], key[2], key[3], args.minutes, args.seed, args.load)
+            for key in plan
+        }
+        results = {key: future.result() for key, future in futures.items()}
+    rows = []
+    for floor in floors:
+        for n in sizes:
+            for h in heartbeats:
+                scoped, broad = (
+                    results[(floor, n, "scoped", h)],
+                    results[(floor, n, "broadcast", h)],
+                )
+                total = {m: results[(floor, n, m, h)]["bytes_per_agv_per_s"] for m in MODES}
+                rows.append(
+                    [
+                        floor,
+                        n,
+                        f"{h:g}",
+                        f"{scoped['interest_radius']:.0f}",
+                        f"{_bytes(scoped, ('property',)):.0f} / {_bytes(broad, ('property',)):.0f}",
+                        f"{_bytes(scoped, ('channel', 'ack')):.0f} / "
+                        f"{_bytes(broad, ('channel', 'ack')):.0f}",
+                        f"{total['scoped']:.0f}",
+                        f"{total['groups']:.0f}",
+                        f"{total['broadcast']:.0f}",
+                        f"**{total['scoped'] / max(total['broadcast'], 1e-9):.2f}**",
+                        f"{scoped['tasks_completed']} / {broad['tasks_completed']}",
+                        sum(int(r["collisions"] + r["lock_overlaps"]) for r in (scoped, broad)),
+                    ]
+                )
+    header = [
+        "floor",
+        "AGVs",
+        "heartbeat, s",
+        "interest radius, m",
+        "property B/s per AGV (scoped / broadcast)",
+        "session B/s per AGV (scoped / broadcast)",
+        "B/s per AGV, groups + scoped",
+        "B/s per AGV, groups, unscoped",
+        "B/s per AGV, broadcast",
+        "scoped / broadcast",
+        "tasks done (scoped / broadcast)",
+        "violations",
+    ]
+    body = (
+        f"Seed {args.seed}, load {args.load:g}, {args.minutes:g} simulated minutes per run, "
+        "t_update 1 s (safe time 2 s), 5 ms delay. B/s per AGV: every frame the AGVs' nodes "
+        "sent, per AGV per simulated second (a frame to k nodes counts k times); stations "
+        "and the observer hear every node in every mode. Violations: collisions and lock "
+        "overlaps of the scoped and broadcast runs together. The heartbeat republishes every "
+        "property; a node unheard for three heartbeats counts as failed.\n\n"
+        + markdown_table(header, rows)
+        + "\n\nGoal (issue 11): at 50 AGVs, groups + scoped <= 1/5 of broadcast."
+    )
+    command = (
+        f".venv/bin/python -m bench.fleet_bandwidth --sizes {args.sizes} "
+        f"--minutes {args.minutes:g} --heartbeats {args.heartbeats} --floors {args.floors} "
+        f"--seed {args.seed} --load {args.load:g}"
+    )
+    publish("fleet_bandwidth", "Fleet bandwidth: scoped groups against broadcast", body, command)
+
+
+if __name__ == "__main__":
+    main()
