@@ -1,0 +1,536 @@
+"""The WebSocket mesh against Zenoh (peers, and clients of a router): one workload, one run.
+
+Run: ``.venv/bin/python bench/transports.py`` (``--sizes 10,20`` or ``--transports
+zenoh-peer`` for less; ``--fleet-agvs 0`` skips the fleet run).
+
+For each transport and size, every node a separate process on 127.0.0.1:
+
+- fan-out: one node publishes a position every 2 ms; the time from
+  ``update_node_property`` to the property observer on every other node (one monotonic
+  clock for every process on this machine), and the CPU each other node spends
+  meanwhile (its process time over the phase's wall time, Zenoh's threads included);
+- throughput: every node publishes as fast as it can for a few seconds; position
+  updates received per second per node;
+- session setup: ``start_interaction`` until ``in_group`` from every other node;
+- bytes per update: the property frame's payload, plus the transport's framing of it
+  (a WebSocket frame header; for Zenoh, the bytes one session writes to another per
+  update, counted by a TCP relay between two nodes in this process).
+
+The floors, measured in the same run: a plain ``websockets`` echo round trip and a plain
+Zenoh put/subscribe round trip of the same payload between two processes. Last, a fleet
+of AGV processes on Zenoh (``MeshFleet``) runs for a while; its safety counters are read.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import json
+import os
+import statistics
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+HERE = Path(__file__).resolve()
+ROOT = HERE.parent.parent
+sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != HERE.parent]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+import zenoh  # noqa: E402
+
+from bench.mesh import Counter, Silent, measure_floor, percentile, position_frame, say  # noqa: E402
+from bench.mesh import Proc as _MeshProc  # noqa: E402
+from bench.report import markdown_table, publish  # noqa: E402
+from bench.transports_wire import zenoh_bytes_per_update  # noqa: E402
+from objectplaces import groups  # noqa: E402
+from objectplaces.activator import RoleActivator  # noqa: E402
+from objectplaces.mesh import MeshOptions, start_mesh_node  # noqa: E402
+from objectplaces.transport.zenoh_inbox import direct  # noqa: E402
+from objectplaces.zenoh_node import start_zenoh_node  # noqa: E402
+
+SECRET = b"bench-secret"
+TRANSPORTS = ["mesh", "zenoh-peer", "zenoh-client"]
+FANOUT_COUNT = 300
+FANOUT_GAP = 0.002
+BLAST_SECONDS = 3.0
+SESSIONS = 20
+
+
+# ---------------------------------------------------------------------------- worker side
+
+
+class Worker:
+    def __init__(self, node: Any, index: int) -> None:
+        self.node = node
+        self.index = index
+        self.receipts: dict[int, float] = {}
+        self.window = (0.0, 0.0)
+        self.in_window = 0
+        node.register_node_property_observer(self.observe)
+
+    def observe(self, node_id: str, name: str, value: Any) -> None:
+        if node_id == self.node.node_id or name != "position":
+            return
+        now = time.monotonic()
+        if node_id == "w0" and value[0] == 0.0 and value[1] >= 0.0:
+            self.receipts[round(value[1] * 10)] = now
+        if self.window[0] <= now <= self.window[1]:
+            self.in_window += 1
+
+    async def fanout(self, count: int, gap: float) -> list[float]:
+        sent = []
+        for i in range(count):
+            sent.append(time.monotonic())
+            self.node.update_node_property("position", (0.0, i / 10))
+            await asyncio.sleep(gap)
+        return sent
+
+    async def blast(self, start: float, seconds: float) -> dict[str, Any]:
+        self.window = (start, start + seconds)
+        self.in_window = 0
+        await asyncio.sleep(max(0.0, start - time.monotonic()))
+        cpu = time.process_time()
+        sent = 0
+        y = 1000.0 + self.index
+        while time.monotonic() < start + seconds:
+            sent += 1
+            self.node.update_node_property("position", (float(sent % 50_000) + 1.0, y))
+            await asyncio.sleep(0)
+        cpu = time.process_time() - cpu
+        await asyncio.sleep(0.5)
+        drops = sum(v for k, v in self.node.transport_counters().items() if "dropped" in k)
+        drops += sum(s.drops for s in self.node.peer_stats().values())
+        return {"sent": sent, "received": self.in_window, "drops": drops, "cpu": cpu}
+
+    async def sessions(self, count: int, expected: int) -> list[float]:
+        times = []
+        for _ in range(count):
+            counter = Counter(expected)
+            start = time.monotonic()
+            session = self.node.start_interaction(counter, groups.within(10_000.0), "silent")
+            async with asyncio.timeout(20):
+                await counter.done.wait()
+            times.append(time.monotonic() - start)
+            self.node.stop_interaction(session)
+            for _ in range(10_000):
+                if not self.node.machine.state_counts()["sessions"]:
+                    break
+                await asyncio.sleep(0.001)
+        return times
+
+
+async def start_worker_node(node_id: str, transport: str, connect: list[str]) -> RoleActivator:
+    timing: dict[str, Any] = {"secret": SECRET, "property_interval": 1.0, "failure_timeout": 60.0}
+    if transport == "mesh":
+        options = MeshOptions(queue_size=65_536, flood_rate=1e7, flood_burst=1e6)
+        return await start_mesh_node(node_id, join=connect, options=options, **timing)
+    if transport == "zenoh-client":
+        return await start_zenoh_node(node_id, connect=connect, mode="client", **timing)
+    return await start_zenoh_node(node_id, connect=connect, mode="peer", **timing)
+
+
+async def run_worker(node_id: str, index: int, transport: str, connect: list[str]) -> None:
+    node: Any = await start_worker_node(node_id, transport, connect)
+    node.set_participant_factory("silent", Silent)
+    node.update_node_property("position", (float(index), -1.0))
+    worker = Worker(node, index)
+    say(ready=node.address)
+    loop = asyncio.get_running_loop()
+    reader = asyncio.StreamReader()
+    await loop.connect_read_pipe(lambda: asyncio.StreamReaderProtocol(reader), sys.stdin)
+    cpu_mark = (time.monotonic(), time.process_time())
+    async with asyncio.timeout(900):
+        while line := await reader.readline():
+            cmd = json.loads(line)
+            match cmd["cmd"]:
+                case "peers":
+                    async with asyncio.timeout(120):
+                        await node.wait_for_peers(cmd["n"])
+                    say(peers=len(node.peers()))
+                case "cpu_mark":
+                    cpu_mark = (time.monotonic(), time.process_time())
+                    say(ok=True)
+                case "cpu":
+                    wall = time.monotonic() - cpu_mark[0]
+                    say(cpu=(time.process_time() - cpu_mark[1]) / max(wall, 1e-9))
+                case "fanout":
+                    say(sent=await worker.fanout(cmd["count"], cmd["gap"]))
+                case "receipts":
+                    say(receipts=worker.receipts)
+                    worker.receipts = {}
+                case "blast":
+                    say(**await worker.blast(cmd["start"], cmd["seconds"]))
+                case "sessions":
+                    say(times=await worker.sessions(cmd["count"], cmd["expected"]))
+                case "stats":
+                    frames, size = node.machine.sent_by_kind.get("property", [0, 0])
+                    say(property_frames=frames, property_bytes=size)
+                case "quit":
+                    break
+    await node.close()
+
+
+async def run_zenoh_echo(key: str) -> None:
+    """A bare Zenoh session that puts back on ``key/pong`` what it hears on ``key/ping``."""
+    config = zenoh.Config()
+    config.insert_json5("mode", '"peer"')
+    config.insert_json5("listen/endpoints", '["tcp/127.0.0.1:0"]')
+    config.insert_json5("scouting/multicast/enabled", "false")
+    port = _free_port()
+    config.insert_json5("listen/endpoints", f'["tcp/127.0.0.1:{port}"]')
+    session = zenoh.open(config)
+
+    def pong(sample: zenoh.Sample) -> None:
+        session.put(f"{key}/pong", sample.payload.to_bytes())
+
+    session.declare_subscriber(f"{key}/ping", direct(pong))
+    say(ready=f"tcp/127.0.0.1:{port}")
+    await asyncio.get_running_loop().run_in_executor(None, sys.stdin.read)
+    session.close()  # type: ignore[no-untyped-call]
+
+
+def _free_port() -> int:
+    import socket
+
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return int(probe.getsockname()[1])
+
+
+# ---------------------------------------------------------------------------- coordinator
+
+
+class Proc(_MeshProc):
+    """A worker process: this script, another script, or a module."""
+
+    @classmethod
+    async def start_script(cls, script: Path, *args: str) -> Proc:
+        return await cls._exec(str(script), *args)
+
+    @classmethod
+    async def start_module(cls, module: str, *args: str) -> Proc:
+        return await cls._exec("-m", module, *args)
+
+    @classmethod
+    async def _exec(cls, *args: str) -> Proc:
+        proc = await asyncio.create_subprocess_exec(
+            sys.executable, *args,
+            cwd=ROOT, stdin=asyncio.subprocess.PIPE, stdout=asyncio.subprocess.PIPE,
+            limit=1 << 24,
+        )  # fmt: skip
+        return cls(proc)
+
+
+async def zenoh_floor(payload: bytes) -> float:
+    """Plain Zenoh round trip p50 (put, the echo's put back) between two processes."""
+    echo = await Proc.start_script(HERE, "--zenoh-echo", "bench/echo")
+    try:
+        endpoint = (await echo.recv())["ready"]
+        config = zenoh.Config()
+        config.insert_json5("mode", '"peer"')
+        config.insert_json5("listen/endpoints", "[]")
+        config.insert_json5("connect/endpoints", f'["{endpoint}"]')
+        config.insert_json5("scouting/multicast/enabled", "false")
+        session = await asyncio.to_thread(zenoh.open, config)
+        loop = asyncio.get_running_loop()
+        queue: asyncio.Queue[float] = asyncio.Queue()
+
+        def heard(_sample: zenoh.Sample) -> None:
+            loop.call_soon_threadsafe(queue.put_nowait, time.monotonic())
+
+        session.declare_subscriber("bench/echo/pong", direct(heard))
+        await asyncio.sleep(0.5)
+        rtts = []
+        for i in range(2200):
+            start = time.monotonic()
+            session.put("bench/echo/ping", payload)
+            async with asyncio.timeout(5):
+                end = await queue.get()
+            if i >= 200:
+                rtts.append(end - start)
+        await asyncio.to_thread(session.close)
+        return percentile(rtts, 50)
+    finally:
+        await echo.stop()
+
+
+async def start_router_proc() -> tuple[Proc, str]:
+    secret_file = Path(os.environ.get("TMPDIR", "/tmp")) / f"bench-secret-{os.getpid()}"
+    secret_file.write_bytes(SECRET)
+    secret_file.chmod(0o600)
+    proc = await Proc.start_module(
+        "objectplaces.router_cli", "--listen", "tcp/127.0.0.1:0",
+        "--secret-file", str(secret_file), "--run-seconds", "900",
+    )  # fmt: skip
+    ready = await proc.recv()
+    secret_file.unlink()
+    return proc, str(ready["endpoints"][0])
+
+
+async def measure(transport: str, size: int) -> dict[str, Any]:
+    procs: list[Proc] = []
+    router: Proc | None = None
+    try:
+        connect: list[str] = []
+        if transport == "zenoh-client":
+            router, endpoint = await start_router_proc()
+            connect = [endpoint]
+        seed = await Proc.start_script(HERE, "--worker", "w0", "--index", "0",
+                                       "--transport", transport,
+                                       *[a for c in connect for a in ("--connect", c)])  # fmt: skip
+        procs.append(seed)
+        address = (await seed.recv())["ready"]
+        if transport != "zenoh-client":
+            connect = [address]
+        for i in range(1, size):
+            args = ["--worker", f"w{i}", "--index", str(i), "--transport", transport]
+            procs.append(
+                await Proc.start_script(
+                    HERE, *args, *[a for c in connect for a in ("--connect", c)]
+                )
+            )
+        for proc in procs[1:]:
+            await proc.recv()
+        await asyncio.gather(*(p.ask(cmd="peers", n=size - 1) for p in procs))
+        await asyncio.sleep(1.0)
+
+        await asyncio.gather(*(p.ask(cmd="cpu_mark") for p in procs[1:]))
+        seed.send(cmd="fanout", count=FANOUT_COUNT, gap=FANOUT_GAP)
+        sent = (await seed.recv())["sent"]
+        await asyncio.sleep(0.5)
+        cpu = [(await p.ask(cmd="cpu"))["cpu"] for p in procs[1:]]
+        latencies = []
+        for proc in procs[1:]:
+            receipts = (await proc.ask(cmd="receipts"))["receipts"]
+            latencies += [t - sent[int(i)] for i, t in receipts.items()]
+        delivered = len(latencies) / (FANOUT_COUNT * (size - 1))
+        wire = await seed.ask(cmd="stats")
+        times = (await seed.ask(cmd="sessions", count=SESSIONS, expected=size - 1))["times"]
+        start = time.monotonic() + 0.5
+        results = await asyncio.gather(
+            *(p.ask(cmd="blast", start=start, seconds=BLAST_SECONDS) for p in procs)
+        )
+        received = [r["received"] / BLAST_SECONDS for r in results]
+        return {
+            "transport": transport,
+            "size": size,
+            "fan_p50": percentile(latencies, 50),
+            "fan_p99": percentile(latencies, 99),
+            "delivered": delivered,
+            "cpu_fanout": statistics.mean(cpu),
+            "cpu_blast": statistics.mean(r["cpu"] for r in results) / BLAST_SECONDS,
+            "setup_p50": percentile(times, 50),
+            "recv": statistics.mean(received),
+            "recv_min": min(received),
+            "drops": sum(r["drops"] for r in results),
+            "payload": wire["property_bytes"] / max(1, wire["property_frames"]),
+        }
+    finally:
+        await asyncio.gather(*(p.stop() for p in procs))
+        if router is not None:
+            await router.stop()
+
+
+def _cpu_seconds(pid: int) -> float:
+    """User and system CPU time of a process so far (Linux /proc)."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except OSError:
+        return 0.0
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+async def run_fleet(agvs: int, seconds: float) -> dict[str, Any]:
+    """A fleet of AGV processes on Zenoh, as ``objectplaces demo --processes N
+    --transport zenoh`` runs it, for ``seconds`` after every AGV is heard."""
+    from agv_app.fleet.demo import demo_source
+    from agv_app.fleet.mesh import MeshFleet
+
+    fleet = demo_source(processes=agvs, seed=1, transport="zenoh")
+    assert isinstance(fleet, MeshFleet)
+    await fleet.start()
+    try:
+        ready_at = time.monotonic()
+        async with asyncio.timeout(180):
+            await fleet.wait_ready()
+        ready = time.monotonic() - ready_at
+        cpu0 = sum(_cpu_seconds(pid) for pid in fleet.pids())
+        start = time.monotonic()
+        frame = 0.1
+        late = 0
+        next_at = start
+        while (now := time.monotonic()) < start + seconds:
+            if now - next_at > 0.5:
+                late += 1  # the driver itself fell half a second behind
+            fleet.advance(frame)
+            next_at += frame
+            await asyncio.sleep(max(0.0, next_at - time.monotonic()))
+        wall = time.monotonic() - start
+        cpu = sum(_cpu_seconds(pid) for pid in fleet.pids()) - cpu0
+        fleet.check()
+        metrics = fleet.metrics()
+        return {
+            "agvs": agvs, "seconds": wall, "ready": ready, "metrics": metrics,
+            "cpu_cores": cpu / wall, "late": late,
+        }  # fmt: skip
+    finally:
+        await fleet.stop()
+
+
+def verdict(ok: bool, met: str, missed: str) -> str:
+    return f"met ({met})" if ok else f"missed ({missed})"
+
+
+async def coordinate(sizes: list[int], transports: list[str], fleet_agvs: int, fleet_s: float):
+    payload = position_frame()
+    echo = await Proc.start_script(ROOT / "bench" / "mesh.py", "--echo-server")
+    try:
+        ws_floor = await measure_floor((await echo.recv())["ready"], payload)
+    finally:
+        await echo.stop()
+    z_floor = await zenoh_floor(payload)
+    z_wire = await zenoh_bytes_per_update(SECRET)
+    rows = []
+    for size in sizes:
+        for transport in transports:
+            print(f"measuring {transport} with {size} nodes ...", file=sys.stderr)
+            rows.append(await measure(transport, size))
+    fleet = None
+    if fleet_agvs:
+        print(f"running {fleet_agvs} AGV processes on Zenoh ...", file=sys.stderr)
+        fleet = await run_fleet(fleet_agvs, fleet_s)
+
+    ms = 1000.0
+    ws_wire = len(payload) + 2  # a WebSocket frame from the listening side: 2-byte header
+    table = markdown_table(
+        [
+            "transport", "nodes", "fan-out p50 ms", "fan-out p99 ms", "delivered",
+            "updates recv/s per node (min)", "CPU per node, fan-out", "CPU per node, blast",
+            "setup p50 ms", "drops", "bytes per update",
+        ],
+        [
+            [
+                r["transport"], r["size"], f"{r['fan_p50'] * ms:.3f}", f"{r['fan_p99'] * ms:.3f}",
+                f"{r['delivered']:.1%}", f"{r['recv']:,.0f} ({r['recv_min']:,.0f})",
+                f"{r['cpu_fanout']:.0%}", f"{r['cpu_blast']:.0%}", f"{r['setup_p50'] * ms:.2f}",
+                r["drops"],
+                f"{ws_wire if r['transport'] == 'mesh' else z_wire:.0f} "
+                f"({r['payload']:.0f} payload)",
+            ]
+            for r in rows
+        ],
+    )  # fmt: skip
+    floors = markdown_table(
+        ["floor, same payload, two processes", "value"],
+        [
+            ["plain websockets echo round trip p50", f"{ws_floor['rtt_p50'] * ms:.3f} ms"],
+            ["plain Zenoh put/subscribe round trip p50", f"{z_floor * ms:.3f} ms"],
+        ],
+    )
+    by = {(r["transport"], r["size"]): r for r in rows}
+    verdicts = []
+    mesh20, zen20 = by.get(("mesh", 20)), by.get(("zenoh-peer", 20))
+    if mesh20 and zen20:
+        ratio = zen20["recv"] / max(mesh20["recv"], 1e-9)
+        verdicts.append(
+            "- Zenoh peers >= 5x the mesh's received updates per node at 20 nodes: "
+            + verdict(ratio >= 5, f"{ratio:.1f}x", f"{ratio:.1f}x")
+        )
+    floor = min(ws_floor["rtt_p50"], z_floor)
+    for transport in transports:
+        r = by.get((transport, 50))
+        if r and transport != "mesh":
+            ratio = r["fan_p50"] / floor
+            verdicts.append(
+                f"- {transport}: fan-out p50 at 50 nodes <= 3x the plain round trip "
+                f"({floor * ms:.3f} ms): " + verdict(ratio <= 3, f"{ratio:.1f}x", f"{ratio:.1f}x")
+            )
+    fleet_text = ""
+    if fleet is not None:
+        m = fleet["metrics"]
+        violations = int(m["collisions"] + m["lock_overlaps"] + m["deadlocks"])
+        realtime = fleet["cpu_cores"] < (os.cpu_count() or 1) and m["agvs_failed"] == 0
+        verdicts.append(
+            f"- {fleet['agvs']} AGV processes on Zenoh at real time with 0 violations: "
+            + verdict(
+                violations == 0 and realtime,
+                f"{violations} violations, {fleet['cpu_cores']:.2f} cores busy",
+                f"{violations} violations, {fleet['cpu_cores']:.2f} of {os.cpu_count()} cores, "
+                f"{int(m['agvs_failed'])} AGVs failed",
+            )
+        )
+        fleet_text = markdown_table(
+            ["fleet on Zenoh", "value"],
+            [
+                ["AGV processes", fleet["agvs"]],
+                ["run (after every AGV was heard)", f"{fleet['seconds']:.0f} s"],
+                ["time until every AGV was heard", f"{fleet['ready']:.1f} s"],
+                ["CPU of the AGV processes", f"{fleet['cpu_cores']:.2f} cores"],
+                ["AGVs failed", int(m["agvs_failed"])],
+                ["tasks created / completed",
+                 f"{m['tasks_created']:.0f} / {m['tasks_completed']:.0f}"],
+                ["collisions / lock overlaps / deadlocks",
+                 f"{m['collisions']:.0f} / {m['lock_overlaps']:.0f} / {m['deadlocks']:.0f}"],
+                ["stalls over 60 s", f"{m['stalls_60s']:.0f}"],
+            ],
+        )  # fmt: skip
+    body = "\n\n".join(
+        part
+        for part in [
+            f"Loopback, one process per node, {os.cpu_count()} CPUs shared by every process "
+            "(and by whatever else runs on the machine). Same workload as bench/mesh.py: "
+            f"fan-out = one node publishes {FANOUT_COUNT} positions {FANOUT_GAP * ms:g} ms "
+            "apart, latency to the observer callback on each other node, CPU = process time "
+            f"per wall second of each receiving node; throughput = every node publishes as fast "
+            f"as it can for {BLAST_SECONDS:g} s; setup = {SESSIONS} sessions in a row, "
+            "`start_interaction` until `in_group` from every other node. Zenoh peers connect "
+            "to the first node and find the others by gossip; Zenoh clients connect to an "
+            "`objectplaces router` process. Bytes per update: WebSocket frame (payload + "
+            "2-byte header) or the bytes a Zenoh session writes per update, counted by a relay.",
+            table,
+            floors,
+            fleet_text,
+            "Goals (issue 12):\n" + "\n".join(verdicts),
+        ]
+        if part
+    )
+    publish(
+        "transports",
+        "Transports: the WebSocket mesh against Zenoh (bench/transports.py)",
+        body,
+        ".venv/bin/python bench/transports.py",
+    )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--sizes", default="10,20,50")
+    parser.add_argument("--transports", default=",".join(TRANSPORTS))
+    parser.add_argument("--fleet-agvs", type=int, default=50)
+    parser.add_argument("--fleet-seconds", type=float, default=60.0)
+    parser.add_argument("--worker")
+    parser.add_argument("--index", type=int, default=0)
+    parser.add_argument("--transport", default="mesh")
+    parser.add_argument("--connect", action="append", default=[])
+    parser.add_argument("--zenoh-echo")
+    args = parser.parse_args()
+    if args.worker:
+        asyncio.run(run_worker(args.worker, args.index, args.transport, args.connect))
+    elif args.zenoh_echo:
+        asyncio.run(run_zenoh_echo(args.zenoh_echo))
+    else:
+        asyncio.run(
+            coordinate(
+                [int(s) for s in args.sizes.split(",")],
+                args.transports.split(","),
+                args.fleet_agvs,
+                args.fleet_seconds,
+            )
+        )
+
+
+if __name__ == "__main__":
+    main()
