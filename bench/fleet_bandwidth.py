@@ -63,6 +63,43 @@ def _bytes(figures: dict[str, float], kinds: tuple[str, ...]) -> float:
     return sum(figures.get(f"wire_{kind}_bytes_per_agv_per_s", 0.0) for kind in kinds)
 
 
+def _ratio(
+    results: dict[tuple[str, int, str, float], dict[str, float]], key: tuple[str, int, float]
+) -> float:
+    floor, n, h = key
+    scoped = results[(floor, n, "scoped", h)]["bytes_per_agv_per_s"]
+    return scoped / max(results[(floor, n, "broadcast", h)]["bytes_per_agv_per_s"], 1e-9)
+
+
+def _verdict(
+    results: dict[tuple[str, int, str, float], dict[str, float]],
+    floors: list[str],
+    sizes: list[int],
+    heartbeats: list[float],
+) -> str:
+    """Where the bytes go, per floor at the largest size, and the goal's verdict."""
+    n = max(sizes)
+    lines = []
+    for floor in floors:
+        parts = []
+        for h in heartbeats:
+            scoped = results[(floor, n, "scoped", h)]
+            total = scoped["bytes_per_agv_per_s"]
+            prop = _bytes(scoped, ("property",))
+            parts.append(
+                f"heartbeat {h:g} s: {total:.0f} B/s, {100 * prop / max(total, 1e-9):.0f}% "
+                "of it properties"
+            )
+        lines.append(f"- {floor}, {n} AGVs, groups + scoped: " + "; ".join(parts) + ".")
+    best = min((_ratio(results, (f, n, h)), f, h) for f in floors for h in heartbeats)
+    met = "met" if best[0] <= 0.2 else "not met"
+    lines.append(
+        f"\nGoal (issue 11): at {n} AGVs, groups + scoped <= 1/5 of broadcast: {met}; "
+        f"best ratio {best[0]:.2f} ({best[1]}, heartbeat {best[2]:g} s)."
+    )
+    return "Where the bytes go:\n\n" + "\n".join(lines)
+
+
 def main(argv: list[str] | None = None) -> None:
     """Run the benchmark and publish its section of BENCHMARKS.md."""
     parser = argparse.ArgumentParser(description=__doc__)
@@ -135,7 +172,8 @@ def main(argv: list[str] | None = None) -> None:
         "overlaps of the scoped and broadcast runs together. The heartbeat republishes every "
         "property; a node unheard for three heartbeats counts as failed.\n\n"
         + markdown_table(header, rows)
-        + "\n\nGoal (issue 11): at 50 AGVs, groups + scoped <= 1/5 of broadcast."
+        + "\n\n"
+        + _verdict(results, floors, sizes, heartbeats)
     )
     command = (
         f".venv/bin/python -m bench.fleet_bandwidth --sizes {args.sizes} "
