@@ -42,6 +42,7 @@ from objectplaces.transport.zenoh_config import (
 )
 from objectplaces.transport.zenoh_inbox import Item, ZenohInbox, direct
 from objectplaces.transport.zenoh_keys import FleetKeys
+from objectplaces.transport.zenoh_publishers import PublisherCache
 
 __all__ = ["ZenohTransport"]
 
@@ -71,6 +72,7 @@ class ZenohTransport:
         self._credentials: Credentials = derive_credentials(secret, options.fleet)
         self._driver: RawNodeDriver | None = None
         self._session: zenoh.Session | None = None
+        self._publishers: PublisherCache | None = None
         self._file: CredentialsFile | None = None
         self._inbox: ZenohInbox | None = None
         self._alive = AliveTable(node_id)
@@ -114,6 +116,7 @@ class ZenohTransport:
             self._file.remove()
             raise OSError(f"zenoh: {exc}") from exc
         session, keys, inbox = self._session, self.keys, self._inbox
+        self._publishers = PublisherCache(session)
         on_data = inbox.data_callback(keys)
         self._declared += [
             session.declare_subscriber(keys.inbox(), on_data),
@@ -186,9 +189,9 @@ class ZenohTransport:
                 return 0
 
     def _put(self, key: str, data: bytes) -> int:
-        assert self._session is not None
+        assert self._publishers is not None
         try:
-            self._session.put(key, data)
+            self._publishers.put(key, data)
         except zenoh.ZError:
             self._count("dropped_put_failed")
             return 0
