@@ -1,8 +1,9 @@
 """A Zenoh router in this process, for nodes in client mode (no extra binary).
 
 The router authenticates every link with the fleet's credentials, as nodes do
-(``objectplaces.transport.zenoh_config``), and forwards between its clients and the
-peers connected to it. ``objectplaces router`` runs one from the command line.
+(``objectplaces.transport.zenoh_config``), forwards between its clients and the peers
+connected to it, and lets through only the keys of its fleet (Zenoh's access control).
+``objectplaces router`` runs one from the command line.
 """
 
 from __future__ import annotations

@@ -7,6 +7,9 @@ the same pair (a dictionary file holding that one pair, written 0600 into a priv
 temporary directory and removed when the node closes). A session without the secret
 gets no link, so it can neither publish into the fleet nor hear it.
 
+A router also applies Zenoh's access control: the fleet's user may put, subscribe,
+query and hold liveliness tokens under the fleet's prefix only, and nothing else passes.
+
 Multicast scouting is off: a node reaches only the endpoints it is given, and the peers
 those tell it about (gossip), so nodes that know only a chain of endpoints still meet.
 """
@@ -35,6 +38,7 @@ __all__ = [
     "CredentialsFile",
     "ZenohOptions",
     "derive_credentials",
+    "fleet_access_control",
     "resolve_ports",
     "zenoh_config",
 ]
@@ -56,6 +60,7 @@ class ZenohOptions:
         lease: a silent peer's links are dropped after this long, and with them its
             liveliness token: the time a frozen node takes to leave every group.
         max_frame: largest frame accepted, in bytes.
+        extra: further Zenoh configuration (json5 paths and values), applied last.
     """
 
     mode: Mode = "peer"
@@ -79,6 +84,38 @@ class ZenohOptions:
             raise LocalProtocolError(f"lease must be >= 0.1 s, got {self.lease!r}")
         if self.max_frame < 64:
             raise LocalProtocolError(f"max_frame too small: {self.max_frame!r}")
+
+
+_FLEET_MESSAGES = [
+    "put",
+    "delete",
+    "declare_subscriber",
+    "query",
+    "declare_queryable",
+    "reply",
+    "liveliness_token",
+    "declare_liveliness_subscriber",
+    "liveliness_query",
+]
+
+
+def fleet_access_control(fleet: str, user: str) -> dict[str, Any]:
+    """Zenoh access control that lets ``user`` use the keys of ``fleet`` and nothing else."""
+    return {
+        "enabled": True,
+        "default_permission": "deny",
+        "rules": [
+            {
+                "id": "fleet-keys",
+                "messages": _FLEET_MESSAGES,
+                "flows": ["egress", "ingress"],
+                "permission": "allow",
+                "key_exprs": [f"objectplaces/{fleet}/**"],
+            }
+        ],
+        "subjects": [{"id": "fleet-members", "usernames": [user]}],
+        "policies": [{"rules": ["fleet-keys"], "subjects": ["fleet-members"]}],
+    }
 
 
 def _is_endpoint(endpoint: object) -> bool:
@@ -142,8 +179,10 @@ def zenoh_config(options: ZenohOptions, credentials: Credentials, dictionary: Pa
             "password": credentials.password,
             "dictionary_file": str(dictionary),
         },
-        **options.extra,
     }
+    if options.mode == "router":
+        settings["access_control"] = fleet_access_control(options.fleet, credentials.user)
+    settings.update(options.extra)
     for key, value in settings.items():
         config.insert_json5(key, json.dumps(value))
     return config

@@ -18,6 +18,7 @@ from objectplaces.transport.zenoh_config import (
     derive_credentials,
     zenoh_config,
 )
+from objectplaces.transport.zenoh_inbox import direct
 from objectplaces.zenoh_node import ZenohNode, start_zenoh_node
 from objectplaces.zenoh_router import start_router
 from tests.zenoh.intruder import open_fleet_session
@@ -66,6 +67,32 @@ async def test_a_client_without_the_secret_is_refused_by_the_router() -> None:
         session = await open_fleet_session(SECRET, router.endpoints)
         await asyncio.to_thread(session.close)
     finally:
+        await router.close()
+
+
+async def test_the_router_passes_only_the_fleets_keys() -> None:
+    router = await start_router(secret=SECRET, listen=["tcp/127.0.0.1:0"])
+    sessions = []
+    try:
+        listener = await open_fleet_session(SECRET, router.endpoints)
+        talker = await open_fleet_session(SECRET, router.endpoints)
+        sessions += [listener, talker]
+        heard: list[str] = []
+
+        def hear(sample: zenoh.Sample) -> None:
+            heard.append(str(sample.key_expr))
+
+        for key in ("elsewhere/**", "objectplaces/default/**"):
+            listener.declare_subscriber(key, direct(hear))
+        await asyncio.sleep(0.3)
+        talker.put("elsewhere/x", b"1")
+        talker.put("objectplaces/default/x", b"1")  # the control: it passes
+        await until(lambda: "objectplaces/default/x" in heard)
+        await asyncio.sleep(0.2)
+        assert heard == ["objectplaces/default/x"]
+    finally:
+        for session in sessions:
+            await asyncio.to_thread(session.close)
         await router.close()
 
 
