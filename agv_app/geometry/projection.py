@@ -46,6 +46,13 @@ def _rect(cx: float, cy: float, heading: float, half_l: float, half_w: float) ->
     )
 
 
+_HULLS: dict[tuple[float, float, float, float, float], Area] = {}
+_HULLS_KEPT = 8192
+"""Hulls remembered by pose and size: the safety monitor asks for every vehicle's hull at
+every step, and most vehicles stand still. An ``Area`` is immutable, so one may be
+handed out twice."""
+
+
 def hull(pose: Pose, *, length: float, width: float) -> Area:
     """Return the vehicle rectangle at ``pose``, centred on its position.
 
@@ -54,7 +61,13 @@ def hull(pose: Pose, *, length: float, width: float) -> Area:
         length: extent along the heading, metres.
         width: extent across the heading, metres.
     """
-    return Area(_rect(pose.x, pose.y, pose.heading_rad, length / 2, width / 2))
+    key = (pose.x, pose.y, pose.heading_rad, length, width)
+    area = _HULLS.get(key)
+    if area is None:
+        if len(_HULLS) >= _HULLS_KEPT:
+            _HULLS.clear()
+        area = _HULLS[key] = Area(_rect(pose.x, pose.y, pose.heading_rad, length / 2, width / 2))
+    return area
 
 
 def _stretch(

@@ -97,7 +97,9 @@ class PropertyView:
         # One read-only proxy per node, made once: handing out the view costs O(1).
         self._proxies: dict[str, Mapping[str, Any]] = {}
         self._readonly: Mapping[str, Mapping[str, Any]] = MappingProxyType(self._proxies)
-        self._seqs: dict[str, dict[str, int]] = {}
+        # Per node, per property, the seq it was last set at; a bare int: every property
+        # of the node at that seq (after a heartbeat that changed nothing: no dict to make).
+        self._seqs: dict[str, dict[str, int] | int] = {}
         self._tops: dict[str, int] = {}  # per node, the highest seq it has in ``_seqs``
         self._heard: dict[str, float] = {}
         self._indexes: dict[str, GridIndex] = {}
@@ -175,9 +177,13 @@ class PropertyView:
             if props == values:
                 # Newer than every property held and equal to them all (a heartbeat of a
                 # node standing still): only the sequence numbers move, set in one pass.
-                self._seqs[source] = dict.fromkeys(values, seq)
+                self._seqs[source] = seq
                 return False
         seqs = self._seqs[source]
+        if isinstance(seqs, int):
+            # Every property was set at that one seq (``props`` and ``_seqs`` hold the
+            # same names): spell it out before some change and others do not.
+            seqs = self._seqs[source] = dict.fromkeys(props, seqs)
         changed = False
         indexes, maxima, observers = self._indexes, self._maxima, self._observers
         for name, value in values.items():

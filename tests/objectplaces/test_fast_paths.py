@@ -8,6 +8,7 @@ plain path would: the same values, the same sequence numbers, the same order of 
 
 from __future__ import annotations
 
+import gc
 import random
 from typing import Any
 
@@ -21,7 +22,7 @@ from objectplaces.core.messages import PropertyUpdate
 from objectplaces.core.observers import Observers
 from objectplaces.core.plumbing import Plumbing
 from objectplaces.core.view import PropertyView
-from objectplaces.runtime.sim import EventLoop
+from objectplaces.runtime.sim import GC_ALLOCATIONS, EventLoop
 from objectplaces.transport.memory import LinkParams, MemoryNetwork
 
 
@@ -140,3 +141,28 @@ def test_network_schedules_the_same_arrivals_with_or_without_call_each() -> None
     with_each, without = _arrivals(True), _arrivals(False)
     assert len(with_each) > 15  # every sender reached all five others, some twice
     assert with_each == without
+
+
+def test_a_batch_waits_as_one_heap_entry_and_keeps_its_place_among_single_calls() -> None:
+    loop = EventLoop()
+    ran: list[str] = []
+    loop.call_each(ran.append, [(0.3, ("c",)), (0.1, ("a",)), (0.2, ("b",))])
+    assert len(loop) == 1
+    loop.call_at(0.15, ran.append, "single")
+    loop.call_each(ran.append, [(0.2, ("b2",)), (0.05, ("first",))])
+    assert loop.next_time() == 0.05
+    assert loop.run_until(1.0, stop=lambda: ran[-1] == "b") is True
+    assert ran == ["first", "a", "single", "b"]
+    assert not loop.run_until(1.0)
+    assert ran == ["first", "a", "single", "b", "b2", "c"]
+    assert len(loop) == 0
+
+
+def test_the_collector_is_spaced_while_events_run_and_restored_after() -> None:
+    loop = EventLoop()
+    before = gc.get_threshold()
+    seen: list[tuple[int, ...]] = []
+    loop.call_at(0.1, lambda: seen.append(gc.get_threshold()))
+    loop.run_until(1.0)
+    assert seen[0][0] == max(before[0], GC_ALLOCATIONS)
+    assert gc.get_threshold() == before
