@@ -343,7 +343,11 @@ class AgvController:
             heading += math.pi
         x0, y0 = route.polyline.start
         lead = (x0 - _LEAD_M * math.cos(heading), y0 - _LEAD_M * math.sin(heading))
-        self.vehicle.new_route(Polyline([lead, *route.polyline.coords]), s=_LEAD_M)
+        path = Polyline([lead, *route.polyline.coords])
+        # Start exactly on the lead piece's end (its rounded length, not _LEAD_M): there
+        # the vehicle still faces the old way, so its first lock is the hull it stands
+        # in and the first request sweeps the turn.
+        self.vehicle.new_route(path, s=path.cumulative[1])
         plan = StopPlan.for_route(self.layout, route, clearance_m=self.clearance_m)
         self._plan = StopPlan(
             self.vehicle.route.length, tuple((lo + _LEAD_M, hi + _LEAD_M) for lo, hi in plan.zones)
