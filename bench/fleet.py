@@ -1,20 +1,18 @@
-"""Fleet benchmark: throughput, safety, bandwidth with groups vs broadcast, sim speed.
+"""Fleet benchmark: the traffic protocol against the central baseline, at load.
 
-Runs the demo warehouse with 10, 20, 50, 100 and 200 AGVs (seeded, 30 simulated
-minutes each by default), once with collision groups and once with ``--broadcast``
-(every AGV votes on every request), and records the measured figures in
-BENCHMARKS.md. Large sizes take long; ``--sizes`` and ``--minutes`` shorten the run.
+Runs the same fleet twice per seed, side by side in one run: once with the AGVs'
+own traffic protocol (collision groups) and once with the central baseline
+(``--traffic central``: one first-come-first-served scheduler, no network), on the
+same layout, vehicles, task stream and seed. Then it checks the goals of issue 11 and
+records both tables in BENCHMARKS.md:
 
-``--against DIR`` runs every job a second time with the tree checked out at ``DIR``
-(``git worktree add DIR <commit>``), side by side in the same run, and adds a table
-of both trees' sim speed: a change to the fleet shows there whether it costs time.
+* 0 collisions, 0 lock overlaps, 0 waits over 180 s, ``max_wait`` < 120 s;
+* throughput >= 50% of the free-flow bound, and >= the central baseline's.
 
-Tasks arrive at the rate that keeps ``--load`` of the AGVs busy (default 0.7, see
-``agv_app.tasks.load``); the table sets the tasks done per hour beside the free-flow
-bound and the long waits (docs/fleet.md says what each figure means).
+Bandwidth (groups against broadcast) is measured by ``bench/fleet_bandwidth.py``.
 
-    python -m bench.fleet [--sizes 10,20,50] [--minutes 30] [--seed 1] [--load 0.7]
-                          [--against DIR]
+    python -m bench.fleet [--agvs 20] [--load 0.9] [--minutes 30] [--seeds 1,2,3,4,5]
+                          [--layout FILE] [--jobs N]
 """
 
 from __future__ import annotations
@@ -22,218 +20,170 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import subprocess
-import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
-from pathlib import Path
-
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+from dataclasses import dataclass
 
 from agv_app.fleet import Fleet, FleetConfig
-from agv_app.tasks import DEFAULT_LOAD, check_load
+from agv_app.layout.json_format import load_any
+from agv_app.tasks import check_load
 from bench.report import markdown_table, publish
 
-__all__ = ["main", "run_elsewhere", "run_one"]
+__all__ = ["Goal", "goals", "main", "run_one"]
+
+MODES = ("protocol", "central")
+MAX_WAIT_GOAL_S = 120.0
+FREE_FLOW_SHARE_GOAL = 0.5
 
 
 def run_one(
-    agvs: int, minutes: float, seed: int, broadcast: bool, load: float = DEFAULT_LOAD
+    agvs: int, minutes: float, seed: int, traffic: str, load: float, layout: str | None = None
 ) -> dict[str, float]:
     """Run one fleet and return its figures (sim speed from this process's CPU time)."""
-    fleet = Fleet(config=FleetConfig(agvs=agvs, seed=seed, broadcast=broadcast, load=load))
+    floor = load_any(layout) if layout else None
+    cfg = FleetConfig(agvs=agvs, seed=seed, load=load, traffic=traffic)
+    fleet = Fleet(floor, cfg)
     started = time.process_time()
     fleet.run(minutes * 60)
     return fleet.summary(time.process_time() - started)
 
 
-_RUN_ONE = (
-    "import json, sys; from bench.fleet import run_one; "
-    "print(json.dumps(run_one(*json.loads(sys.argv[1]))))"
-)
+@dataclass(frozen=True, slots=True)
+class Goal:
+    """One goal, what was measured and whether it was met."""
+
+    name: str
+    measured: str
+    met: bool
 
 
-def run_elsewhere(
-    tree: Path, agvs: int, minutes: float, seed: int, broadcast: bool
-) -> dict[str, float]:
-    """:func:`run_one` with the code of another checkout ``tree``, in a child process
-    (at that tree's own default load: older trees take no load)."""
-    env = {**os.environ, "PYTHONPATH": str(tree)}
-    args = json.dumps([agvs, minutes, seed, broadcast])
-    done = subprocess.run(
-        [sys.executable, "-c", _RUN_ONE, args],
-        cwd=tree,
-        env=env,
-        capture_output=True,
-        text=True,
-        check=True,
+def goals(runs: dict[tuple[int, str], dict[str, float]], seeds: list[int]) -> list[Goal]:
+    """Check the goals on the protocol's runs (and against the central ones)."""
+    ours = [runs[(s, "protocol")] for s in seeds]
+    theirs = [runs[(s, "central")] for s in seeds]
+    out = []
+    for key, label in (
+        ("collisions", "0 collisions"),
+        ("lock_overlaps", "0 lock overlaps"),
+        ("deadlocks", "0 waits over 180 s"),
+    ):
+        total = sum(r[key] for r in ours)
+        out.append(Goal(label, f"{total:g} in {len(seeds)} runs", total == 0))
+    worst = max(r["max_wait"] for r in ours)
+    out.append(Goal(f"max_wait < {MAX_WAIT_GOAL_S:g} s", f"{worst:g} s (worst seed)", worst < 120))
+    shares = [r["tasks_per_hour"] / max(r["free_flow_tasks_per_hour"], 1e-9) for r in ours]
+    out.append(
+        Goal(
+            f"throughput >= {FREE_FLOW_SHARE_GOAL:.0%} of free flow",
+            f"{min(shares):.0%} worst seed, {sum(shares) / len(shares):.0%} mean",
+            min(shares) >= FREE_FLOW_SHARE_GOAL,
+        )
     )
-    figures: dict[str, float] = json.loads(done.stdout.strip().splitlines()[-1])
-    return figures
+    wins = [a["tasks_per_hour"] >= b["tasks_per_hour"] for a, b in zip(ours, theirs, strict=True)]
+    total_ours = sum(r["tasks_per_hour"] for r in ours)
+    total_theirs = sum(r["tasks_per_hour"] for r in theirs)
+    out.append(
+        Goal(
+            "throughput >= the central baseline's",
+            f"{total_ours / len(seeds):.1f} against {total_theirs / len(seeds):.1f} tasks/h "
+            f"(mean); at least as high on {sum(wins)} of {len(seeds)} seeds",
+            all(wins),
+        )
+    )
+    return out
 
 
-def _plan(sizes: list[int], minutes: str) -> list[tuple[int, float]]:
-    """Pair each size with its simulated minutes (one value for all, or one per size)."""
-    values = [float(m) for m in minutes.split(",") if m]
-    if len(values) == 1:
-        values *= len(sizes)
-    if len(values) != len(sizes):
-        raise SystemExit(f"--minutes gives {len(values)} values for {len(sizes)} sizes")
-    return list(zip(sizes, values, strict=True))
+def _row(seed: int, mode: str, r: dict[str, float]) -> list[object]:
+    share = r["tasks_per_hour"] / max(r["free_flow_tasks_per_hour"], 1e-9)
+    return [
+        seed,
+        mode,
+        r["tasks_created"],
+        r["tasks_completed"],
+        r["tasks_per_hour"],
+        r["free_flow_tasks_per_hour"],
+        f"{share:.0%}",
+        r["collisions"],
+        r["lock_overlaps"],
+        r["deadlocks"],
+        r["stalls_60s"],
+        r["max_wait"],
+        r["waiting_share"],
+        r["sim_speed"],
+    ]
 
 
 def main(argv: list[str] | None = None) -> None:
     """Run the benchmark and publish its section of BENCHMARKS.md."""
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--sizes", default="10,20,50,100,200")
+    parser.add_argument("--agvs", type=int, default=20)
+    parser.add_argument("--load", type=float, default=0.9, help="share of busy AGVs, (0, 1]")
+    parser.add_argument("--minutes", type=float, default=30.0, help="simulated minutes per run")
+    parser.add_argument("--seeds", default="1,2,3,4,5")
+    parser.add_argument("--layout", help="layout file (.json or openTCS .xml); default: demo")
     parser.add_argument(
-        "--minutes", default="30", help="simulated minutes: one value, or one per size"
-    )
-    parser.add_argument("--seed", type=int, default=1)
-    parser.add_argument(
-        "--load", type=float, default=DEFAULT_LOAD, help="target share of busy AGVs, (0, 1]"
-    )
-    parser.add_argument(
-        "--jobs",
-        type=int,
-        default=os.cpu_count() or 1,
-        help="runs in parallel (each run is one process on one core)",
-    )
-    parser.add_argument(
-        "--against", type=Path, help="also run every job with the checkout in this directory"
+        "--jobs", type=int, default=os.cpu_count() or 1, help="runs in parallel, one core each"
     )
     args = parser.parse_args(argv)
     try:
         check_load(args.load)
     except ValueError as exc:
         raise SystemExit(f"bench.fleet: --load: {exc}") from exc
-    sizes = [int(s) for s in args.sizes.split(",") if s]
-    plan = _plan(sizes, args.minutes)
-    jobs = [(n, m, broadcast) for n, m in plan for broadcast in (False, True)]
-    trees = ["this", "against"] if args.against else ["this"]
-    results: dict[tuple[int, bool], dict[str, float]] = {}
-    baseline: dict[tuple[int, bool], dict[str, float]] = {}
-    with (
-        Progress(TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn()) as progress,
-        ProcessPoolExecutor(max_workers=args.jobs) as pool,
-    ):
-        bar = progress.add_task("fleet runs", total=len(jobs) * len(trees))
-        futures = {}
-        # Largest first; a job's two trees side by side, so both see the same load.
-        for n, m, broadcast in sorted(jobs, key=lambda j: -j[0] * j[1]):
-            for tree in trees:
-                future = (
-                    pool.submit(run_one, n, m, args.seed, broadcast, args.load)
-                    if tree == "this"
-                    else pool.submit(run_elsewhere, args.against, n, m, args.seed, broadcast)
-                )
-                futures[future] = (tree, n, broadcast)
+    seeds = [int(s) for s in args.seeds.split(",") if s]
+    runs: dict[tuple[int, str], dict[str, float]] = {}
+    with ProcessPoolExecutor(max_workers=args.jobs) as pool:
+        futures = {
+            pool.submit(run_one, args.agvs, args.minutes, seed, mode, args.load, args.layout): (
+                seed,
+                mode,
+            )
+            for seed in seeds
+            for mode in MODES
+        }
         for future in as_completed(futures):
-            tree, n, broadcast = futures[future]
-            (results if tree == "this" else baseline)[(n, broadcast)] = future.result()
-            progress.advance(bar)
-    rows = []
-    for n, minutes in plan:
-        grouped, broad = results[(n, False)], results[(n, True)]
-        ratio = grouped["bytes_per_agv_per_s"] / max(broad["bytes_per_agv_per_s"], 1e-9)
-        role_bytes = sum(v for k, v in grouped.items() if k.startswith("wire_channel_bytes"))
-        role_broad = sum(v for k, v in broad.items() if k.startswith("wire_channel_bytes"))
-        rows.append(
-            [
-                n,
-                f"{minutes:g}",
-                grouped["tasks_created"],
-                grouped["tasks_completed"],
-                grouped["tasks_per_hour"],
-                grouped["free_flow_tasks_per_hour"],
-                grouped["stalls_60s"],
-                grouped["max_wait"],
-                grouped["collisions"] + broad["collisions"],
-                grouped["lock_overlaps"] + broad["lock_overlaps"],
-                f"{grouped['deadlocks']} / {broad['deadlocks']}",
-                grouped["bytes_per_agv_per_s"],
-                broad["bytes_per_agv_per_s"],
-                f"{ratio:.2f}",
-                f"{role_bytes:.0f} / {role_broad:.0f}",
-                grouped["sim_speed"],
-            ]
-        )
+            seed, mode = futures[future]
+            runs[(seed, mode)] = future.result()
+            # Each run's figures as it ends, so a cut-short run still shows what it measured.
+            print(json.dumps({"seed": seed, "traffic": mode, **runs[(seed, mode)]}), flush=True)
     header = [
-        "AGVs",
-        "sim minutes",
+        "seed",
+        "traffic",
         "tasks created",
         "tasks done",
         "tasks/h",
         "free-flow tasks/h",
-        "waits > 60 s",
-        "longest wait, s",
+        "of free flow",
         "collisions",
         "lock overlaps",
-        "deadlocks (groups / broadcast)",
-        "B/s per AGV, groups",
-        "B/s per AGV, broadcast",
-        "groups / broadcast",
-        "session B/s per AGV (groups / broadcast)",
-        "sim s per CPU s (groups)",
+        "waits > 180 s",
+        "waits > 60 s",
+        "longest wait, s",
+        "waiting share",
+        "sim s per CPU s",
     ]
+    rows = [_row(seed, mode, runs[(seed, mode)]) for seed in seeds for mode in MODES]
+    checked = goals(runs, seeds)
+    goal_rows = [[g.name, g.measured, "yes" if g.met else "**no**"] for g in checked]
+    where = args.layout or "the demo warehouse"
     body = (
-        f"Demo warehouse, seed {args.seed}, load {args.load:g}, t_update 1 s, 5 ms delay; "
-        "the minutes column "
-        "gives each run's simulated time. Bytes per AGV per second count every frame the "
-        "AGVs' nodes sent (properties, session channels, acks); session B/s counts the "
-        "collision and task protocols alone. Deadlocks: AGVs stalled over 180 s; free-flow "
-        "tasks/h, waits > 60 s and the longest wait (with groups) as in docs/fleet.md. Sim speed "
-        "is simulated seconds per CPU second of the run's own process (one core).\n\n"
+        f"{args.agvs} AGVs on {where}, load {args.load:g}, {args.minutes:g} simulated minutes "
+        f"per run, seeds {args.seeds}; t_update 1 s, 5 ms delay. Each seed runs twice on the "
+        "same layout, vehicles, task stream and seed: `protocol` is the AGVs' own traffic "
+        "protocol (collision groups, the longest-waiting request first), `central` the baseline "
+        "(`objectplaces sim --traffic central`: one scheduler sees every lock and grants "
+        "requests first come, first served, with no network; the AGVs keep their resting "
+        "places and yield at dead ends). Free-flow tasks/h, waits and the longest wait as "
+        "in docs/fleet.md.\n\n"
         + markdown_table(header, rows)
-        + "\n\nGoals (issue 5): 0 violations at every size; bandwidth with groups <= 1/5 of "
-        "broadcast at 50 AGVs; 100 AGVs at >= 10x real time on one core."
+        + "\n\nGoals (issue 11), on the protocol's runs:\n\n"
+        + markdown_table(["goal", "measured", "met"], goal_rows)
     )
-    if args.against:
-        body += "\n\n" + _comparison(plan, results, baseline, args.against)
     command = (
-        f".venv/bin/python -m bench.fleet --sizes {args.sizes} --minutes {args.minutes} "
-        f"--load {args.load:g}"
+        f".venv/bin/python -m bench.fleet --agvs {args.agvs} --load {args.load:g} "
+        f"--minutes {args.minutes:g} --seeds {args.seeds}"
+        + (f" --layout {args.layout}" if args.layout else "")
     )
-    if args.against:
-        command += f" --against {args.against}"
-    publish("fleet", "AGV fleet: throughput, safety, bandwidth (bench/fleet.py)", body, command)
-
-
-def _comparison(
-    plan: list[tuple[int, float]],
-    results: dict[tuple[int, bool], dict[str, float]],
-    baseline: dict[tuple[int, bool], dict[str, float]],
-    against: Path,
-) -> str:
-    """The table of sim speed (and tasks done, which must agree) of both trees."""
-    rows = []
-    for n, minutes in plan:
-        for broadcast in (False, True):
-            new, old = results[(n, broadcast)], baseline[(n, broadcast)]
-            rows.append(
-                [
-                    n,
-                    "broadcast" if broadcast else "groups",
-                    f"{minutes:g}",
-                    f"{new['tasks_completed']} / {old['tasks_completed']}",
-                    new["sim_speed"],
-                    old["sim_speed"],
-                    f"{new['sim_speed'] / max(old['sim_speed'], 1e-9):.2f}",
-                ]
-            )
-    header = [
-        "AGVs",
-        "mode",
-        "sim minutes",
-        "tasks done (this / against)",
-        "sim s per CPU s, this tree",
-        f"sim s per CPU s, {against.name}",
-        "this / against",
-    ]
-    return (
-        f"Against the checkout in `{against}`, measured in the same run, each job's two "
-        "trees side by side:\n\n" + markdown_table(header, rows)
-    )
+    publish("fleet", "AGV fleet at load: the protocol against a central scheduler", body, command)
 
 
 if __name__ == "__main__":
