@@ -95,6 +95,8 @@ class RoleActivator:
         self._machine = machine
         self._clock = clock
         self._wake = wake
+        machine.driver.clock = clock
+        machine.driver.wake = wake
         self.space = space
 
     @property

@@ -63,7 +63,8 @@ class _SimNode:
             self._schedule(self.machine.next_deadline())
 
     def wake(self) -> None:
-        if not self.wake_pending and self.alive:
+        # Inside a drain (a role acting in its callback) the drain itself picks it up.
+        if not self.wake_pending and self.alive and not self.pump.draining:
             self.wake_pending = True
             self.net._loop.call_at(self.net._loop.now, self._on_wake)
 

@@ -7,9 +7,12 @@ implement those protocols on the public commands of the two tables (``SessionTab
 private state: a context names its session (or its participation, epoch included) and
 the table decides, so a role whose session ended simply gets False from ``send``.
 
-A role's clock is the machine's: the ``now`` of the input being processed. Role
-callbacks run after that input, in the same instant, so every command they issue
-carries that time.
+A role's clock is the driver's (``DriverLink``). Role callbacks run after an input, in
+the same instant, so in the simulation every command they issue carries that input's
+time. A role may also act from outside a callback (from its own asyncio task or an
+application timer): its command then carries the driver's current time, not the last
+input's, and wakes the driver so that what it queued is sent now, not with the next
+input that happens to arrive.
 """
 
 from __future__ import annotations
@@ -25,7 +28,25 @@ if TYPE_CHECKING:  # the tables bind roles to these contexts: import them for ty
     from objectplaces.core.participations import ParticipationTable
     from objectplaces.core.sessions import SessionTable
 
-__all__ = ["InitiatorContext", "ParticipantContext", "RoleHost"]
+__all__ = ["DriverLink", "InitiatorContext", "ParticipantContext", "RoleHost"]
+
+
+def _no_wake() -> None:
+    """The wake of a machine no runtime drives (tests that drain it by hand)."""
+
+
+class DriverLink:
+    """The clock and wake of whoever drives a machine, as role contexts see them.
+
+    The machine's own default reads the time of its latest input and wakes nobody; a
+    runtime (``RoleActivator``) sets both to its own.
+    """
+
+    __slots__ = ("clock", "wake")
+
+    def __init__(self, clock: Callable[[], float], wake: Callable[[], None] = _no_wake) -> None:
+        self.clock = clock
+        self.wake = wake
 
 
 class RoleHost(Protocol):
@@ -42,8 +63,8 @@ class RoleHost(Protocol):
         ...
 
     @property
-    def now(self) -> float:
-        """The time of the input being processed."""
+    def driver(self) -> DriverLink:
+        """The driver's clock and wake."""
         ...
 
     def call_later(
@@ -68,16 +89,21 @@ class InitiatorContext:
 
     def now(self) -> float:
         """The node's clock."""
-        return self._host.now
+        return self._host.driver.clock()
 
     def call_later(self, delay: float, fn: Callable[[], Any]) -> TimerHandle:
         """A timer that dies with the session."""
-        host = self._host
-        return host.call_later(delay, fn, host.now, owner=self._owner)
+        host, driver = self._host, self._host.driver
+        handle = host.call_later(delay, fn, driver.clock(), owner=self._owner)
+        driver.wake()
+        return handle
 
     def send(self, participant: ParticipantRef, message: Any) -> bool:
         """Send to one member (False when it is none)."""
-        return self._sessions.send(self.session_id, participant, message, self._host.now)
+        driver = self._host.driver
+        sent = self._sessions.send(self.session_id, participant, message, driver.clock())
+        driver.wake()
+        return sent
 
     def members(self) -> frozenset[ParticipantRef]:
         """The joined members."""
@@ -85,7 +111,9 @@ class InitiatorContext:
 
     def stop(self) -> None:
         """Stop the session."""
-        self._sessions.stop(self.session_id, self._host.now)
+        driver = self._host.driver
+        self._sessions.stop(self.session_id, driver.clock())
+        driver.wake()
 
 
 class ParticipantContext:
@@ -110,13 +138,18 @@ class ParticipantContext:
 
     def now(self) -> float:
         """The node's clock."""
-        return self._host.now
+        return self._host.driver.clock()
 
     def call_later(self, delay: float, fn: Callable[[], Any]) -> TimerHandle:
         """A timer that dies with this activation."""
-        host = self._host
-        return host.call_later(delay, fn, host.now, owner=self._owner)
+        host, driver = self._host, self._host.driver
+        handle = host.call_later(delay, fn, driver.clock(), owner=self._owner)
+        driver.wake()
+        return handle
 
     def send(self, message: Any) -> bool:
         """Send to the initiator (False once deactivated)."""
-        return self._table.send(self._owner, message, self._host.now)
+        driver = self._host.driver
+        sent = self._table.send(self._owner, message, driver.clock())
+        driver.wake()
+        return sent

@@ -31,7 +31,7 @@ from types import MappingProxyType
 from typing import Any, assert_never
 
 from objectplaces.core import codec
-from objectplaces.core.bindings import InitiatorContext, ParticipantContext
+from objectplaces.core.bindings import DriverLink, InitiatorContext, ParticipantContext
 from objectplaces.core.config import NodeConfig, ParticipationInfo, SessionInfo
 from objectplaces.core.errors import LocalProtocolError
 from objectplaces.core.events import Broadcast, Callback, Output, Subscribe, TimerHandle
@@ -96,6 +96,8 @@ class NodeMachine:
         self.config = config = config or NodeConfig()
         self.space = space
         self._now = now
+        #: The driver's clock and wake for role code; its runtime sets them.
+        self.driver = DriverLink(lambda: self._now)
         plumbing = Plumbing.build(node_id, config)
         self._outbox = outbox = plumbing.outbox
         self._timers = timers = plumbing.timers

@@ -53,6 +53,11 @@ class Pump:
         self._schedule = schedule
         self._draining = False
 
+    @property
+    def draining(self) -> bool:
+        """True while a drain runs: whatever the machine queues now is drained by it."""
+        return self._draining
+
     def drain(self) -> None:
         """Transmit every pending output and run every pending callback.
 

@@ -8,7 +8,7 @@ import pytest
 
 from objectplaces import Initiator, InitiatorRef, Participant, ParticipantRef, groups
 from objectplaces.core import codec
-from objectplaces.core.bindings import InitiatorContext, ParticipantContext
+from objectplaces.core.bindings import DriverLink, InitiatorContext, ParticipantContext
 from objectplaces.core.config import NodeConfig
 from objectplaces.core.errors import LocalProtocolError
 from objectplaces.core.events import Callback, Send, TimerHandle
@@ -52,6 +52,7 @@ class Host:
         self.node_id = plumbing.node_id
         self.space = None
         self.now = 0.0
+        self.driver = DriverLink(lambda: self.now)
         self.role_timers = plumbing.role_timers
 
     def call_later(
