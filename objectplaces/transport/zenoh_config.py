@@ -11,7 +11,10 @@ A router also applies Zenoh's access control: the fleet's user may put, subscrib
 query and hold liveliness tokens under the fleet's prefix only, and nothing else passes.
 
 Multicast scouting is off: a node reaches only the endpoints it is given, and the peers
-those tell it about (gossip), so nodes that know only a chain of endpoints still meet.
+those tell it about (gossip, passed on over several hops), so nodes that know only a
+chain of endpoints still meet. Peers route by link state: when two peers have no
+direct link (their links crossed while both were dialing, under load), data and
+declarations still reach each other through the others.
 """
 
 from __future__ import annotations
@@ -173,6 +176,8 @@ def zenoh_config(options: ZenohOptions, credentials: Credentials, dictionary: Pa
         "listen/endpoints": list(options.listen) if options.mode != "client" else [],
         "connect/endpoints": list(options.connect),
         "scouting/multicast/enabled": False,
+        "scouting/gossip/multihop": True,
+        "routing/peer": {"mode": "linkstate"},
         "transport/link/tx/lease": lease_ms,
         "transport/auth/usrpwd": {
             "user": credentials.user,
