@@ -1,0 +1,177 @@
+"""Simulation speed: simulated seconds per CPU second of the fleet simulation.
+
+Runs the fleet (seed 1, the default load and traffic) on the demo warehouse at 20, 50,
+100 and 200 AGVs, once with the default heartbeat (every property republished every
+second) and once with a 10 s heartbeat, and briefly with 1,000 AGVs on the generated
+large warehouse (``generated:1000``). Each run is a child process of its own; the figure
+is its CPU time for the simulated time, the fleet's construction left out.
+
+``--against DIR`` runs every job a second time with the tree checked out at ``DIR``,
+side by side in the same run, and says whether both trees gave the same metrics (a
+pure speedup must). The layout travels to both trees as a JSON file, so a tree without
+the generated warehouse runs it too.
+
+    python -m bench.sim_speed [--sizes 20,50,100,200] [--seconds 60,60,30,20]
+                              [--large 1000] [--large-seconds 5] [--against DIR]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+from typing import Any
+
+from agv_app.layout import save_layout
+from agv_app.layout.generated import generated_warehouse
+from bench.report import markdown_table, publish
+
+__all__ = ["GOALS", "main", "measure_in_tree"]
+
+ROOT = Path(__file__).resolve().parent.parent
+
+GOALS = {100: 10.0, 200: 3.0}
+"""Simulated seconds per CPU second asked for (issue 11), by fleet size."""
+
+_MEASURE = """
+import json, sys, time
+from agv_app.fleet import Fleet, FleetConfig
+from agv_app.layout import load_any
+agvs, seconds, layout_path, options = json.loads(sys.argv[1])
+layout = load_any(layout_path) if layout_path else None
+fleet = Fleet(layout, FleetConfig(agvs=agvs, seed=1, **options))
+started = time.process_time()
+fleet.run(seconds)
+cpu = time.process_time() - started
+summary = fleet.summary(cpu)
+for volatile in ("wall_seconds", "sim_speed"):
+    summary.pop(volatile, None)
+print(json.dumps({"cpu": cpu, "summary": summary}))
+"""
+
+
+def measure_in_tree(
+    tree: Path, agvs: int, seconds: float, layout_path: str | None, options: dict[str, Any]
+) -> dict[str, Any]:
+    """Run one fleet with the code of checkout ``tree`` in a child process.
+
+    Returns:
+        ``cpu`` (seconds of CPU for the simulated time) and ``summary`` (the fleet's
+        figures without the timing ones).
+    """
+    env = {**os.environ, "PYTHONPATH": str(tree)}
+    done = subprocess.run(
+        [sys.executable, "-c", _MEASURE, json.dumps([agvs, seconds, layout_path, options])],
+        cwd=tree,
+        env=env,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    result: dict[str, Any] = json.loads(done.stdout.strip().splitlines()[-1])
+    return result
+
+
+def _speed(seconds: float, cpu: float) -> float:
+    return round(seconds / cpu, 2) if cpu > 0 else float("inf")
+
+
+def _jobs(
+    sizes: list[int], seconds: list[float], large: int, large_seconds: float, layout: str | None
+) -> list[tuple[str, int, float, str | None, dict[str, Any]]]:
+    """``(label, agvs, seconds, layout file, options)`` of every run, in order."""
+    jobs: list[tuple[str, int, float, str | None, dict[str, Any]]] = []
+    for heartbeat in (None, 10.0):
+        options = {} if heartbeat is None else {"heartbeat": heartbeat}
+        label = "demo, heartbeat 1 s" if heartbeat is None else "demo, heartbeat 10 s"
+        for agvs, secs in zip(sizes, seconds, strict=True):
+            jobs.append((label, agvs, secs, None, options))
+    if large:
+        jobs.append(
+            (
+                f"generated:{large}, heartbeat 10 s",
+                large,
+                large_seconds,
+                layout,
+                {"heartbeat": 10.0},
+            )
+        )
+    return jobs
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Run the benchmark and publish its section of BENCHMARKS.md."""
+    parser = argparse.ArgumentParser(prog="python -m bench.sim_speed")
+    parser.add_argument("--sizes", default="20,50,100,200")
+    parser.add_argument("--seconds", default="60,60,30,20", help="simulated seconds per size")
+    parser.add_argument(
+        "--large", type=int, default=1000, help="AGVs on the generated warehouse (0: none)"
+    )
+    parser.add_argument("--large-seconds", type=float, default=5.0)
+    parser.add_argument("--against", type=Path, help="a checkout to compare with, side by side")
+    args = parser.parse_args(argv)
+    sizes = [int(s) for s in args.sizes.split(",") if s]
+    seconds = [float(s) for s in args.seconds.split(",") if s]
+    if len(seconds) == 1:
+        seconds *= len(sizes)
+    if len(seconds) != len(sizes):
+        parser.error("--seconds needs one value, or one per size")
+    with tempfile.TemporaryDirectory() as tmp:
+        layout = None
+        if args.large:
+            layout = str(Path(tmp) / f"generated-{args.large}.json")
+            save_layout(generated_warehouse(args.large), layout)
+        rows: list[list[object]] = []
+        met: dict[int, tuple[float, float]] = {}
+        for label, agvs, secs, path, options in _jobs(
+            sizes, seconds, args.large, args.large_seconds, layout
+        ):
+            now = measure_in_tree(ROOT, agvs, secs, path, options)
+            speed = _speed(secs, now["cpu"])
+            s = now["summary"]
+            row: list[object] = [label, agvs, secs, speed]
+            if args.against is not None:
+                before = measure_in_tree(args.against, agvs, secs, path, options)
+                old = _speed(secs, before["cpu"])
+                same = "yes" if before["summary"] == s else "no"
+                row += [old, round(speed / old, 2), same]
+            row += [s["messages"], s["collisions"], s["lock_overlaps"]]
+            rows.append(row)
+            print(row, file=sys.stderr, flush=True)
+            if agvs in GOALS:
+                best = max(met.get(agvs, (0.0, 0.0))[0], speed)
+                met[agvs] = (best, GOALS[agvs])
+    header = ["fleet", "AGVs", "sim s", "sim s per CPU s"]
+    if args.against is not None:
+        header += ["before", "now / before", "same metrics"]
+    header += ["frames sent", "collisions", "lock overlaps"]
+    goal_rows = [
+        [
+            f"{agvs} AGVs >= {goal:g}x real time",
+            f"{best:g}x (best configuration)",
+            "yes" if best >= goal else "no",
+        ]
+        for agvs, (best, goal) in sorted(met.items())
+    ]
+    command = ".venv/bin/python -m bench.sim_speed " + " ".join(
+        argv if argv is not None else sys.argv[1:]
+    )
+    body = (
+        "Seed 1, the default load, scoped dissemination as the fleet sets it, one core; "
+        "each run a process of its own, its CPU time for the simulated time (the fleet's "
+        "construction left out). The heartbeat republishes every property: at 1 s every "
+        "node hears every AGV about once a second, at 10 s only what changes travels "
+        "often.\n\n"
+        + markdown_table(header, rows)
+        + "\n\n"
+        + markdown_table(["goal", "measured", "met"], goal_rows)
+    )
+    publish("sim_speed", "Simulation speed (bench/sim_speed.py)", body, command.strip())
+
+
+if __name__ == "__main__":
+    main()
