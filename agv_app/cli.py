@@ -16,6 +16,7 @@ from pathlib import Path
 from agv_app.fleet.parking import parking_capacity
 from agv_app.fleet.sim import TRAFFIC_MODES, Fleet, FleetConfig
 from agv_app.layout.elements import LayoutError
+from agv_app.layout.generated import generated_warehouse, parse_generated
 from agv_app.layout.graph import Layout
 from agv_app.layout.json_format import load_any
 from agv_app.tasks.load import DEFAULT_LOAD
@@ -70,7 +71,11 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
     )
     p.add_argument("--minutes", type=float, default=60.0, help="simulated minutes")
     p.add_argument("--seed", type=int, default=1, help="random seed")
-    p.add_argument("--layout", help="layout file (.json or openTCS .xml); default: demo")
+    p.add_argument(
+        "--layout",
+        help="layout file (.json or openTCS .xml), or generated:N for a large warehouse "
+        "with room for N AGVs; default: demo",
+    )
     p.add_argument("--delay", type=float, default=5.0, help="one-way network delay, ms")
     p.add_argument("--loss", type=float, default=0.0, help="frame loss probability")
     p.add_argument(
@@ -94,6 +99,12 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
         "--task-interval",
         type=float,
         help="mean seconds between new tasks (overrides --load's rate, no tasks at the start)",
+    )
+    p.add_argument(
+        "--heartbeat",
+        type=float,
+        help="seconds between republications of every property (default: the 1 s update "
+        "interval); a node unheard for three heartbeats counts as failed",
     )
     p.add_argument("--json", dest="json_path", help="write the metrics to this JSON file")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -123,7 +134,9 @@ def run_sim(args: argparse.Namespace) -> int:
         )
         return 2
     try:
-        layout = load_any(args.layout) if args.layout else None
+        generated = parse_generated(args.layout) if args.layout else None
+        layout = generated_warehouse(generated) if generated else None
+        layout = layout or (load_any(args.layout) if args.layout else None)
         args.agvs = fleet_size(layout, args.agvs)
         config = FleetConfig(
             agvs=args.agvs,
@@ -135,6 +148,7 @@ def run_sim(args: argparse.Namespace) -> int:
             traffic=args.traffic,
             load=args.load,
             task_interval=args.task_interval,
+            heartbeat=args.heartbeat,
         )
         fleet = Fleet(layout, config)
     except (LayoutError, ValueError, OSError) as exc:
