@@ -21,6 +21,7 @@ import logging
 import random
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, replace
+from typing import Any
 
 from objectplaces.core import codec
 from objectplaces.core.errors import DecodeError, LocalProtocolError
@@ -226,12 +227,7 @@ class MemoryNetwork:
                     (now + delay, (source, run, target, incarnation, message, size, kind))
                 )
         if arrivals:
-            call_each = getattr(loop, "call_each", None)
-            if call_each is not None:
-                call_each(self._arrive, arrivals)
-            else:
-                for when, args in arrivals:
-                    loop.call_at(when, self._arrive, *args)
+            self._schedule(self._arrive, arrivals)
         if together:
             arrive = self._arrive_together
             loop.call_at(now + defaults.delay, arrive, source, run, together, message, size, kind)
@@ -242,6 +238,18 @@ class MemoryNetwork:
         self._messages += count
         self._bytes += count * size
         return count
+
+    def _schedule(
+        self, fn: Callable[..., None], calls: list[tuple[float, tuple[Any, ...]]]
+    ) -> None:
+        """``fn(*args)`` at each ``(when, args)``, in this order: in one call when the
+        scheduler takes a batch (the simulation's event loop does), else one by one."""
+        call_each = getattr(self.loop, "call_each", None)
+        if call_each is not None:
+            call_each(fn, calls)
+        else:
+            for when, args in calls:
+                self.loop.call_at(when, fn, *args)
 
     def _arrive_together(
         self,
@@ -346,10 +354,15 @@ class MemoryNetwork:
         publishers: Iterable[str] = subscribed.publishers
         if subscribed.became_full:
             publishers = [n for n in self._nodes if n != node]
-        for publisher in publishers:
-            link = self._links.get((node, publisher), self.defaults)
-            incarnation = self._incarnations[publisher]
-            self.loop.call_at(self.loop.now + link.delay, self._sync, publisher, incarnation, node)
+        now, links, defaults = self.loop.now, self._links, self.defaults
+        syncs = [
+            (
+                now + links.get((node, publisher), defaults).delay,
+                (publisher, self._incarnations[publisher], node),
+            )
+            for publisher in publishers
+        ]
+        self._schedule(self._sync, syncs)
 
     def _sync(self, publisher: str, incarnation: int, subscriber: str) -> None:
         entry = self._nodes.get(publisher)
