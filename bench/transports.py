@@ -394,10 +394,17 @@ async def coordinate(sizes: list[int], transports: list[str], fleet_agvs: int, f
     z_floor = await zenoh_floor(payload)
     z_wire = await zenoh_bytes_per_update(SECRET)
     rows = []
+    failed: list[str] = []
     for size in sizes:
         for transport in transports:
             print(f"measuring {transport} with {size} nodes ...", file=sys.stderr)
-            rows.append(await measure(transport, size))
+            try:
+                rows.append(await measure(transport, size))
+                print(json.dumps(rows[-1]), file=sys.stderr)
+            except (TimeoutError, RuntimeError) as exc:
+                # A network that did not form in time is a result too: say so, go on.
+                print(f"{transport} with {size} nodes failed: {exc!r}", file=sys.stderr)
+                failed.append(f"{transport} at {size} nodes: {type(exc).__name__} {exc}")
     fleet = None
     if fleet_agvs:
         print(f"running {fleet_agvs} AGV processes on Zenoh ...", file=sys.stderr)
@@ -493,6 +500,10 @@ async def coordinate(sizes: list[int], transports: list[str], fleet_agvs: int, f
             table,
             floors,
             fleet_text,
+            "Runs that did not complete (the network did not form, or a phase timed out):\n"
+            + "\n".join(f"- {f}" for f in failed)
+            if failed
+            else "",
             "Goals (issue 12):\n" + "\n".join(verdicts),
         ]
         if part
