@@ -1,4 +1,4 @@
-"""Transports: the in-memory simulated network and the WebSocket mesh.
+"""Transports: the in-memory simulated network, the WebSocket mesh and Zenoh.
 
 They import only ``objectplaces.core`` and each other, never a runtime: what they need
 from whoever drives a node is the ``NodeDriver`` (and, for the in-memory network, the
@@ -10,7 +10,9 @@ from whoever drives a node is the ``NodeDriver`` (and, for the in-memory network
 - ``mesh_frames``: the mesh's own frames (handshake, gossip, subscriptions, batches);
 - ``handshake``, ``directory``, ``policing``: the mesh's sans-I/O parts;
 - ``options``: the mesh's limits and timings;
-- ``link``, ``connector``, ``websocket``: the mesh's asyncio shell.
+- ``link``, ``connector``, ``websocket``: the mesh's asyncio shell;
+- ``zenoh_keys``, ``zenoh_alive`` (sans-I/O), ``zenoh_config``, ``zenoh_inbox``,
+  ``zenoh_publishers``, ``zenoh_transport``: the Zenoh transport (docs/zenoh.md).
 """
 
 __all__: list[str] = []
