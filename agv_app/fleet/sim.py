@@ -34,6 +34,7 @@ from agv_app.tasks.load import (
 from agv_app.traffic.central import CentralScheduler
 from agv_app.traffic.monitor import SafetyMonitor, SafetyViolation
 from agv_app.traffic.reach import interest_radius
+from agv_app.traffic.stale_relay import StaleListener, StaleRelay
 from agv_app.vehicle.controller import AgvConfig, AgvController
 from agv_app.vehicle.kinematics import VehicleSpec
 from objectplaces import RoleActivator
@@ -223,10 +224,13 @@ class Fleet(FleetSourceBase):
                 relocate=self._relocate,
                 central=self.central,
             )
+            self._listen(agv_id, node)
             self.parking.claim(agv_id, home)
         for sid in pick_stations(self.layout):
             self.desk.open_station(sid, self.net.add_node(f"st:{sid}"))
         self.observer = self.net.add_node(OBSERVER_ID)
+        self.stale_relay = None if self.interest_radius is None else StaleRelay(self.observer)
+        """Relays failed AGVs to every AGV when the AGVs are scoped (traffic/stale_relay.py)."""
         start_tasks = cfg.start_tasks
         if start_tasks is None:
             by_load = cfg.task_interval is None and (cfg.task_until is None or cfg.task_until > 0)
@@ -246,7 +250,14 @@ class Fleet(FleetSourceBase):
             return cfg.interest_radius
         # A held-back frame waits up to four more delays (SimulatedNetwork's reorder).
         worst_delay = (cfg.delay + cfg.jitter) * (5 if cfg.reorder else 1)
-        return interest_radius(self.layout, self.spec, self.agv_config, delay_s=worst_delay)
+        heartbeat = cfg.t_update if cfg.heartbeat is None else cfg.heartbeat
+        return interest_radius(
+            self.layout,
+            self.spec,
+            self.agv_config,
+            delay_s=worst_delay,
+            failure_timeout_s=3 * heartbeat,
+        )
 
     def _relocate(self, agv: AgvController) -> str | None:
         """A free rest point for an idle AGV that stands in the way (nearest ahead).
@@ -286,7 +297,15 @@ class Fleet(FleetSourceBase):
 
     def recover(self, agv_id: str) -> None:
         """Bring a crashed AGV back on a fresh node."""
-        self.agvs[agv_id].restart(self.net.add_node(agv_id, interest_radius=self.interest_radius))
+        node = self.net.add_node(agv_id, interest_radius=self.interest_radius)
+        self.agvs[agv_id].restart(node)
+        self._listen(agv_id, node)
+
+    def _listen(self, agv_id: str, node: RoleActivator) -> None:
+        """A scoped AGV takes the failed AGVs the observer relays into its lock book."""
+        if self.interest_radius is not None:
+            agv = self.agvs[agv_id]
+            StaleListener(node, lambda: agv.book)
 
     # -- running --------------------------------------------------------------------------
 

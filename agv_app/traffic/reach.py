@@ -135,23 +135,34 @@ def largest_hull_length(layout: Layout, spec: VehicleSpec, config: AgvConfig) ->
 
 
 def interest_radius(
-    layout: Layout, spec: VehicleSpec, config: AgvConfig, *, delay_s: float = 0.0
+    layout: Layout,
+    spec: VehicleSpec,
+    config: AgvConfig,
+    *,
+    delay_s: float = 0.0,
+    failure_timeout_s: float = 0.0,
 ) -> float:
     """The interest radius of an AGV node: every possible collider of its requests, and
     every requester it may vote for, lies within it.
 
     Twice the largest hull length (both circles at their largest), plus the distance
     two AGVs may close while one update interval and two network delays pass (both at
-    top speed).
+    top speed), plus the distance an AGV covers towards a crashed one before the
+    failure is detected and relayed (:mod:`agv_app.traffic.stale_relay`): a failure is
+    found at most four thirds of the timeout after the node was last heard (liveness is
+    checked every third of it).
 
     Args:
         layout: the floor plan.
         spec: the vehicles' size and speed.
         config: the AGV component's tunables (``t_update``, ``advance_m``).
         delay_s: the largest one-way network delay.
+        failure_timeout_s: the nodes' failure timeout (0: no crash to relay).
     """
-    movement = 2 * spec.max_speed_m_s * (config.t_update + 2 * delay_s)
-    return 2 * largest_hull_length(layout, spec, config) + movement
+    speed = spec.max_speed_m_s
+    movement = 2 * speed * (config.t_update + 2 * delay_s)
+    detection = speed * (4 / 3 * failure_timeout_s + 2 * delay_s) if failure_timeout_s else 0.0
+    return 2 * largest_hull_length(layout, spec, config) + movement + detection
 
 
 def unheard_colliders(

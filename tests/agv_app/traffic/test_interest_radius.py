@@ -93,7 +93,9 @@ def test_published_hull_lengths_stay_within_the_bound(
     bound = largest_hull_length(fleet.layout, fleet.spec, fleet.agv_config)
     assert 4.0 < watch.longest_hull <= bound
     assert fleet.interest_radius == pytest.approx(
-        interest_radius(fleet.layout, fleet.spec, fleet.agv_config, delay_s=0.007)
+        interest_radius(
+            fleet.layout, fleet.spec, fleet.agv_config, delay_s=0.007, failure_timeout_s=3.0
+        )
     )
 
 
@@ -260,3 +262,53 @@ def test_long_loop_is_one_loop_with_two_way_spurs_only() -> None:
     )
     with pytest.raises(ValueError, match="length_m"):
         long_loop(10.0)
+
+
+# -- failed AGVs beyond the scope ----------------------------------------------------------
+
+
+def test_an_agv_out_of_scope_learns_of_a_crash_from_the_relay_and_of_the_return() -> None:
+    fleet = Fleet(long_loop(), FleetConfig(agvs=12, seed=5, load=0.6, fail_on_violation=True))
+    fleet.run(20.0)
+    radius = fleet.interest_radius
+    assert radius is not None
+    assert fleet.stale_relay is not None
+
+    def far_from(agv_id: str) -> list[str]:
+        x = fleet.agvs[agv_id].node.properties["position"][0]
+        return [
+            a
+            for a, agv in fleet.agvs.items()
+            if abs(agv.node.properties["position"][0] - x) > radius + 30.0
+        ]
+
+    crashed = next(a for a in sorted(fleet.agvs) if far_from(a))
+    far = far_from(crashed)[0]
+    assert crashed not in fleet.agvs[far].node.view()
+    fleet.crash(crashed)
+    fleet.run(5.0)  # found within 4/3 of the 3 s timeout, then relayed
+    assert crashed in fleet.stale_relay.failed
+    assert crashed in {r.node_id for r in fleet.agvs[far].book.stale()}
+    fleet.recover(crashed)
+    fleet.run(2.0)
+    assert crashed not in fleet.stale_relay.failed
+    assert crashed not in {r.node_id for r in fleet.agvs[far].book.stale()}
+    fleet.run(60.0)
+    assert fleet.monitor.collisions == fleet.monitor.lock_overlaps == 0
+
+
+def test_unscoped_fleets_run_no_relay() -> None:
+    assert Fleet(config=FleetConfig(agvs=2, scoped=False)).stale_relay is None
+
+
+def test_the_listener_skips_malformed_records() -> None:
+    fleet = Fleet(long_loop(100.0), FleetConfig(agvs=2, seed=1, start_tasks=0))
+    fleet.run(1.0)
+    observer = fleet.observer
+    bad = [["x"], [1, 2.0, 3.0, 4.0], ["agv-02", "a", 0.0, 1.0], "nonsense"]
+    observer.update_node_property("failed_agvs", [*bad, ["ghost", 50.0, 10.0, 2.0]])
+    fleet.run(0.5)
+    assert [r.node_id for r in fleet.agvs["agv-01"].book.stale()] == ["ghost"]
+    observer.update_node_property("failed_agvs", [])
+    fleet.run(0.5)
+    assert fleet.agvs["agv-01"].book.stale() == []
