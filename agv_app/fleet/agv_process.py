@@ -288,8 +288,11 @@ async def run(args: argparse.Namespace, secret: bytes) -> int:
     config = AgvConfig(t_update=args.t_update, dwell=args.dwell)
     radius = args.interest_radius
     if radius == "auto":
-        # A loaded machine delays frames by up to the largest step lag.
-        radius = interest_radius(layout, spec, config, delay_s=_MAX_LAG_S)
+        # A loaded machine delays frames by up to the largest step lag. The demo floor
+        # lies within this radius, so no failure needs relaying (traffic/stale_relay.py).
+        radius = interest_radius(
+            layout, spec, config, delay_s=_MAX_LAG_S, failure_timeout_s=3 * args.t_update
+        )
     timing: dict[str, Any] = {
         "property_interval": args.t_update,
         "failure_timeout": 3 * args.t_update,
