@@ -80,7 +80,10 @@ class Intake:
     def admit(self, source: str, message: Message, size: int) -> bool:
         """Tally a decoded frame of ``size`` bytes; whether the machine should act on it
         (not when it claims to come from this node: a transport loop, or a spoofer)."""
-        tally = self.received_by_kind.setdefault(KIND_NAMES[type(message)], [0, 0])
+        kind = KIND_NAMES[type(message)]
+        tally = self.received_by_kind.get(kind)
+        if tally is None:  # not setdefault: its default list would be made for every frame
+            tally = self.received_by_kind[kind] = [0, 0]
         tally[0] += 1
         tally[1] += size
         if source == self._node_id:

@@ -276,7 +276,8 @@ class MemoryNetwork:
     ) -> None:
         # ``run``: the sender's run when it sent the frame (None: injected, never lost).
         entry = self._nodes.get(target)
-        void = run is not None and run <= self._voided.get(source, 0)
+        voided = self._voided
+        void = bool(voided) and run is not None and run <= voided.get(source, 0)
         if entry is None or entry[0] != incarnation or void:
             self._dropped["dead"] += 1
             return
