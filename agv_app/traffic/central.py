@@ -4,10 +4,11 @@ What ``objectplaces sim --traffic central`` runs instead of the requester and vo
 roles, so the decentralised protocol has a yardstick: an openTCS-style scheduler that
 sees every AGV's locks and requests at once, with no network between it and the
 vehicles. It grants the same lock areas (hull projections from one resting place to
-the next, :mod:`agv_app.traffic.deadlock`) first come, first served: waiting requests
-in the order their AGVs started waiting, each granted as soon as it overlaps no other
-AGV's lock. It reserves nothing for a request that must wait (as openTCS's scheduler
-allocates free resources and lets a blocked claim wait).
+the next, :mod:`agv_app.traffic.deadlock`, with their direction claims) first come,
+first served: waiting requests in the order their AGVs started waiting, each granted
+as soon as it overlaps no other AGV's lock and claims nothing against one. It
+reserves nothing for a request that must wait (as openTCS's scheduler allocates free
+resources and lets a blocked claim wait).
 
 Deadlock handling is what the vehicles bring, as with openTCS's resting-place rules:
 requests end at resting places, and an AGV stuck at a dead-end dock yields after
@@ -22,7 +23,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from agv_app.geometry import overlaps
-from agv_app.traffic.lockbook import LockBook, RequestEntry
+from agv_app.traffic.deadlock import claims_conflict
+from agv_app.traffic.lockbook import LockBook, LockEntry, RequestEntry
 
 __all__ = ["CentralRequest", "CentralScheduler"]
 
@@ -98,16 +100,20 @@ class CentralScheduler:
         """Grant every waiting request that overlaps no other AGV's lock, in order."""
         if not self._waiting:
             return
-        locks = {a: [e.area for e in book().locks()] for a, book in self._books.items()}
+        locks = {a: book().locks() for a, book in self._books.items()}
         queue = sorted(
             self._waiting.values(), key=lambda r: (r.entry.priority, self._arrival[r.agv_id])
         )
         for request in queue:
-            area = request.entry.area
+            entry = request.entry
             blockers = frozenset(
                 other
-                for other, areas in locks.items()
-                if other != request.agv_id and any(overlaps(area, a) for a in areas)
+                for other, held in locks.items()
+                if other != request.agv_id
+                and any(
+                    overlaps(entry.area, e.area) or claims_conflict(entry.claims, e.claims)
+                    for e in held
+                )
             )
             request.blocked_by = blockers
             if blockers:
@@ -117,7 +123,8 @@ class CentralScheduler:
                     )
                 continue
             del self._waiting[request.agv_id]
-            locks[request.agv_id] = [*locks.get(request.agv_id, []), area]
+            granted = LockEntry(entry.key, entry.end_s, entry.area, entry.claims)
+            locks[request.agv_id] = [*locks.get(request.agv_id, []), granted]
             self._finish(request, "locked")
 
     def _finish(self, request: CentralRequest, outcome: str) -> None:

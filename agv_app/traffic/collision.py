@@ -48,6 +48,7 @@ import shapely
 
 from agv_app.geometry import Area, coords_to_polygon, hull_length, overlaps, polygon_to_coords
 from agv_app.protocol import AGV_KIND, MessageTally, tally_send
+from agv_app.traffic.deadlock import Claim, claims_conflict
 from agv_app.traffic.lockbook import LockBook, Priority, RequestEntry
 from objectplaces import Initiator, Participant, ParticipantRef, groups
 from objectplaces.groups import GroupDefinition
@@ -84,8 +85,13 @@ def decide_vote(
     book: LockBook,
     group: frozenset[str],
     circle: tuple[float, float, float] | None = None,
+    claims: frozenset[Claim] = frozenset(),
 ) -> str:
     """The voter's rule: ``"allow"``, or why not: ``"group"``, ``"lock"`` or ``"priority"``.
+
+    Direction claims count as area does: a request whose claims conflict with those
+    of a lock (an AGV in the run, the other way) is held up by that lock; with those
+    of our pending request, the priorities decide.
 
     The group condition makes sure the voter's view already holds the requester's
     new circle, so that any later request of the voter over the requested area
@@ -101,14 +107,19 @@ def decide_vote(
         book: the voter node's bookkeeping.
         group: the voter's own collision group, from its view.
         circle: the requester's ``(x, y, hull_length)`` in the voter's view.
+        claims: the direction claims the request asks for.
     """
     if requester not in group and not _covers(circle, request):
         return "group"
     for lock in book.locks():
-        if overlaps(request, lock.area):
+        if overlaps(request, lock.area) or claims_conflict(claims, lock.claims):
             return "lock"
     own = book.request()
-    if own is not None and overlaps(request, own.area) and not priority < own.priority:
+    if (
+        own is not None
+        and (overlaps(request, own.area) or claims_conflict(claims, own.claims))
+        and not priority < own.priority
+    ):
         return "priority"
     return "allow"
 
@@ -186,6 +197,8 @@ class Requester(Initiator):
             "p": [entry.priority[0], entry.priority[1]],
             "a": request_coords(entry.area),
         }
+        if entry.claims:
+            self._message["c"] = [[seg, way] for seg, way in sorted(entry.claims)]
         self._started_at: float | None = None
         self.done = ""
         """``""`` while pending, then ``"locked"`` or ``"withdrawn"``."""
@@ -328,6 +341,7 @@ class Voter(Participant):
         self._recheck = recheck
         self._tally = tally
         self._area: Area | None = None
+        self._claims: frozenset[Claim] = frozenset()
         self._priority: Priority = (0.0, "")
         self._said = ""
         self._watches: list[NotifyHandle] = []
@@ -369,6 +383,7 @@ class Voter(Participant):
             self._area = coords_to_polygon(message["a"])
             p = message["p"]
             self._priority = (float(p[0]), str(p[1]))
+            self._claims = frozenset((str(seg), int(way)) for seg, way in message.get("c", ()))
         except (KeyError, IndexError, TypeError, ValueError):
             return
         self._evaluate()
@@ -397,6 +412,7 @@ class Voter(Participant):
             book,
             self._group_view(),
             self._circle_of(requester),
+            self._claims,
         )
         aside = (
             verdict == "priority"

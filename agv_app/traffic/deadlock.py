@@ -36,12 +36,62 @@ place. See docs/traffic.md for the whole argument and its limits.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 from agv_app.layout.elements import Route
 from agv_app.layout.graph import Layout
 
-__all__ = ["DEFAULT_CLEARANCE_M", "StopPlan", "clearance_for"]
+__all__ = [
+    "DEFAULT_CLEARANCE_M",
+    "Claim",
+    "StopPlan",
+    "claims_conflict",
+    "clearance_for",
+    "followable_segments",
+]
+
+Claim = tuple[str, int]
+"""A direction claim on one two-way segment: ``(segment id, direction)``, direction
+``1`` along the segment (start to end), ``-1`` against it, ``0`` to stop on it."""
+
+
+def claims_conflict(ours: Iterable[Claim], theirs: Iterable[Claim]) -> bool:
+    """True if two sets of claims may not be held at once: the same segment, unless
+    both drive through it the same way (same-direction AGVs follow each other)."""
+    held: dict[str, set[int]] = {}
+    for seg, way in ours:
+        held.setdefault(seg, set()).add(way)
+    for seg, way in theirs:
+        for other in held.get(seg, ()):
+            if way == 0 or other == 0 or way != other:
+                return True
+    return False
+
+
+def followable_segments(layout: Layout) -> frozenset[str]:
+    """The two-way segments a route may drive *through*, where AGVs may follow each
+    other: those of every connected set of two-way segments that one-way segments join
+    at two points or more (a way in and a different way out). Two-way spurs and
+    lanes that only end in dead ends are not: every route in them stops there."""
+    two_way = [s for s in layout.segments.values() if s.bidirectional]
+    parent: dict[str, str] = {}
+
+    def root(p: str) -> str:
+        while parent.setdefault(p, p) != p:
+            parent[p] = parent[parent[p]]
+            p = parent[p]
+        return p
+
+    for seg in two_way:
+        parent[root(seg.start)] = root(seg.end)
+    joined: dict[str, set[str]] = {}
+    for seg in layout.segments.values():
+        if not seg.bidirectional:
+            for p in (seg.start, seg.end):
+                if p in parent:
+                    joined.setdefault(root(p), set()).add(p)
+    return frozenset(s.id for s in two_way if len(joined.get(root(s.start), ())) >= 2)
 
 
 def clearance_for(length_m: float, width_m: float, *, margin_m: float = 0.15) -> float:
@@ -65,30 +115,102 @@ class StopPlan:
         length: route length, metres.
         zones: merged open intervals ``(lo, hi)`` of arc length where the AGV must not
             rest (the route end is always allowed).
+        claims: per zone, the direction claims on its two-way segments (empty: none
+            computed).
+        through: per zone, True if the route leaves it at its far end (a passing
+            place, then on beyond the clearance): with its claims held the AGV may
+            rest inside it behind one going the same way.
+        spans: each claim with the arc lengths ``(lo, hi)`` where the hull covers its
+            segment (widened by the clearance).
+        clearance: the clearance the zones are widened by.
     """
 
     length: float
     zones: tuple[tuple[float, float], ...]
+    claims: tuple[tuple[Claim, ...], ...] = ()
+    through: tuple[bool, ...] = ()
+    spans: tuple[tuple[Claim, float, float], ...] = ()
+    clearance: float = 0.0
 
     @classmethod
-    def for_route(cls, layout: Layout, route: Route, *, clearance_m: float) -> StopPlan:
-        """Compute the no-rest zones of ``route`` on ``layout``."""
-        raw: list[tuple[float, float]] = []
+    def for_route(
+        cls,
+        layout: Layout,
+        route: Route,
+        *,
+        clearance_m: float,
+        followable: frozenset[str] = frozenset(),
+    ) -> StopPlan:
+        """Compute the no-rest zones of ``route`` on ``layout`` and the direction claims
+        on those of their segments that are ``followable`` (none by default)."""
+        raw: list[tuple[float, float, list[Claim]]] = []
+        spans: list[tuple[str, float, float]] = []
         for i, seg_id in enumerate(route.segments):
-            if not layout.segment(seg_id).bidirectional:
+            segment = layout.segment(seg_id)
+            if not segment.bidirectional:
                 continue
             extent = layout.passing_extent(route, i)
             lo = route.offsets[i] - clearance_m
             hi = max(route.offsets[i + 1], extent.s) + clearance_m
-            raw.append((lo, hi))
-        raw.sort()
-        merged: list[tuple[float, float]] = []
-        for lo, hi in raw:
+            way = 1 if route.points[i] == segment.start else -1
+            if seg_id not in followable:
+                raw.append((lo, hi, []))
+                continue
+            raw.append((lo, hi, [(seg_id, way)]))
+            spans.append(
+                (seg_id, route.offsets[i] - clearance_m, route.offsets[i + 1] + clearance_m)
+            )
+        raw.sort(key=lambda z: (z[0], z[1]))
+        merged: list[tuple[float, float, list[Claim]]] = []
+        for lo, hi, claims in raw:
             if merged and lo <= merged[-1][1]:
-                merged[-1] = (merged[-1][0], max(merged[-1][1], hi))
+                last = merged[-1]
+                merged[-1] = (last[0], max(last[1], hi), last[2] + claims)
             else:
-                merged.append((lo, hi))
-        return cls(route.length, tuple(merged))
+                merged.append((lo, hi, claims))
+        through = tuple(bool(zone) and hi < route.length - 1e-9 for _, hi, zone in merged)
+        per_zone = tuple(
+            tuple(c if leaves else (c[0], 0) for c in zone)
+            for (_, _, zone), leaves in zip(merged, through, strict=True)
+        )
+        kind = {c[0]: c for zone in per_zone for c in zone}
+        return cls(
+            route.length,
+            tuple((lo, hi) for lo, hi, _ in merged),
+            per_zone,
+            through,
+            tuple((kind[seg], lo, hi) for seg, lo, hi in spans),
+            clearance_m,
+        )
+
+    def shifted(self, ds: float) -> StopPlan:
+        """The same plan on a route ``ds`` metres longer at its start."""
+        return StopPlan(
+            self.length + ds,
+            tuple((lo + ds, hi + ds) for lo, hi in self.zones),
+            self.claims,
+            self.through,
+            tuple((c, lo + ds, hi + ds) for c, lo, hi in self.spans),
+            self.clearance,
+        )
+
+    def claims_between(self, s0: float, s1: float) -> frozenset[Claim]:
+        """The claims of every zone that ``[s0, s1]`` reaches into."""
+        return frozenset(
+            c
+            for (lo, hi), claims in zip(self.zones, self.claims, strict=False)
+            if lo < s1 and hi > s0
+            for c in claims
+        )
+
+    def claims_held(self, s: float, lock_end: float) -> frozenset[Claim]:
+        """The claims an AGV at ``s`` with locks up to ``lock_end`` still needs: those
+        of the zones it is in or reaches into, or, standing at the route's end, those
+        of the segments its hull still covers (so that nobody follows into a run it
+        may leave the other way)."""
+        if s >= self.length - 1e-9:
+            return frozenset(c for c, lo, hi in self.spans if lo < s < hi)
+        return self.claims_between(s, lock_end)
 
     def may_rest(self, s: float) -> bool:
         """True if the AGV may come to rest with its centre at arc length ``s``."""
@@ -96,16 +218,26 @@ class StopPlan:
             return True
         return not any(lo < s < hi for lo, hi in self.zones)
 
-    def next_stop(self, from_s: float, advance_m: float) -> float:
+    def next_stop(self, from_s: float, advance_m: float, *, follow: bool = False) -> float:
         """The first resting place at or beyond ``from_s + advance_m`` (capped at the end).
 
-        A stop that would leave less than ``advance_m / 4`` to the route end is moved to
-        the end, so the last request does not cover a sliver.
+        With ``follow``, a zone the route drives through is a resting place too: the
+        request carries its direction claims (:meth:`claims_between`). A stop that
+        would leave less than ``advance_m / 4`` to the route end is moved to the end,
+        so the last request does not cover a sliver.
         """
         target = min(from_s + advance_m, self.length)
-        for lo, hi in self.zones:
-            if lo < target < hi:
-                target = hi
+        for k, (lo, hi) in enumerate(self.zones):
+            if not lo < target < hi:
+                continue
+            # Following, the AGV may wait inside a run it drives through, but only with
+            # its hull clear of both ends' junctions (not in a short keep-clear box).
+            first, last = lo + 2 * self.clearance + 0.01, hi - 2 * self.clearance
+            if follow and k < len(self.through) and self.through[k] and first < last:
+                target = max(target, first)
+                if target < last:
+                    continue
+            target = hi
         if target >= self.length - advance_m / 4:
             return self.length
         return target

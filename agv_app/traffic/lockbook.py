@@ -6,6 +6,8 @@ node's tuplespace (:class:`LockBook` is typed access to these tuples):
 * ``("lock", key, end_s, area)``: a locked projection (``end_s`` is the arc length of
   the route the lock reaches);
 * ``("request", key, end_s, area, priority)``: the pending request;
+* ``("claims", key, claims)``: the direction claims on two-way segments that the lock
+  or request ``key`` holds (:data:`agv_app.traffic.deadlock.Claim`; none: no tuple);
 * ``("stale", node_id, x, y, radius)``: the last known circle of a failed AGV, which
   nobody may lock into;
 * ``("in_the_way", requester)``: a voter deferred a request because of a lock
@@ -23,6 +25,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from agv_app.geometry import Area, overlaps
+from agv_app.traffic.deadlock import Claim
 from tuplespace import ANY, TupleSpace
 
 __all__ = ["LockBook", "LockEntry", "Priority", "RequestEntry", "StaleRecord", "stale_area"]
@@ -39,16 +42,18 @@ class LockEntry:
     key: int
     end_s: float
     area: Area
+    claims: frozenset[Claim] = frozenset()
 
 
 @dataclass(frozen=True, slots=True)
 class RequestEntry:
-    """The pending request of this node's AGV."""
+    """The pending request of this node's AGV (with the direction claims it asks for)."""
 
     key: int
     end_s: float
     area: Area
     priority: Priority
+    claims: frozenset[Claim] = frozenset()
 
 
 @dataclass(frozen=True, slots=True)
@@ -84,12 +89,28 @@ class LockBook:
 
     def locks(self) -> list[LockEntry]:
         """Locked projections, oldest first."""
-        return [LockEntry(t[1], t[2], t[3]) for t in self.space.rd_all(("lock", ANY, ANY, ANY))]
+        return [
+            LockEntry(t[1], t[2], t[3], self._claims(t[1]))
+            for t in self.space.rd_all(("lock", ANY, ANY, ANY))
+        ]
+
+    def _claims(self, key: int) -> frozenset[Claim]:
+        t = self.space.rdp(("claims", key, ANY))
+        return frozenset() if t is None else t[2]
+
+    def _set_claims(self, key: int, claims: frozenset[Claim]) -> None:
+        self.space.in_all(("claims", key, ANY))
+        if claims:
+            self.space.out(("claims", key, claims))
+
+    def claims(self) -> frozenset[Claim]:
+        """Every direction claim the locks hold."""
+        return frozenset(c for e in self.locks() for c in e.claims)
 
     def request(self) -> RequestEntry | None:
         """The pending request, if any."""
         t = self.space.rdp(("request", ANY, ANY, ANY, ANY))
-        return None if t is None else RequestEntry(t[1], t[2], t[3], t[4])
+        return None if t is None else RequestEntry(t[1], t[2], t[3], t[4], self._claims(t[1]))
 
     def lock_end(self, default: float = 0.0) -> float:
         """The furthest arc length any lock reaches (``default`` without locks)."""
@@ -97,6 +118,7 @@ class LockBook:
 
     def add_request(self, entry: RequestEntry) -> None:
         """Record the pending request (there is at most one)."""
+        self._set_claims(entry.key, entry.claims)
         self.space.out(("request", entry.key, entry.end_s, entry.area, entry.priority))
 
     def grant(self, key: int) -> LockEntry | None:
@@ -104,26 +126,33 @@ class LockBook:
         t = self.space.rdp(("request", key, ANY, ANY, ANY))
         if t is None:
             return None
-        entry = LockEntry(key, t[2], t[3])
+        entry = LockEntry(key, t[2], t[3], self._claims(key))
         self.space.out(("lock", key, entry.end_s, entry.area))
         self.space.inp(("request", key, ANY, ANY, ANY))
         return entry
 
     def withdraw(self, key: int) -> bool:
         """Drop the request ``key``; False if it was not pending."""
-        return self.space.inp(("request", key, ANY, ANY, ANY)) is not None
+        gone = self.space.inp(("request", key, ANY, ANY, ANY)) is not None
+        if gone:
+            self._set_claims(key, frozenset())
+        return gone
 
     def set_locks(self, entry: LockEntry) -> None:
         """Replace every lock by ``entry`` (the release: new lock written first)."""
         old = self.space.rd_all(("lock", ANY, ANY, ANY))
+        self._set_claims(entry.key, entry.claims)
         self.space.out(("lock", entry.key, entry.end_s, entry.area))
         for t in old:
             self.space.inp(t)
+            if t[1] != entry.key:
+                self._set_claims(t[1], frozenset())
 
     def clear(self) -> None:
         """Drop every lock and request (the node restarts from nothing)."""
         self.space.in_all(("lock", ANY, ANY, ANY))
         self.space.in_all(("request", ANY, ANY, ANY, ANY))
+        self.space.in_all(("claims", ANY, ANY))
 
     def note_allowed(self, session_id: str, area: Area, priority: Priority) -> None:
         """Remember that this node allowed a request, as long as our vote may count:

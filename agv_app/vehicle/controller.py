@@ -29,7 +29,7 @@ from agv_app.protocol import AGV_KIND, MessageTally
 from agv_app.tasks.auction import Bidder, TaskSpec
 from agv_app.traffic.central import CentralRequest, CentralScheduler
 from agv_app.traffic.collision import Requester, Voter, broadcast_group, collision_group
-from agv_app.traffic.deadlock import StopPlan, clearance_for
+from agv_app.traffic.deadlock import StopPlan, clearance_for, followable_segments
 from agv_app.traffic.lockbook import LockBook, LockEntry, RequestEntry, StaleRecord
 from agv_app.vehicle.kinematics import Vehicle, VehicleSpec
 from objectplaces import RoleActivator
@@ -59,6 +59,9 @@ class AgvConfig:
             is withdrawn (None: never; it steps aside for the lock's owner instead).
         queue_patience: seconds a request held up by an older request stays pending
             before it is withdrawn (None: never); see docs/traffic.md.
+        direction_claims: follow same-direction AGVs through two-way runs that the
+            route drives through, holding direction claims on their segments
+            (docs/traffic.md, "Capacity: direction claims").
     """
 
     t_update: float = 1.0
@@ -70,6 +73,7 @@ class AgvConfig:
     yield_after: float = 15.0
     patience: float | None = None
     queue_patience: float | None = 30.0
+    direction_claims: bool = True
 
 
 class AgvController:
@@ -123,6 +127,9 @@ class AgvController:
             broadcast_group() if self.config.broadcast else collision_group()
         )
         self.clearance_m = clearance_for(spec.length_m, spec.width_m)
+        self._followable = (
+            followable_segments(layout) if self.config.direction_claims else frozenset()
+        )
         self.point = home if start is None else start
         p = layout.point(self.point)
         self.vehicle = Vehicle.parked(spec, Pose(p.x, p.y, heading_rad))
@@ -284,11 +291,24 @@ class AgvController:
         return [e.area for e in book.locks()], None if request is None else request.area
 
     def current_hull_length(self) -> float:
-        """Distance to the furthest point of locked and requested area, plus the margin."""
+        """Distance to the furthest point of locked and requested area, plus the margin.
+
+        Claimed two-way segments count too (to their far end, plus half the hull's
+        diagonal): whoever might drive them the other way is then in our group.
+        """
         locks, request = self.areas()
         shapes = locks if request is None else [*locks, request]
         pose = self.vehicle.pose()
-        return hull_length((pose.x, pose.y), shapes) + self.config.hull_margin_m
+        reach = hull_length((pose.x, pose.y), shapes)
+        book = self.book
+        pending = book.request()
+        claims = book.claims() | (frozenset() if pending is None else pending.claims)
+        if claims:
+            half = math.hypot(self.spec.length_m, self.spec.width_m) / 2
+            for seg, _ in claims:
+                for x, y in self.layout.segment_coords(seg):
+                    reach = max(reach, math.hypot(x - pose.x, y - pose.y) + half)
+        return reach + self.config.hull_margin_m
 
     def publish(self) -> None:
         """Publish position, hull length and status now."""
@@ -348,12 +368,15 @@ class AgvController:
         # the vehicle still faces the old way, so its first lock is the hull it stands
         # in and the first request sweeps the turn.
         self.vehicle.new_route(path, s=path.cumulative[1])
-        plan = StopPlan.for_route(self.layout, route, clearance_m=self.clearance_m)
-        self._plan = StopPlan(
-            self.vehicle.route.length, tuple((lo + _LEAD_M, hi + _LEAD_M) for lo, hi in plan.zones)
+        standing = self.book.claims()  # kept until the new route's first lock moves it
+        plan = StopPlan.for_route(
+            self.layout, route, clearance_m=self.clearance_m, followable=self._followable
         )
+        self._plan = plan.shifted(path.cumulative[1])
         self._key += 1
-        self.book.set_locks(LockEntry(self._key, self.vehicle.s, self.vehicle.hull()))
+        self.book.set_locks(
+            LockEntry(self._key, self.vehicle.s, self.vehicle.hull(), claims=standing)
+        )
         self._released_at_s = self.vehicle.s
 
     def _route_for(self, dest: str) -> Route:
@@ -419,7 +442,9 @@ class AgvController:
         need = spec.braking_distance(spec.max_speed_m_s) + spec.max_speed_m_s * (safe_time + 0.5)
         if lock_end - vehicle.s > need:
             return
-        end = self._plan.next_stop(lock_end, self.config.advance_m)
+        follow = self.config.direction_claims
+        end = self._plan.next_stop(lock_end, self.config.advance_m, follow=follow)
+        claims = self._plan.claims_between(lock_end, end) if follow else frozenset()
         area = hull_projection(
             vehicle.route, lock_end, end, length=spec.length_m, width=spec.width_m
         )
@@ -429,7 +454,7 @@ class AgvController:
         self._key += 1
         if self._first_try is None or self._first_try[0] != lock_end:
             self._first_try = (lock_end, now)
-        entry = RequestEntry(self._key, end, area, self._priority_for(area))
+        entry = RequestEntry(self._key, end, area, self._priority_for(area), claims)
         book.add_request(entry)
         self.publish()
         if self._central is not None:
@@ -501,8 +526,11 @@ class AgvController:
         area = projection_ahead(
             vehicle.route, vehicle.s, lock_end, length=spec.length_m, width=spec.width_m
         )
+        held = book.claims()
+        if self._plan is not None:
+            held &= self._plan.claims_held(vehicle.s, lock_end)
         self._key += 1
-        book.set_locks(LockEntry(self._key, lock_end, area))
+        book.set_locks(LockEntry(self._key, lock_end, area, held))
         self._released_at_s = vehicle.s
         # Shrinking is optional for safety (the old circle still covers what is left);
         # publish it when it is worth the message: fewer AGVs in our next groups.
