@@ -37,14 +37,30 @@ FREE_FLOW_SHARE_GOAL = 0.5
 
 
 def run_one(
-    agvs: int, minutes: float, seed: int, traffic: str, load: float, layout: str | None = None
+    agvs: int,
+    minutes: float,
+    seed: int,
+    traffic: str,
+    load: float,
+    layout: str | None = None,
+    report_every: float = 5.0,
 ) -> dict[str, float]:
-    """Run one fleet and return its figures (sim speed from this process's CPU time)."""
+    """Run one fleet and return its figures (sim speed from this process's CPU time).
+
+    Every ``report_every`` simulated minutes it prints the figures so far as one JSON
+    line, so a run cut short on a busy machine still shows what it measured.
+    """
     floor = load_any(layout) if layout else None
     cfg = FleetConfig(agvs=agvs, seed=seed, load=load, traffic=traffic)
     fleet = Fleet(floor, cfg)
     started = time.process_time()
-    fleet.run(minutes * 60)
+    done = 0.0
+    while done < minutes:
+        chunk = min(report_every, minutes - done)
+        fleet.run(chunk * 60)
+        done += chunk
+        so_far = fleet.summary(time.process_time() - started)
+        print(json.dumps({"seed": seed, "traffic": traffic, "minutes": done, **so_far}), flush=True)
     return fleet.summary(time.process_time() - started)
 
 
@@ -143,8 +159,6 @@ def main(argv: list[str] | None = None) -> None:
         for future in as_completed(futures):
             seed, mode = futures[future]
             runs[(seed, mode)] = future.result()
-            # Each run's figures as it ends, so a cut-short run still shows what it measured.
-            print(json.dumps({"seed": seed, "traffic": mode, **runs[(seed, mode)]}), flush=True)
     header = [
         "seed",
         "traffic",
