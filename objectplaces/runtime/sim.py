@@ -3,11 +3,11 @@
 Events run in the order of ``(time, scheduling order)``. The queue is a binary heap.
 A frame sent to many nodes schedules one arrival per recipient, and a large network's
 heartbeats leave together: 200 nodes put 40,000 arrivals in the heap at one instant,
-and each push and pop then walks a deep heap that no longer fits the cache.
-``call_each`` therefore keeps such a batch outside the heap, sorted, as one *run*, and
-only the run's next arrival sits in the heap: a k-way merge of the runs and the single
-events. The order is the same as with every arrival in the heap (the merge yields the
-smallest ``(time, scheduling order)`` first, and each arrival keeps the place in the
+and each push and pop then walks a deep heap that no longer fits the cache. So what
+one event schedules waits outside the heap until the event is done, and then enters it
+sorted, as one *run*, of which only the next call sits in the heap: a k-way merge of
+the runs. The order is the same as with every call in the heap (the merge yields the
+smallest ``(time, scheduling order)`` first, and each call keeps the place in the
 scheduling order it was given when scheduled); only the heap is smaller.
 """
 
@@ -24,10 +24,13 @@ __all__ = ["EventLoop"]
 
 
 def _run_marker() -> None:
-    """Stands in a heap entry for a run: its ``args`` is the run ``[next index, fn, arrivals]``."""
+    """Stands in a heap entry for a run: its ``args`` is ``[next index, sorted calls]``."""
 
 
 _RUN: Callable[..., Any] = _run_marker
+
+_Entry = tuple[float, int, Callable[..., Any], Any]
+
 
 GC_ALLOCATIONS = 100_000
 """Allocations between two young-generation collections while events run (Python's
@@ -55,52 +58,58 @@ class EventLoop:
 
     def __init__(self, start: float = 0.0) -> None:
         self.now = start
-        self._queue: list[tuple[float, int, Callable[..., Any], Any]] = []
+        self._queue: list[_Entry] = []
+        # Calls scheduled since the heap was last brought up to date (see the module).
+        self._pending: list[_Entry] = []
         self._seq = itertools.count()
         self.events_run = 0
 
     def __len__(self) -> int:
-        """How many entries the heap holds (a run of arrivals counts once)."""
+        """How many entries the heap holds (a run of calls counts once)."""
+        self._flush()
         return len(self._queue)
 
     def call_at(self, when: float, fn: Callable[..., Any], *args: Any) -> None:
         """Run ``fn(*args)`` at virtual time ``when`` (now if it lies in the past)."""
         now = self.now
-        heapq.heappush(self._queue, (when if when > now else now, next(self._seq), fn, args))
+        self._pending.append((when if when > now else now, next(self._seq), fn, args))
 
     def call_each(
         self, fn: Callable[..., Any], calls: Iterable[tuple[float, tuple[Any, ...]]]
     ) -> None:
-        """``call_at(when, fn, *args)`` for each ``(when, args)``, in that order.
-
-        The simulated network schedules one arrival per recipient of a frame this way;
-        the batch waits outside the heap, sorted, and only its next call sits in it.
-        """
+        """``call_at(when, fn, *args)`` for each ``(when, args)``, in that order (one
+        call for a frame's many arrivals)."""
         now, seq = self.now, self._seq
-        batch = [(when if when > now else now, next(seq), args) for when, args in calls]
-        if not batch:
-            return
-        if len(batch) == 1:
-            when, number, args = batch[0]
-            heapq.heappush(self._queue, (when, number, fn, args))
-            return
-        batch.sort()  # by time, then scheduling order (unique: args never compared)
-        when, number, _ = batch[0]
-        heapq.heappush(self._queue, (when, number, _RUN, [0, fn, batch]))
+        self._pending.extend(
+            (when if when > now else now, next(seq), fn, args) for when, args in calls
+        )
 
     def next_time(self) -> float | None:
         """When the next event runs, or None when none is queued."""
+        self._flush()
         return self._queue[0][0] if self._queue else None
 
+    def _flush(self) -> None:
+        """Move the pending calls into the heap: one entry, or one sorted run."""
+        pending = self._pending
+        if not pending:
+            return
+        if len(pending) == 1:
+            heapq.heappush(self._queue, pending[0])
+        else:
+            batch = sorted(pending)  # by time, then scheduling order (unique: never fn)
+            heapq.heappush(self._queue, (batch[0][0], batch[0][1], _RUN, [0, batch]))
+        pending.clear()
+
     def _take(self) -> tuple[Callable[..., Any], Any]:
-        """Remove the next call from the queue; return its function and arguments."""
+        """Remove the next call from the heap; return its function and arguments."""
         queue = self._queue
         _, _, fn, args = queue[0]
         if fn is not _RUN:
             heapq.heappop(queue)
             return fn, args
-        index, fn, batch = args
-        call_args = batch[index][2]
+        index, batch = args
+        _, _, fn, call_args = batch[index]
         index += 1
         if index < len(batch):
             args[0] = index
@@ -123,7 +132,8 @@ class EventLoop:
             return self._run_until(end, stop)
 
     def _run_until(self, end: float, stop: Callable[[], bool] | None) -> bool:
-        queue = self._queue
+        queue, pending, flush = self._queue, self._pending, self._flush
+        flush()
         if stop is None:
             # The loop of every simulation step, with ``_take`` written out: it runs
             # once per delivered frame.
@@ -133,8 +143,8 @@ class EventLoop:
                 while queue and queue[0][0] <= end:
                     when, _, fn, args = queue[0]
                     if fn is _RUN:
-                        index, fn, batch = args
-                        call_args = batch[index][2]
+                        index, batch = args
+                        _, _, fn, call_args = batch[index]
                         index += 1
                         if index < len(batch):
                             args[0] = index
@@ -148,6 +158,8 @@ class EventLoop:
                     self.now = when
                     ran += 1
                     fn(*args)
+                    if pending:
+                        flush()
             finally:
                 self.events_run += ran
         else:
@@ -156,6 +168,7 @@ class EventLoop:
                 fn, args = self._take()
                 self.now = when
                 fn(*args)
+                flush()
                 self.events_run += 1
                 if stop():
                     return True
