@@ -408,7 +408,10 @@ async def coordinate(sizes: list[int], transports: list[str], fleet_agvs: int, f
     fleet = None
     if fleet_agvs:
         print(f"running {fleet_agvs} AGV processes on Zenoh ...", file=sys.stderr)
-        fleet = await run_fleet(fleet_agvs, fleet_s)
+        try:
+            fleet = await run_fleet(fleet_agvs, fleet_s)
+        except TimeoutError:
+            failed.append(f"the fleet of {fleet_agvs} AGV processes: not every AGV heard in 180 s")
 
     ms = 1000.0
     ws_wire = len(payload) + 2  # a WebSocket frame from the listening side: 2-byte header
@@ -456,6 +459,11 @@ async def coordinate(sizes: list[int], transports: list[str], fleet_agvs: int, f
                 f"({floor * ms:.3f} ms): " + verdict(ratio <= 3, f"{ratio:.1f}x", f"{ratio:.1f}x")
             )
     fleet_text = ""
+    if fleet is None and fleet_agvs:
+        verdicts.append(
+            f"- {fleet_agvs} AGV processes on Zenoh at real time with 0 violations: missed "
+            "(the fleet did not form: not every AGV heard within 180 s)"
+        )
     if fleet is not None:
         m = fleet["metrics"]
         violations = int(m["collisions"] + m["lock_overlaps"] + m["deadlocks"])

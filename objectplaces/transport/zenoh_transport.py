@@ -131,7 +131,8 @@ class ZenohTransport:
         self._declared.append(session.liveliness().declare_token(keys.alive(self.incarnation)))
 
     async def close(self) -> None:
-        """Withdraw our token and close the session (what was put is flushed first)."""
+        """Withdraw our token and close the session (what was put is flushed first;
+        a close that times out in Zenoh is logged, never raised)."""
         if self.closed:
             return
         self.closed = True
@@ -139,7 +140,12 @@ class ZenohTransport:
         if self._inbox is not None:
             self._inbox.close()
         if session is not None:
-            await asyncio.to_thread(session.close)
+            try:
+                await asyncio.to_thread(session.close)
+            except zenoh.ZError as exc:
+                # Zenoh gave up flushing (a machine too loaded to finish in time): the
+                # session is dropped all the same, and peers see our token go.
+                log.warning("node %s: closing the Zenoh session: %s", self.node_id, exc)
         if self._file is not None:
             self._file.remove()
         self._changed.set()
