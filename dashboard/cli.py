@@ -69,7 +69,7 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
         type=float,
         default=None,
         help="share of AGVs kept busy, in (0, 1]; the task rate follows from the layout "
-        "(default: the fleet's, 0.08)",
+        "(default: the fleet's, 0.7)",
     )
     parser.add_argument(
         "--processes",
