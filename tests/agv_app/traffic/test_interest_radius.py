@@ -19,7 +19,7 @@ from agv_app.fleet.view import OBSERVER_ID
 from agv_app.layout import Layout, Point, Segment, Station
 from agv_app.layout.demo import demo_warehouse
 from agv_app.layout.loop import long_loop
-from agv_app.traffic.deadlock import StopPlan, clearance_for
+from agv_app.traffic.deadlock import StopPlan, clearance_for, followable_segments
 from agv_app.traffic.reach import (
     interest_radius,
     largest_hull_length,
@@ -144,17 +144,25 @@ def test_a_slower_heartbeat_republishes_less() -> None:
 
 
 def _longest_zone_and_request(layout: Layout, advance_m: float) -> tuple[float, float]:
-    """The longest no-rest zone and request of every route between any two points."""
+    """The longest no-rest zone of every route between any two points, and how far
+    beyond its start a request reaches: its end, or the far end of a segment it claims
+    (direction claims on, as the AGV drives)."""
+    followable = followable_segments(layout)
     zone = request = 0.0
     for a, b in itertools.permutations(sorted(layout.points), 2):
         if layout.distance(a, b) == float("inf"):
             continue
-        plan = StopPlan.for_route(layout, layout.route(a, b), clearance_m=CLEARANCE)
+        route = layout.route(a, b)
+        plan = StopPlan.for_route(layout, route, clearance_m=CLEARANCE, followable=followable)
         zone = max([zone, *(hi - lo for lo, hi in plan.zones)])
+        far_end = {seg: route.offsets[i + 1] for i, seg in enumerate(route.segments)}
         steps = max(1, int(plan.length / 0.25))
         for k in range(steps + 1):
             s = plan.length * k / steps
-            request = max(request, plan.next_stop(s, advance_m) - s)
+            for follow in (False, True):
+                end = plan.next_stop(s, advance_m, follow=follow)
+                claimed = [far_end[seg] for seg, _ in plan.claims_between(s, end)]
+                request = max(request, end - s, *(f - s for f in claimed))
     return zone, request
 
 
@@ -312,3 +320,25 @@ def test_the_listener_skips_malformed_records() -> None:
     observer.update_node_property("failed_agvs", [])
     fleet.run(0.5)
     assert fleet.agvs["agv-01"].book.stale() == []
+
+
+def test_requests_with_direction_claims_stay_within_the_bound() -> None:
+    """A two-way run driven through (one-way lanes join both its ends): its segments
+    are claimed, and a claim reaches as far as the request's own bound allows."""
+    points = [Point("w", 0.0, 0.0), Point("m", 12.0, 0.0), Point("e", 24.0, 0.0)]
+    points += [Point("ne", 24.0, 12.0), Point("nw", 0.0, 12.0), Point("d", 12.0, -3.0)]
+    segments = [
+        Segment("w-m", "w", "m", bidirectional=True),
+        Segment("m-e", "m", "e", bidirectional=True),
+        Segment("m-d", "m", "d", bidirectional=True),
+        Segment("e>ne", "e", "ne"),
+        Segment("ne>nw", "ne", "nw"),
+        Segment("nw>w", "nw", "w"),
+    ]
+    layout = Layout(points, segments, [Station("sd", "d", "pickdrop")], name="through")
+    assert followable_segments(layout) >= {"w-m", "m-e"}
+    advance = AgvConfig().advance_m
+    zone, request = _longest_zone_and_request(layout, advance)
+    bound = longest_no_rest_zone(layout, CLEARANCE)
+    assert zone <= bound
+    assert request <= 1.25 * advance + bound
