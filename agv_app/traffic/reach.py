@@ -120,8 +120,12 @@ def largest_hull_length(layout: Layout, spec: VehicleSpec, config: AgvConfig) ->
     The locks ahead are at most ``need`` long when a request is made, the request adds
     at most ``1.25 * advance_m`` plus the longest no-rest zone, and every point of a
     hull projection lies within half the hull's diagonal of the route. Locks behind the
-    vehicle (released every ``t_update``) reach less far. No AGV reaches beyond the
-    floor either: the diagonal of the layout's bounds caps the length.
+    vehicle (released every ``t_update``) reach less far. Direction claims count too:
+    a request claims the segments of the zones it reaches into, and the zone it ends in
+    began before its first target (``advance_m`` beyond the locks), so a claimed segment
+    ends within the same bound; claims kept at a route's end lie on the segment the AGV
+    stands on. No AGV reaches beyond the floor either: the diagonal of the layout's
+    bounds caps the length.
     """
     clearance = clearance_for(spec.length_m, spec.width_m)
     need = spec.braking_distance(spec.max_speed_m_s) + spec.max_speed_m_s * (
