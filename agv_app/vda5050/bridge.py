@@ -21,7 +21,7 @@ from agv_app.vda5050.endpoint import Outgoing, VdaEndpoint
 from agv_app.vda5050.messages import connection_message
 from agv_app.vda5050.topics import BrokerAddress
 
-__all__ = ["BridgeCounters", "run_bridge"]
+__all__ = ["BridgeCounters", "honour_cancellation", "run_bridge"]
 
 _log = logging.getLogger(__name__)
 _NODELAY = (socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
@@ -47,6 +47,19 @@ async def _publish(client: aiomqtt.Client, endpoint: VdaEndpoint, out: Outgoing)
     )
 
 
+def honour_cancellation() -> None:
+    """Raise CancelledError if this task was asked to stop.
+
+    ``asyncio.wait_for`` in Python 3.11, which the client awaits a publication through,
+    can return the result of a publication that completes as the task is cancelled and
+    drop the cancellation; the loops below check after each publication, so a bridge
+    always stops when asked.
+    """
+    task = asyncio.current_task()
+    if task is not None and task.cancelling():
+        raise asyncio.CancelledError
+
+
 async def _session(
     client: aiomqtt.Client, endpoint: VdaEndpoint, counters: BridgeCounters, tick_s: float
 ) -> None:
@@ -55,6 +68,7 @@ async def _session(
     for first in (_connection(endpoint, "ONLINE"), endpoint.factsheet()):
         await _publish(client, endpoint, first)
         counters.published += 1
+        honour_cancellation()
     await client.subscribe([(topics.topic("order"), 1), (topics.topic("instantActions"), 1)])
     loop = asyncio.get_running_loop()
 
@@ -63,6 +77,7 @@ async def _session(
             for out in endpoint.due(loop.time()):
                 await _publish(client, endpoint, out)
                 counters.published += 1
+                honour_cancellation()
             await asyncio.sleep(tick_s)
 
     async def answer() -> None:
@@ -73,6 +88,7 @@ async def _session(
             for out in endpoint.handle(subtopic, payload):
                 await _publish(client, endpoint, out)
                 counters.published += 1
+                honour_cancellation()
 
     async with asyncio.TaskGroup() as tg:
         tg.create_task(publish_due())

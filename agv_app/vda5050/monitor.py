@@ -17,6 +17,7 @@ from collections.abc import Callable
 
 import aiomqtt
 
+from agv_app.vda5050.bridge import honour_cancellation
 from agv_app.vda5050.topics import BrokerAddress, fleet_filter
 
 __all__ = ["BrokerMonitor"]
@@ -83,6 +84,7 @@ class BrokerMonitor:
                 ) as client:
                     self.connected = True
                     await client.subscribe(fleet_filter())
+                    honour_cancellation()
                     async for message in client.messages:
                         payload = message.payload if isinstance(message.payload, bytes) else b""
                         self.seen(str(message.topic), payload)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import json
 import socket
 import time
@@ -88,3 +89,5 @@ async def probe(broker: BrokerAddress) -> AsyncIterator[Probe]:
             yield p
         finally:
             task.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await task

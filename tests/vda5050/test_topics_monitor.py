@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
 import json
 
 import pytest
 
+from agv_app.vda5050.bridge import honour_cancellation
 from agv_app.vda5050.monitor import BrokerMonitor
 from agv_app.vda5050.topics import BrokerAddress, VehicleTopics, fleet_filter, parse_broker_url
 
@@ -50,3 +53,17 @@ def test_the_monitor_counts_messages_per_second_and_connection_states() -> None:
     now[0] += 6.0
     assert monitor.messages_per_s() == 0.0
     assert monitor.connection_states == {"agv-01": "ONLINE", "agv-02": "CONNECTION_BROKEN"}
+
+
+async def test_a_swallowed_cancellation_is_still_honoured() -> None:
+    async def body() -> None:
+        with contextlib.suppress(asyncio.CancelledError):
+            await asyncio.sleep(10)  # swallowed, as Python 3.11's wait_for can
+        honour_cancellation()
+        await asyncio.sleep(10)
+
+    task = asyncio.get_running_loop().create_task(body())
+    await asyncio.sleep(0)
+    task.cancel()
+    with pytest.raises(asyncio.CancelledError):
+        await asyncio.wait_for(task, 5)
