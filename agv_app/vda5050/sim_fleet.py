@@ -1,0 +1,101 @@
+"""The simulated fleet speaking VDA 5050: one MQTT client per AGV, in this process.
+
+:class:`VdaSimFleet` is the :class:`~agv_app.fleet.sim.Fleet` with order-following AGVs
+(:class:`~agv_app.vda5050.vehicle.OrderAgv`) and, once started, one bridge per AGV and
+a broker monitor on the event loop that advances it. Its AGVs move in simulated time
+(the dashboard's speed factor applies); their messages carry wall-clock timestamps. No
+task arrives by itself: the master control sends orders.
+
+``await fleet.start()`` before use and ``await fleet.stop()`` after (the dashboard's
+app does both in its lifespan); ``stop`` says ``OFFLINE`` for every AGV.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import functools
+from collections.abc import Mapping
+from typing import Any
+
+from agv_app.fleet.sim import Fleet, FleetConfig
+from agv_app.layout.graph import Layout
+from agv_app.vda5050.bridge import BridgeCounters, run_bridge
+from agv_app.vda5050.endpoint import VdaEndpoint
+from agv_app.vda5050.monitor import BrokerMonitor
+from agv_app.vda5050.topics import MANUFACTURER, VehicleTopics, parse_broker_url
+from agv_app.vda5050.vehicle import OrderAgv
+
+__all__ = ["VdaSimFleet"]
+
+
+class VdaSimFleet(Fleet):
+    """A simulated fleet whose every AGV has its own VDA 5050 client.
+
+    Args:
+        layout: the floor plan (default: the demo warehouse).
+        agvs: number of AGVs.
+        seed: seeds the network.
+        vda5050: the broker, ``mqtt://HOST:PORT``.
+        fleet_options: further :class:`~agv_app.fleet.sim.FleetConfig` fields.
+
+    Raises:
+        ValueError: a malformed broker address.
+    """
+
+    def __init__(
+        self,
+        layout: Layout | None = None,
+        *,
+        agvs: int = 12,
+        seed: int = 1,
+        vda5050: str,
+        **fleet_options: Any,
+    ) -> None:
+        broker = parse_broker_url(vda5050)
+        config = FleetConfig(agvs=agvs, seed=seed, task_until=0.0, **fleet_options)
+        super().__init__(
+            layout, config, vehicle=functools.partial(OrderAgv, manufacturer=MANUFACTURER)
+        )
+        self.vda5050 = broker.url
+        self.broker = broker
+        self.endpoints = {
+            agv_id: VdaEndpoint(agv, VehicleTopics(MANUFACTURER, agv_id))
+            for agv_id, agv in self.agvs.items()
+            if isinstance(agv, OrderAgv)
+        }
+        self.counters = {agv_id: BridgeCounters() for agv_id in self.endpoints}
+        self.broker_monitor = BrokerMonitor(broker)
+        self._tasks: list[asyncio.Task[None]] = []
+
+    @property
+    def started(self) -> bool:
+        """Whether the bridges run."""
+        return bool(self._tasks)
+
+    async def start(self) -> None:
+        """Start every AGV's bridge and the broker monitor (they connect in the background).
+
+        Raises:
+            RuntimeError: called twice.
+        """
+        if self._tasks:
+            raise RuntimeError("VdaSimFleet.start() called twice")
+        loop = asyncio.get_running_loop()
+        for agv_id, endpoint in self.endpoints.items():
+            bridge = run_bridge(endpoint, self.broker, counters=self.counters[agv_id])
+            self._tasks.append(loop.create_task(bridge, name=f"vda5050-{agv_id}"))
+        self._tasks.append(loop.create_task(self.broker_monitor.run(), name="vda5050-monitor"))
+
+    async def stop(self) -> None:
+        """Stop the bridges (each says ``OFFLINE``) and the monitor. Idempotent."""
+        tasks, self._tasks = self._tasks, []
+        for task in tasks:
+            task.cancel()
+        for task in tasks:
+            with contextlib.suppress(asyncio.CancelledError):
+                await task
+
+    def metrics(self) -> Mapping[str, float]:
+        """The fleet's figures and the broker's (``vda5050_*``)."""
+        return {**super().metrics(), **self.broker_monitor.status()}
