@@ -15,9 +15,6 @@ __all__ = ["DEMO_AGVS", "demo_source"]
 DEMO_AGVS = 12
 """AGVs of the simulated demo fleet by default."""
 
-VDA5050_AGVS = 6
-"""AGV processes of the demo with VDA 5050 when ``processes`` is not given."""
-
 
 def demo_source(
     args: argparse.Namespace | None = None,
@@ -39,9 +36,10 @@ def demo_source(
     AGVs busy (default :data:`~agv_app.tasks.load.DEFAULT_LOAD`), and about ``load``
     times the AGVs get a task at the start, so most of them move within seconds.
 
-    With ``vda5050`` (``mqtt://HOST:PORT``) every AGV is its own process speaking VDA
-    5050 over that broker (``processes`` of them, :data:`VDA5050_AGVS` if 0), and no
-    task arrives by itself: the master control sends orders (docs/vda5050.md).
+    With ``vda5050`` (``mqtt://HOST:PORT``) every AGV speaks VDA 5050 over that broker
+    (an :class:`~agv_app.vda5050.sim_fleet.VdaSimFleet` in this process, or with
+    ``processes`` each AGV process its own client), and no task arrives by itself: the
+    master control sends orders (docs/vda5050.md).
 
     Raises:
         ValueError: ``processes`` is negative or more than the layout can park, or
@@ -58,10 +56,13 @@ def demo_source(
     seed = 1 if seed is None else seed
     if processes < 0:
         raise ValueError(f"processes must be 0 or more, got {processes!r}")
+    if vda5050 is not None and processes:
+        return MeshFleet(agvs=processes, seed=seed, task_interval=None, vda5050=vda5050)
     if vda5050 is not None:
-        return MeshFleet(
-            agvs=processes or VDA5050_AGVS, seed=seed, task_interval=None, vda5050=vda5050
-        )
+        # Imported here: agv_app.vda5050 builds on this package's simulated fleet.
+        from agv_app.vda5050.sim_fleet import VdaSimFleet
+
+        return VdaSimFleet(agvs=agvs or DEMO_AGVS, seed=seed, vda5050=vda5050)
     if processes:
         layout = demo_warehouse()
         spec = VehicleSpec(DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M)
