@@ -90,8 +90,9 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
         const="local",
         default=None,
         metavar="mqtt://HOST:PORT",
-        help="every AGV its own process speaking VDA 5050 over this MQTT broker (the flag "
-        "alone: a mosquitto started on 127.0.0.1 for the demo); no automatic tasks",
+        help="every AGV speaks VDA 5050 over this MQTT broker, with --processes from its own "
+        "process (the flag alone: a mosquitto started on 127.0.0.1 for the demo); no "
+        "automatic tasks",
     )
     parser.add_argument(
         "--token",
@@ -196,13 +197,9 @@ def run_demo(args: argparse.Namespace, *, builder: SourceBuilder = build_source)
         return 2
     from agv_app.vda5050.broker import demo_broker
 
-    vda5050 = getattr(args, "vda5050", None)
-    if vda5050 is not None and args.agvs is not None:
-        print("objectplaces demo: --vda5050 runs AGV processes: give --processes", file=sys.stderr)
-        return 2
     with contextlib.ExitStack() as stack:
         try:
-            args.vda5050 = stack.enter_context(demo_broker(vda5050))
+            args.vda5050 = stack.enter_context(demo_broker(getattr(args, "vda5050", None)))
         except (ValueError, OSError, RuntimeError) as exc:
             print(f"objectplaces demo: --vda5050: {exc}", file=sys.stderr)
             return 2
