@@ -9,8 +9,9 @@ import pytest
 
 import dashboard.cli
 from agv_app.fleet import MeshFleet
-from agv_app.fleet.demo import VDA5050_AGVS
+from agv_app.fleet.demo import DEMO_AGVS
 from agv_app.vda5050.broker import find_mosquitto
+from agv_app.vda5050.sim_fleet import VdaSimFleet
 from agv_app.vda5050.topics import parse_broker_url
 from dashboard.cli import build_source, register, run_demo
 
@@ -21,15 +22,22 @@ def parse(*argv: str) -> argparse.Namespace:
     return parser.parse_args(["demo", *argv])
 
 
-def test_a_broker_url_builds_agv_processes_without_automatic_tasks() -> None:
+def test_a_broker_url_builds_a_fleet_without_automatic_tasks() -> None:
     fleet = build_source(parse("--vda5050", "mqtt://127.0.0.1:1884"))
-    assert isinstance(fleet, MeshFleet)
+    assert isinstance(fleet, VdaSimFleet)
     assert fleet.vda5050 == "mqtt://127.0.0.1:1884"
-    assert fleet.agv_count == VDA5050_AGVS
-    assert fleet.task_interval is None
-    sized = build_source(parse("--vda5050", "mqtt://127.0.0.1:1884", "--processes", "3"))
-    assert isinstance(sized, MeshFleet)
-    assert sized.agv_count == 3
+    assert len(fleet.agvs) == DEMO_AGVS
+    assert sorted(fleet.endpoints) == sorted(fleet.agvs)
+    fleet.run(30.0)
+    assert fleet.desk.book.counts["created"] == 0
+    small = build_source(parse("--vda5050", "mqtt://127.0.0.1:1884", "--agvs", "3"))
+    assert isinstance(small, VdaSimFleet)
+    assert len(small.agvs) == 3
+    processes = build_source(parse("--vda5050", "mqtt://127.0.0.1:1884", "--processes", "3"))
+    assert isinstance(processes, MeshFleet)
+    assert processes.vda5050 == "mqtt://127.0.0.1:1884"
+    assert processes.agv_count == 3
+    assert processes.task_interval is None
     assert parse().vda5050 is None
 
 
@@ -39,7 +47,6 @@ def test_a_broker_url_builds_agv_processes_without_automatic_tasks() -> None:
         ("--vda5050", "http://127.0.0.1:1883"),
         ("--vda5050", "mqtt://:1883"),
         ("--vda5050", "mqtt://127.0.0.1:99999"),
-        ("--vda5050", "mqtt://127.0.0.1:1883", "--agvs", "3"),
     ],
 )
 def test_bad_vda5050_arguments_are_refused(
