@@ -23,13 +23,14 @@ import os
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
+from pathlib import Path
 
 from agv_app.fleet import Fleet, FleetConfig
 from agv_app.layout.json_format import load_any
 from agv_app.tasks import check_load
 from bench.report import markdown_table, publish
 
-__all__ = ["Goal", "goals", "main", "run_one"]
+__all__ = ["Goal", "collected", "goals", "main", "run_one"]
 
 MODES = ("protocol", "central")
 MAX_WAIT_GOAL_S = 120.0
@@ -114,6 +115,7 @@ def _row(seed: int, mode: str, r: dict[str, float]) -> list[object]:
     return [
         seed,
         mode,
+        f"{r['minutes']:g}",
         r["tasks_created"],
         r["tasks_completed"],
         r["tasks_per_hour"],
@@ -140,12 +142,37 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument(
         "--jobs", type=int, default=os.cpu_count() or 1, help="runs in parallel, one core each"
     )
+    parser.add_argument(
+        "--collect",
+        type=Path,
+        help="run nothing: publish the runs logged in this directory (run_SEED_TRAFFIC.txt, "
+        "run_one's JSON lines, e.g. from runs started as separate processes); a run cut "
+        "short counts with the minutes it reached",
+    )
     args = parser.parse_args(argv)
     try:
         check_load(args.load)
     except ValueError as exc:
         raise SystemExit(f"bench.fleet: --load: {exc}") from exc
     seeds = [int(s) for s in args.seeds.split(",") if s]
+    if args.collect is not None:
+        _publish(args, seeds, collected(args.collect, seeds))
+    else:
+        _publish(args, seeds, _run_all(args, seeds))
+
+
+def collected(folder: Path, seeds: list[int]) -> dict[tuple[int, str], dict[str, float]]:
+    """The last figures each run logged in ``folder`` (``run_SEED_TRAFFIC.txt``)."""
+    runs: dict[tuple[int, str], dict[str, float]] = {}
+    for seed in seeds:
+        for mode in MODES:
+            lines = (folder / f"run_{seed}_{mode}.txt").read_text().splitlines()
+            last = [json.loads(line) for line in lines if line.startswith("{")][-1]
+            runs[(seed, mode)] = {k: v for k, v in last.items() if k not in ("seed", "traffic")}
+    return runs
+
+
+def _run_all(args: argparse.Namespace, seeds: list[int]) -> dict[tuple[int, str], dict[str, float]]:
     runs: dict[tuple[int, str], dict[str, float]] = {}
     with ProcessPoolExecutor(max_workers=args.jobs) as pool:
         futures = {
@@ -158,10 +185,17 @@ def main(argv: list[str] | None = None) -> None:
         }
         for future in as_completed(futures):
             seed, mode = futures[future]
-            runs[(seed, mode)] = future.result()
+            runs[(seed, mode)] = {"minutes": args.minutes, **future.result()}
+    return runs
+
+
+def _publish(
+    args: argparse.Namespace, seeds: list[int], runs: dict[tuple[int, str], dict[str, float]]
+) -> None:
     header = [
         "seed",
         "traffic",
+        "sim minutes",
         "tasks created",
         "tasks done",
         "tasks/h",
@@ -179,11 +213,19 @@ def main(argv: list[str] | None = None) -> None:
     checked = goals(runs, seeds)
     goal_rows = [[g.name, g.measured, "yes" if g.met else "**no**"] for g in checked]
     where = args.layout or "the demo warehouse"
+    reached = min(r["minutes"] for r in runs.values())
+    short = (
+        f" (runs cut short on a busy machine: figures at the simulated minutes each reached, "
+        f"at least {reached:g})"
+        if reached < args.minutes
+        else ""
+    )
     body = (
         f"{args.agvs} AGVs on {where}, load {args.load:g}, {args.minutes:g} simulated minutes "
-        f"per run, seeds {args.seeds}; t_update 1 s, 5 ms delay. Each seed runs twice on the "
-        "same layout, vehicles, task stream and seed: `protocol` is the AGVs' own traffic "
-        "protocol (collision groups, the longest-waiting request first), `central` the baseline "
+        f"per run{short}, seeds {args.seeds}; t_update 1 s, 5 ms delay. Each seed runs twice "
+        "on the same layout, vehicles, task stream and seed: `protocol` is the AGVs' own traffic "
+        "protocol (collision groups, the longest-waiting request first, direction claims), "
+        "`central` the baseline "
         "(`objectplaces sim --traffic central`: one scheduler sees every lock and grants "
         "requests first come, first served, with no network; the AGVs keep their resting "
         "places and yield at dead ends). Free-flow tasks/h, waits and the longest wait as "
