@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import datetime as dt
+import itertools
 import json
 import socket
 import time
@@ -27,6 +29,19 @@ class Seen:
     serial: str
     subtopic: str
     message: Any
+
+
+def sent_at(message: Any) -> float:
+    """A message's own ``timestamp``, in seconds since the epoch."""
+    stamp = dt.datetime.strptime(message["timestamp"], "%Y-%m-%dT%H:%M:%S.%fZ")
+    return stamp.replace(tzinfo=dt.UTC).timestamp()
+
+
+def state_gaps(seen: list[Seen]) -> list[float]:
+    """Seconds between consecutive messages, by the timestamps the vehicle gave them
+    (what it published when, whatever delayed the probe's own loop)."""
+    times = [sent_at(s.message) for s in seen]
+    return [b - a for a, b in itertools.pairwise(times)]
 
 
 class Probe:

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import itertools
 
 import pytest
 
@@ -12,7 +11,7 @@ from agv_app.vda5050.sim_fleet import VdaSimFleet
 from agv_app.vda5050.topics import BrokerAddress
 from agv_app.vda5050.validation import schema_errors
 from tests.vda5050.harness import DT, make_order
-from tests.vda5050.probe import probe
+from tests.vda5050.probe import probe, state_gaps
 
 pytestmark = [pytest.mark.slow, pytest.mark.timeout(150)]
 
@@ -38,7 +37,7 @@ async def test_every_simulated_agv_speaks_and_drives_an_order(broker: BrokerAddr
             for a in AGVS:
                 states = p.of(a, "state")
                 assert all(schema_errors("state", s.message) == [] for s in states)
-                gaps = [y.at - x.at for x, y in itertools.pairwise(states)]
+                gaps = state_gaps(states)
                 assert max(gaps) <= 1.5, gaps
                 assert p.of(a, "connection")[-1].message["connectionState"] == "ONLINE"
                 assert schema_errors("factsheet", p.of(a, "factsheet")[-1].message) == []
