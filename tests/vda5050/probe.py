@@ -19,6 +19,7 @@ import aiomqtt
 from agv_app.vda5050.topics import MANUFACTURER, BrokerAddress, VehicleTopics, fleet_filter
 
 _POLL_S = 0.05
+_SEND_TIMEOUT_S = 30.0  # a PUBACK on a machine loaded far beyond its cores
 
 
 @dataclass(frozen=True)
@@ -75,7 +76,7 @@ class Probe:
         """Publish ``message`` (any JSON, or raw bytes) to ``serial``'s ``subtopic``."""
         topic = VehicleTopics(MANUFACTURER, serial).topic(subtopic)
         payload = message if isinstance(message, bytes) else json.dumps(message).encode()
-        await self.client.publish(topic, payload, qos=1)
+        await self.client.publish(topic, payload, qos=1, timeout=_SEND_TIMEOUT_S)
 
 
 @asynccontextmanager
