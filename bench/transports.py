@@ -386,6 +386,7 @@ def verdict(ok: bool, met: str, missed: str) -> str:
 
 async def coordinate(sizes: list[int], transports: list[str], fleet_agvs: int, fleet_s: float):
     payload = position_frame()
+    load_before = os.getloadavg()[0]
     echo = await Proc.start_script(ROOT / "bench" / "mesh.py", "--echo-server")
     try:
         ws_floor = await measure_floor((await echo.recv())["ready"], payload)
@@ -496,7 +497,9 @@ async def coordinate(sizes: list[int], transports: list[str], fleet_agvs: int, f
         part
         for part in [
             f"Loopback, one process per node, {os.cpu_count()} CPUs shared by every process "
-            "(and by whatever else runs on the machine). Same workload as bench/mesh.py: "
+            "(and by whatever else runs on the machine: load average "
+            f"{load_before:.0f} at the start, {os.getloadavg()[0]:.0f} at the end). "
+            "Same workload as bench/mesh.py: "
             f"fan-out = one node publishes {FANOUT_COUNT} positions {FANOUT_GAP * ms:g} ms "
             "apart, latency to the observer callback on each other node, CPU = process time "
             f"per wall second of each receiving node; throughput = every node publishes as fast "
