@@ -60,10 +60,10 @@ def honour_cancellation() -> None:
         raise asyncio.CancelledError
 
 
-async def _session(
+async def _serve_connection(
     client: aiomqtt.Client, endpoint: VdaEndpoint, counters: BridgeCounters, tick_s: float
 ) -> None:
-    """One connected session: publish what is due, answer what arrives, until cancelled."""
+    """While connected: publish what is due, answer what arrives, until cancelled."""
     topics = endpoint.topics
     for first in (_connection(endpoint, "ONLINE"), endpoint.factsheet()):
         await _publish(client, endpoint, first)
@@ -130,7 +130,7 @@ async def run_bridge(
             async with client:
                 counters.connected = True
                 try:
-                    await _session(client, endpoint, counters, tick_s)
+                    await _serve_connection(client, endpoint, counters, tick_s)
                 except asyncio.CancelledError:
                     with contextlib.suppress(aiomqtt.MqttError, TimeoutError):
                         async with asyncio.timeout(_OFFLINE_TIMEOUT_S):
