@@ -146,8 +146,8 @@ def main(argv: list[str] | None = None) -> None:
         "--collect",
         type=Path,
         help="run nothing: publish the runs logged in this directory (run_SEED_TRAFFIC.txt, "
-        "run_one's JSON lines, e.g. from runs started as separate processes); a run cut "
-        "short counts with the minutes it reached",
+        "run_one's JSON lines, e.g. from runs started as separate processes); runs cut "
+        "short count, each seed's two at the minutes both reached",
     )
     args = parser.parse_args(argv)
     try:
@@ -162,13 +162,19 @@ def main(argv: list[str] | None = None) -> None:
 
 
 def collected(folder: Path, seeds: list[int]) -> dict[tuple[int, str], dict[str, float]]:
-    """The last figures each run logged in ``folder`` (``run_SEED_TRAFFIC.txt``)."""
+    """The figures each run logged in ``folder`` (``run_SEED_TRAFFIC.txt``), for each
+    seed at the largest simulated minutes both of its runs reached (side by side)."""
     runs: dict[tuple[int, str], dict[str, float]] = {}
     for seed in seeds:
+        logged = {}
         for mode in MODES:
             lines = (folder / f"run_{seed}_{mode}.txt").read_text().splitlines()
-            last = [json.loads(line) for line in lines if line.startswith("{")][-1]
-            runs[(seed, mode)] = {k: v for k, v in last.items() if k not in ("seed", "traffic")}
+            points = [json.loads(line) for line in lines if line.startswith("{")]
+            logged[mode] = {p["minutes"]: p for p in points}
+        both = max(set.intersection(*(set(m) for m in logged.values())))
+        for mode in MODES:
+            figures = logged[mode][both]
+            runs[(seed, mode)] = {k: v for k, v in figures.items() if k not in ("seed", "traffic")}
     return runs
 
 
