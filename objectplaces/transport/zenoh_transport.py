@@ -49,6 +49,10 @@ __all__ = ["ZenohTransport"]
 log = logging.getLogger("objectplaces.zenoh")
 
 _QUERY_TIMEOUT = 2.0
+_ASK_AGAIN_AFTER = (0.3, 1.5)
+"""Seconds after which an ask is repeated: an asked node's queryable, just moved to the
+cell we ask, may not have reached us yet (nor our subscription it), and a node without
+a heartbeat would otherwise stay unheard. Repeated answers are harmless snapshots."""
 
 
 class ZenohTransport:
@@ -253,7 +257,14 @@ class ZenohTransport:
             self._ask(selector)
 
     def _ask(self, selector: str) -> None:
-        """Ask the queryables matching ``selector`` for their properties."""
+        """Ask the queryables matching ``selector`` for their properties, now and again
+        a little later (``_ASK_AGAIN_AFTER``)."""
+        self._ask_once(selector)
+        loop = asyncio.get_running_loop()
+        for delay in _ASK_AGAIN_AFTER:
+            loop.call_later(delay, self._ask_once, selector)
+
+    def _ask_once(self, selector: str) -> None:
         session = self._session
         if session is None or self.closed:
             return
