@@ -11,7 +11,7 @@ import pytest
 from agv_app.fleet import OBSERVER_ID, MeshFleet
 from objectplaces.cli import build_parser
 
-pytestmark = [pytest.mark.processes, pytest.mark.timeout(90)]
+pytestmark = [pytest.mark.processes, pytest.mark.timeout(150)]
 
 AGVS = ["agv-01", "agv-02", "agv-03"]
 
