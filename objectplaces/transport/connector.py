@@ -171,9 +171,7 @@ class Connector:
             async with asyncio.timeout_at(machine.deadline):
                 outcome = await run_handshake(ws, machine)
         except TimeoutError:
-            machine.tick(max(asyncio.get_running_loop().time(), machine.deadline))
-            assert isinstance(machine.outcome, Refused)
-            outcome = machine.outcome
+            outcome = machine.expire()
         except ConnectionClosed:
             return
         if isinstance(outcome, Established):

@@ -139,6 +139,18 @@ class HandshakeMachine:
         if self.outcome is None and now >= self.deadline:
             self._refuse(CloseCode.POLICY_VIOLATION, "handshake timed out", "refused_timeout")
 
+    def expire(self) -> Refused:
+        """The shell's time for the handshake ran out: the handshake is refused.
+
+        Also when it had just reached ``Established``: the timeout may have cut the
+        write of its last frame short, so the peer cannot count on the link. The peer
+        dials again.
+        """
+        if not isinstance(self.outcome, Refused):
+            self._refuse(CloseCode.POLICY_VIOLATION, "handshake timed out", "refused_timeout")
+        assert isinstance(self.outcome, Refused)
+        return self.outcome
+
     # ------------------------------------------------------------------ steps
 
     def _dialer_step(self, frame: TransportFrame) -> None:

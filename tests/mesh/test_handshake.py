@@ -155,3 +155,18 @@ def test_a_nonce_of_the_wrong_size_is_a_local_error() -> None:
             node_id="a", address="h:1", incarnation=1, secret=SECRET, nonce=b"abc",
             dialing=True, now=0.0, timeout=1.0, max_frame=4096,
         )  # fmt: skip
+
+
+def test_expiry_refuses_a_handshake_that_had_not_finished() -> None:
+    listener = machine("b", dialing=False)
+    assert listener.expire() == Refused(1008, "handshake timed out", "refused_timeout")
+    assert listener.outcome == listener.expire()
+
+
+def test_expiry_refuses_even_a_handshake_established_as_time_ran_out() -> None:
+    # The shell's timeout can cut the write of the last frame short after the machine
+    # reached Established: the peer never got it, so the link must not be used.
+    dialer, listener = machine("a", dialing=True), machine("b", dialing=False)
+    converse(dialer, listener)
+    assert isinstance(listener.outcome, Established)
+    assert listener.expire() == Refused(1008, "handshake timed out", "refused_timeout")
