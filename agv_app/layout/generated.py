@@ -146,9 +146,9 @@ def _band(b: _Builder, band: int, row: int) -> None:
         s_end = at(f"S{cm(x)}s", x, _Y_S - _SPUR)
         if k % 10 == 5:
             docks += 1
-            kind: StationKind = "pick" if docks % 2 else "drop"
-            name = f"{tag}dock-{'in' if kind == 'pick' else 'out'}-{(docks + 1) // 2}"
-            b.spur(s_base, s_end, name, kind)
+            dock_kind: StationKind = "pick" if docks % 2 else "drop"
+            name = f"{tag}dock-{'in' if dock_kind == 'pick' else 'out'}-{(docks + 1) // 2}"
+            b.spur(s_base, s_end, name, dock_kind)
         else:
             b.spur(s_base, s_end, f"{tag}park-S{cm(x)}s", "parking")
         for side, dy in (("n", _SPUR), ("s", -_SPUR)):
