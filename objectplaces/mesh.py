@@ -17,12 +17,11 @@ import contextlib
 import logging
 import time
 from collections.abc import Sequence
-from types import TracebackType
 from typing import TYPE_CHECKING, Any, Literal, overload
 
-from objectplaces.activator import RoleActivator
 from objectplaces.core.errors import LocalProtocolError
 from objectplaces.core.node import NodeConfig, NodeMachine
+from objectplaces.network_node import NetworkNode
 from objectplaces.runtime.aio import AsyncioRunner
 from objectplaces.transport.options import MeshOptions, PeerStats
 from objectplaces.transport.websocket import WebSocketMesh
@@ -36,7 +35,7 @@ __all__ = ["MeshNode", "MeshOptions", "PeerStats", "start_mesh_node", "start_nod
 log = logging.getLogger("objectplaces.mesh")
 
 
-class MeshNode(RoleActivator):
+class MeshNode(NetworkNode):
     """A node on the WebSocket mesh: the ``RoleActivator`` API plus its links.
 
     Made by ``start_node``; ``await node.close()`` leaves the mesh.
@@ -50,42 +49,15 @@ class MeshNode(RoleActivator):
         mesh: WebSocketMesh,
         space: TupleSpace,
     ) -> None:
-        super().__init__(machine, clock=runner.now, wake=runner.wake, space=space)
-        self._runner = runner
+        super().__init__(machine, runner=runner, space=space)
         self._mesh = mesh
         self._task: asyncio.Task[None] | None = None
         self._close_called = False
-        self._close_reason: str | None = None
-        self._closed_event = asyncio.Event()
 
     @property
     def address(self) -> str:
         """``host:port`` this node listens on."""
         return self._mesh.address
-
-    @property
-    def closed(self) -> bool:
-        """Whether the node is off the mesh: ``close()`` was called, or the mesh stopped."""
-        return self._close_reason is not None
-
-    @property
-    def close_reason(self) -> str | None:
-        """Why the node is off the mesh (None while it is on it)."""
-        return self._close_reason
-
-    async def wait_closed(self) -> str:
-        """Wait until the node is off the mesh, for any reason; returns the reason."""
-        await self._closed_event.wait()
-        assert self._close_reason is not None
-        return self._close_reason
-
-    def _mark_closed(self, reason: str) -> bool:
-        """Record why the node is off the mesh; False if that was known already."""
-        if self._close_reason is not None:
-            return False
-        self._close_reason = reason
-        self._closed_event.set()
-        return True
 
     def peers(self) -> list[str]:
         """Ids of the peers linked to this node now, sorted."""
@@ -147,17 +119,6 @@ class MeshNode(RoleActivator):
             task.cancel()
             with contextlib.suppress(asyncio.CancelledError):
                 await task
-
-    async def __aenter__(self) -> MeshNode:
-        return self
-
-    async def __aexit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        await self.close()
 
     def __repr__(self) -> str:
         return f"<MeshNode {self.node_id!r} at {self.address}>"

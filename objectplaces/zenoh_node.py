@@ -20,12 +20,11 @@ from __future__ import annotations
 import asyncio
 import time
 from collections.abc import Sequence
-from types import TracebackType
 
-from objectplaces.activator import RoleActivator
 from objectplaces.core import codec
 from objectplaces.core.errors import LocalProtocolError
 from objectplaces.core.node import NodeConfig, NodeMachine
+from objectplaces.network_node import NetworkNode
 from objectplaces.runtime.aio import AsyncioRunner
 from objectplaces.transport.options import PeerStats
 from objectplaces.transport.zenoh_config import Mode, ZenohOptions, resolve_ports
@@ -46,7 +45,7 @@ class ZenohRunner(AsyncioRunner):
         self.wake()
 
 
-class ZenohNode(RoleActivator):
+class ZenohNode(NetworkNode):
     """A node on Zenoh: the ``RoleActivator`` API plus its membership.
 
     Made by ``start_node(..., transport="zenoh")``; ``await node.close()`` leaves.
@@ -60,32 +59,13 @@ class ZenohNode(RoleActivator):
         transport: ZenohTransport,
         space: TupleSpace,
     ) -> None:
-        super().__init__(machine, clock=runner.now, wake=runner.wake, space=space)
-        self._runner = runner
+        super().__init__(machine, runner=runner, space=space)
         self._transport = transport
-        self._close_reason: str | None = None
-        self._closed_event = asyncio.Event()
 
     @property
     def address(self) -> str:
         """The endpoints this node listens on ("" for a client)."""
         return self._transport.address
-
-    @property
-    def closed(self) -> bool:
-        """Whether ``close()`` was called."""
-        return self._close_reason is not None
-
-    @property
-    def close_reason(self) -> str | None:
-        """Why the node is off the fleet (None while it is on it)."""
-        return self._close_reason
-
-    async def wait_closed(self) -> str:
-        """Wait until the node is closed; returns the reason."""
-        await self._closed_event.wait()
-        assert self._close_reason is not None
-        return self._close_reason
 
     def peers(self) -> list[str]:
         """Nodes of the fleet alive now (their liveliness token is up), sorted."""
@@ -111,26 +91,14 @@ class ZenohNode(RoleActivator):
 
     async def close(self) -> None:
         """Leave: stop our sessions, drop our roles, tell the fleet, close the session."""
-        if self._close_reason is not None:
+        if not self._mark_closed("closed", settled=False):
             return
-        self._close_reason = "closed"
         runner = self._runner
         self.machine.leave(runner.now())
         runner.drain()
         runner.close()
         await self._transport.close()
-        self._closed_event.set()
-
-    async def __aenter__(self) -> ZenohNode:
-        return self
-
-    async def __aexit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        await self.close()
+        self._settle_closed()
 
     def __repr__(self) -> str:
         return f"<ZenohNode {self.node_id!r} at {self.address or 'client'}>"
