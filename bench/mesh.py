@@ -47,7 +47,8 @@ from bench.report import markdown_table, publish  # noqa: E402
 from objectplaces import Initiator, Participant, groups  # noqa: E402
 from objectplaces.core import codec  # noqa: E402
 from objectplaces.core.messages import PropertyUpdate  # noqa: E402
-from objectplaces.mesh import MeshNode, MeshOptions, start_node  # noqa: E402
+from objectplaces.mesh import MeshOptions, start_node  # noqa: E402
+from objectplaces.network_node import NetworkNode  # noqa: E402
 from objectplaces.roles import ParticipantRef  # noqa: E402
 
 SECRET = b"bench-secret"
@@ -84,7 +85,7 @@ class Counter(Initiator):
 
 
 class Worker:
-    def __init__(self, node: MeshNode, index: int) -> None:
+    def __init__(self, node: NetworkNode, index: int) -> None:
         self.node = node
         self.index = index
         self.receipts: dict[int, float] = {}

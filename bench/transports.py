@@ -43,6 +43,7 @@ import zenoh  # noqa: E402
 
 from bench.mesh import Counter, Silent, measure_floor, percentile, position_frame, say  # noqa: E402
 from bench.mesh import Proc as _MeshProc  # noqa: E402
+from bench.mesh import Worker as MeshWorker  # noqa: E402
 from bench.report import markdown_table, publish  # noqa: E402
 from bench.transports_wire import zenoh_bytes_per_update  # noqa: E402
 from objectplaces import groups  # noqa: E402
@@ -62,31 +63,8 @@ SESSIONS = 20
 # ---------------------------------------------------------------------------- worker side
 
 
-class Worker:
-    def __init__(self, node: Any, index: int) -> None:
-        self.node = node
-        self.index = index
-        self.receipts: dict[int, float] = {}
-        self.window = (0.0, 0.0)
-        self.in_window = 0
-        node.register_node_property_observer(self.observe)
-
-    def observe(self, node_id: str, name: str, value: Any) -> None:
-        if node_id == self.node.node_id or name != "position":
-            return
-        now = time.monotonic()
-        if node_id == "w0" and value[0] == 0.0 and value[1] >= 0.0:
-            self.receipts[round(value[1] * 10)] = now
-        if self.window[0] <= now <= self.window[1]:
-            self.in_window += 1
-
-    async def fanout(self, count: int, gap: float) -> list[float]:
-        sent = []
-        for i in range(count):
-            sent.append(time.monotonic())
-            self.node.update_node_property("position", (0.0, i / 10))
-            await asyncio.sleep(gap)
-        return sent
+class Worker(MeshWorker):
+    """The mesh bench's worker, also measuring CPU and counting every drop."""
 
     async def blast(self, start: float, seconds: float) -> dict[str, Any]:
         self.window = (start, start + seconds)

@@ -13,6 +13,7 @@ from typing import Self
 from objectplaces.activator import RoleActivator
 from objectplaces.core.node import NodeMachine
 from objectplaces.runtime.aio import AsyncioRunner
+from objectplaces.transport.options import PeerStats
 from tuplespace import TupleSpace
 
 __all__ = ["NetworkNode"]
@@ -58,6 +59,18 @@ class NetworkNode(RoleActivator):
     def _settle_closed(self) -> None:
         """Wake ``wait_closed``: whatever closing had to finish has finished."""
         self._closed_event.set()
+
+    def peers(self) -> list[str]:
+        """Ids of the other nodes this node is in touch with now, sorted."""
+        raise NotImplementedError
+
+    def peer_stats(self) -> dict[str, PeerStats]:
+        """Per-peer link counters, by peer id (empty where the transport keeps no links)."""
+        raise NotImplementedError
+
+    def transport_counters(self) -> dict[str, int]:
+        """Node-wide transport counters (frames in and out, drops by reason ...)."""
+        raise NotImplementedError
 
     async def close(self) -> None:
         """Leave the network (each transport's node says how)."""
