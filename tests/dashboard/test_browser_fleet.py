@@ -3,7 +3,6 @@ screenshots, and a task added by clicking a station is picked up by an AGV."""
 
 from __future__ import annotations
 
-import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -12,7 +11,7 @@ import pytest
 
 from agv_app.fleet import demo_source
 from tests.dashboard.browser import BROWSER_MARKS, chromium_page, load_dashboard
-from tests.dashboard.served import Served
+from tests.dashboard.served import Served, wait_for
 
 pytestmark = BROWSER_MARKS
 
@@ -26,16 +25,6 @@ def fleet_page(tmp_path: Path) -> Iterator[tuple[Any, Any]]:
             load_dashboard(page, served.url)
             yield page, fleet
         assert problems == [], problems
-
-
-def wait_for(predicate: Any, timeout: float, what: str) -> Any:
-    deadline = time.monotonic() + timeout
-    while True:
-        value = predicate()
-        if value:
-            return value
-        assert time.monotonic() < deadline, f"not within {timeout} s: {what}"
-        time.sleep(0.1)  # polling a live page, not an assertion
 
 
 def test_agvs_move_between_two_screenshots(fleet_page: tuple[Any, Any], tmp_path: Path) -> None:

@@ -4,7 +4,6 @@ members and history of joins and leaves; a typed definition's live group on the 
 from __future__ import annotations
 
 import json
-import time
 from collections.abc import Iterator
 from typing import Any
 
@@ -14,7 +13,7 @@ import pytest
 from agv_app.fleet import Fleet, FleetConfig
 from tests.dashboard.browser import BROWSER_MARKS, chromium_page, load_dashboard
 from tests.dashboard.canvas import LEGEND_BORDER_RGB, PIXEL
-from tests.dashboard.served import Served
+from tests.dashboard.served import Served, wait_for
 
 pytestmark = BROWSER_MARKS
 
@@ -30,16 +29,6 @@ def groups_page() -> Iterator[tuple[Any, Served]]:
         # Chromium logs as failed resources a refused definition (422) and the detail of
         # a clicked session that ended before the page asked for it (404).
         assert [p for p in problems if "422" not in p and "404" not in p] == [], problems
-
-
-def wait_for(predicate: Any, timeout: float, what: str) -> Any:
-    deadline = time.monotonic() + timeout
-    while True:
-        value = predicate()
-        if value:
-            return value
-        assert time.monotonic() < deadline, f"not within {timeout} s: {what}"
-        time.sleep(0.2)  # polling a live server, not an assertion
 
 
 def test_a_sessions_members_and_history(groups_page: tuple[Any, Served]) -> None:

@@ -13,7 +13,7 @@ import pytest
 from agv_app.fleet import Fleet, FleetConfig
 from tests.dashboard.browser import BROWSER_MARKS, chromium_page, load_dashboard
 from tests.dashboard.canvas import LEGEND_RGB, PIXEL
-from tests.dashboard.served import Served
+from tests.dashboard.served import Served, wait_for
 
 pytestmark = BROWSER_MARKS
 
@@ -35,16 +35,6 @@ def post(served: Served, path: str, body: dict[str, Any] | None = None) -> Any:
     r = httpx.post(f"{served.url}{path}", json=body or {}, timeout=5)
     assert r.status_code < 300, r.text
     return r.json()
-
-
-def wait_for(predicate: Any, timeout: float, what: str) -> Any:
-    deadline = time.monotonic() + timeout
-    while True:
-        value = predicate()
-        if value:
-            return value
-        assert time.monotonic() < deadline, f"not within {timeout} s: {what}"
-        time.sleep(0.1)  # polling a live page, not an assertion
 
 
 def test_an_agv_over_its_parking_station_wins_the_hover(fleet_page: tuple[Any, Served]) -> None:
