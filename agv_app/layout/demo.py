@@ -43,9 +43,8 @@ apart that hulls on them never touch.
 
 from __future__ import annotations
 
-import itertools
-
-from agv_app.layout.elements import Point, Segment, Station, StationKind
+from agv_app.layout.builder import LayoutBuilder
+from agv_app.layout.elements import StationKind
 from agv_app.layout.graph import Layout
 
 __all__ = ["DEMO_VEHICLE_LENGTH_M", "DEMO_VEHICLE_WIDTH_M", "demo_warehouse"]
@@ -68,38 +67,13 @@ _AISLE_KINDS: tuple[StationKind, ...] = ("pick", "pickdrop", "drop")
 _BOX = 1.5  # keep-clear box before a merge: a hull there is clear of the lane it joins
 
 
-class _Builder:
-    def __init__(self) -> None:
-        self.points: list[Point] = []
-        self.segments: list[Segment] = []
-        self.stations: list[Station] = []
-
-    def point(self, pid: str, x: float, y: float) -> str:
-        self.points.append(Point(pid, x, y))
-        return pid
-
-    def chain(self, ids: list[str], *, bidirectional: bool = False) -> None:
-        for a, b in itertools.pairwise(ids):
-            self.segments.append(Segment(f"{a}>{b}", a, b, bidirectional=bidirectional))
-
-    def merge(self, ids: list[str], box: str) -> None:
-        """One-way along ``ids``, the last piece (from ``box`` on) a keep-clear box."""
-        self.chain([*ids[:-1], box])
-        end = ids[-1]
-        self.segments.append(Segment(f"{box}>{end}", box, end, bidirectional=True))
-
-    def spur(self, base: str, end: str, station: str, kind: StationKind) -> None:
-        self.segments.append(Segment(f"{base}>{end}", base, end, bidirectional=True))
-        self.stations.append(Station(station, end, kind))
-
-
 def demo_warehouse() -> Layout:
     """Return the demo warehouse (layout name ``"demo-warehouse"``).
 
     It has 8 aisles with 24 aisle stations, 4 docks, 10 charging spots and
     197 parking spots (each reachable on its own spur), all mutually reachable.
     """
-    b = _Builder()
+    b = LayoutBuilder()
     # Lanes. Point ids name the lane and the x position in centimetres.
     s_lane = [b.point("S@W", _X_WEST, _Y_S)]
     s_lane += [b.point(f"S{round(x * 100):04d}", x, _Y_S) for x in _ROW_XS]

@@ -27,10 +27,10 @@ S-row spur ends of the next.
 
 from __future__ import annotations
 
-import itertools
 import math
 
-from agv_app.layout.elements import Point, Segment, Station, StationKind
+from agv_app.layout.builder import LayoutBuilder
+from agv_app.layout.elements import StationKind
 from agv_app.layout.graph import Layout
 
 __all__ = ["BAND_HEIGHT", "GENERATED_PREFIX", "generated_warehouse", "parse_generated"]
@@ -75,26 +75,7 @@ def _size_for(agvs: int) -> tuple[int, int]:
         bands += 1
 
 
-class _Builder:
-    def __init__(self) -> None:
-        self.points: list[Point] = []
-        self.segments: list[Segment] = []
-        self.stations: list[Station] = []
-
-    def point(self, pid: str, x: float, y: float) -> str:
-        self.points.append(Point(pid, x, y))
-        return pid
-
-    def chain(self, ids: list[str]) -> None:
-        for a, b in itertools.pairwise(ids):
-            self.segments.append(Segment(f"{a}>{b}", a, b))
-
-    def spur(self, base: str, end: str, station: str, kind: StationKind) -> None:
-        self.segments.append(Segment(f"{base}>{end}", base, end, bidirectional=True))
-        self.stations.append(Station(station, end, kind))
-
-
-def _band(b: _Builder, band: int, row: int) -> None:
+def _band(b: LayoutBuilder, band: int, row: int) -> None:
     """Lay out band ``band`` (lanes, aisles, stations, parking) with ``row`` positions."""
     y0 = band * BAND_HEIGHT
     tag = f"b{band + 1}-"
@@ -180,7 +161,7 @@ def generated_warehouse(agvs: int) -> Layout:
     if isinstance(agvs, bool) or not isinstance(agvs, int) or agvs < 1:
         raise ValueError(f"a generated warehouse needs a positive number of AGVs, got {agvs!r}")
     bands, row = _size_for(agvs)
-    b = _Builder()
+    b = LayoutBuilder()
     for band in range(bands):
         _band(b, band, row)
     for band in range(bands - 1):
