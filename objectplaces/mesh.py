@@ -75,12 +75,6 @@ class MeshNode(NetworkNode):
         """Wait until a link to a peer comes up or goes down."""
         await self._mesh.links_changed()
 
-    async def wait_for_peers(self, count: int) -> list[str]:
-        """Wait until at least ``count`` peers are linked (bound it with ``asyncio.timeout``)."""
-        while len(self._mesh.peers()) < count:
-            await self._mesh.links_changed()
-        return self.peers()
-
     def _start(self) -> None:
         self._task = asyncio.create_task(self._mesh.run(), name=f"objectplaces-node-{self.node_id}")
         self._task.add_done_callback(self._on_mesh_done)

@@ -72,6 +72,16 @@ class NetworkNode(RoleActivator):
         """Node-wide transport counters (frames in and out, drops by reason ...)."""
         raise NotImplementedError
 
+    async def links_changed(self) -> None:
+        """Wait until a peer comes or goes."""
+        raise NotImplementedError
+
+    async def wait_for_peers(self, count: int) -> list[str]:
+        """Wait until at least ``count`` peers are in touch (bound it with ``asyncio.timeout``)."""
+        while len(self.peers()) < count:
+            await self.links_changed()
+        return self.peers()
+
     async def close(self) -> None:
         """Leave the network (each transport's node says how)."""
         raise NotImplementedError

@@ -83,12 +83,6 @@ class ZenohNode(NetworkNode):
         """Wait until a node appears or goes."""
         await self._transport.links_changed()
 
-    async def wait_for_peers(self, count: int) -> list[str]:
-        """Wait until at least ``count`` other nodes are alive (bound it with a timeout)."""
-        while len(self._transport.peers()) < count:
-            await self._transport.links_changed()
-        return self.peers()
-
     async def close(self) -> None:
         """Leave: stop our sessions, drop our roles, tell the fleet, close the session."""
         if not self._mark_closed("closed", settled=False):
