@@ -194,6 +194,19 @@ class StopPlan:
             self.clearance,
         )
 
+    def cut(self, length: float) -> StopPlan:
+        """The same plan on the route ended at ``length``, a resting place (outside
+        every zone): the zones and spans beyond it are dropped."""
+        keep = [k for k, (lo, _) in enumerate(self.zones) if lo < length]
+        return StopPlan(
+            length,
+            tuple(self.zones[k] for k in keep),
+            tuple(self.claims[k] for k in keep if k < len(self.claims)),
+            tuple(self.through[k] for k in keep if k < len(self.through)),
+            tuple(span for span in self.spans if span[1] < length),
+            self.clearance,
+        )
+
     def claims_between(self, s0: float, s1: float) -> frozenset[Claim]:
         """The claims of every zone that ``[s0, s1]`` reaches into."""
         return frozenset(

@@ -12,7 +12,10 @@ it moves; the middleware's periodic republication is the heartbeat.
 It plays the voter (:mod:`agv_app.traffic.collision`) and bidder
 (:mod:`agv_app.tasks.auction`) roles, keeps stale-node records of failed AGVs, and
 carries out tasks: to the pick station, dwell, to the drop station, dwell, home to its
-own parking spot.
+own parking spot. It is free for the next task as soon as it dwells at the drop station
+(it bids from there and, awarded, sets off for the next pick without going home); one
+awarded a task on its way home stops at the first point ahead from which the pick
+station is nearer than by way of home, and sets off from there.
 """
 
 from __future__ import annotations
@@ -140,6 +143,9 @@ class AgvController:
         """``home``, ``to_home``, ``to_pick``, ``at_pick``, ``to_drop`` or ``at_drop``."""
         self.last_done: str | None = None
         self._plan: StopPlan | None = None
+        self._route: Route | None = None
+        self._route_shift = 0.0
+        """Arc length of the driven path before the route's first point (the lead piece)."""
         self._dest: str | None = None
         self._dwell_until = 0.0
         self._key = 0
@@ -269,8 +275,14 @@ class AgvController:
 
     @property
     def status(self) -> str:
-        """``idle`` (no task) or ``busy``: the property task assignment selects on."""
-        return "busy" if self.task is not None or self.pending_task is not None else "idle"
+        """``idle`` or ``busy``: the property task assignment selects on.
+
+        Idle with no task, and while dwelling at the drop station of its task: it may
+        be awarded the next one there (held as ``pending_task``, busy again).
+        """
+        if self.pending_task is not None:
+            return "busy"
+        return "idle" if self.task is None or self.phase == "at_drop" else "busy"
 
     def display_status(self) -> str:
         """A finer state for the dashboard: idle, driving, waiting, loading or failed."""
@@ -327,20 +339,72 @@ class AgvController:
     # -- tasks (TaskAgent) --------------------------------------------------------------
 
     def bid_for(self, task: TaskSpec) -> float | None:
-        """Route distance to the pick station, or None if busy or failed."""
+        """Route distance to the pick station, or None if busy or failed.
+
+        On the way home it is the distance by way of the point the AGV would stop at
+        if awarded (:meth:`_turn_point`).
+        """
         if self.failed or self.status != "idle":
             return None
         pick = self.layout.station(task.pick).point
-        start = self._dest if self._dest is not None else self.point
-        remaining = self.vehicle.remaining() if self._dest is not None else 0.0
-        distance = self.layout.distance(start, pick)
-        return None if math.isinf(distance) else remaining + distance
+        if self._dest is None:
+            distance = self.layout.distance(self.point, pick)
+            return None if math.isinf(distance) else distance
+        turn = self._turn_point(pick)
+        if turn is not None:
+            return turn[2]
+        distance = self.layout.distance(self._dest, pick)
+        return None if math.isinf(distance) else self.vehicle.remaining() + distance
 
     def take(self, task: TaskSpec) -> None:
-        """Accept an awarded task: go to its pick station as soon as the AGV is at rest."""
+        """Accept an awarded task: go to its pick station as soon as the AGV is at rest
+        (on its way home: at the point :meth:`_turn_point` picks)."""
         self.pending_task = task
         self.node.update_node_property("task", task.id)
+        self._turn_for_pending()
         self.publish()
+
+    def _turn_point(self, pick: str) -> tuple[str, float, float] | None:
+        """Where an AGV driving home best stops to set off for point ``pick``:
+        ``(point, arc length, distance to pick by way of it)``, or None when home is
+        as good (or no point ahead will do).
+
+        Candidates are the route's points at or beyond everything locked or requested
+        (the vehicle can stop there without giving anything back), clear of every
+        no-rest zone.
+        """
+        route, plan, dest = self._route, self._plan, self._dest
+        if route is None or plan is None or dest is None or route.end != dest:
+            return None
+        vehicle, book = self.vehicle, self.book
+        reach = book.lock_end(default=vehicle.s)
+        pending = book.request()
+        if pending is not None:
+            reach = max(reach, pending.end_s)
+        home_cost = vehicle.remaining() + self.layout.distance(dest, pick)
+        best: tuple[str, float, float] | None = None
+        for point, offset in zip(route.points[:-1], route.offsets[:-1], strict=True):
+            s = offset + self._route_shift
+            if s < reach - 1e-9 or any(lo - 1e-6 <= s <= hi + 1e-6 for lo, hi in plan.zones):
+                continue
+            cost = s - vehicle.s + self.layout.distance(point, pick)
+            if cost < home_cost - 1e-6 and (best is None or cost < best[2]):
+                best = (point, s, cost)
+        return best
+
+    def _turn_for_pending(self) -> None:
+        """On the way home with a task awarded: end the route at the turn point."""
+        task = self.pending_task
+        if task is None or self.phase != "to_home" or self._resume is not None:
+            return
+        turn = self._turn_point(self.layout.station(task.pick).point)
+        if turn is None or self._plan is None:
+            return
+        point, s, _ = turn
+        self.vehicle.shorten_route(s)
+        self._plan = self._plan.cut(s)
+        self._route = None
+        self._dest = point
 
     # -- driving ------------------------------------------------------------------------
 
@@ -355,6 +419,7 @@ class AgvController:
             self._dest = None
             return
         route = self._route_for(dest)
+        self._route = route
         heading = self.vehicle.pose().heading_rad
         ahead = route.polyline.piece_heading(0)
         if abs(math.remainder(ahead - heading, math.tau)) > math.pi / 2:
@@ -372,7 +437,8 @@ class AgvController:
         plan = StopPlan.for_route(
             self.layout, route, clearance_m=self.clearance_m, followable=self._followable
         )
-        self._plan = plan.shifted(path.cumulative[1])
+        self._route_shift = path.cumulative[1]
+        self._plan = plan.shifted(self._route_shift)
         self._key += 1
         self.book.set_locks(
             LockEntry(self._key, self.vehicle.s, self.vehicle.hull(), claims=standing)
@@ -543,6 +609,7 @@ class AgvController:
         self.point = self._dest
         self._dest = None
         self._plan = None
+        self._route = None
         if self._resume is not None:
             resume, self._resume = self._resume, None
             self._route_to(resume)
@@ -582,13 +649,12 @@ class AgvController:
             self.node.update_node_property("task", None)
             if self._on_task_done is not None:
                 self._on_task_done(done)
-            self._go_home()
+            if self.pending_task is not None:
+                self._start_pending()  # awarded while dwelling: no drive home
+            else:
+                self._go_home()
         elif self.pending_task is not None:
-            self.task, self.pending_task = self.pending_task, None
-            self.phase = "to_pick"
-            if self._on_task_started is not None:
-                self._on_task_started(self.task.id)
-            self._route_to(self.layout.station(self.task.pick).point)
+            self._start_pending()
         elif self.phase != "home" or self.point != self.home:
             self._go_home()
         if self._dest is None and self.phase in ("to_pick", "to_drop"):
@@ -596,6 +662,14 @@ class AgvController:
             self.phase = "at_pick" if self.phase == "to_pick" else "at_drop"
             self._dwell_until = now + self.config.dwell
         self.publish()
+
+    def _start_pending(self) -> None:
+        assert self.pending_task is not None
+        self.task, self.pending_task = self.pending_task, None
+        self.phase = "to_pick"
+        if self._on_task_started is not None:
+            self._on_task_started(self.task.id)
+        self._route_to(self.layout.station(self.task.pick).point)
 
     def _go_home(self) -> None:
         self.phase = "to_home"

@@ -155,6 +155,20 @@ class Vehicle:
         self._route = route
         self._s = float(s)
 
+    def shorten_route(self, length: float) -> None:
+        """End the route at arc length ``length``, not behind the vehicle (it may move):
+        the path up to there stays the same.
+
+        Raises:
+            ValueError: ``length`` lies behind the vehicle or beyond the route's end.
+        """
+        if not self._s <= length <= self._route.length:
+            raise ValueError(
+                f"cannot end the route at s={length!r}: the vehicle is at {self._s!r}, "
+                f"the route {self._route.length!r} long"
+            )
+        self._route = self._route.slice(0.0, length)
+
     # -- motion -------------------------------------------------------------------
 
     def step(self, dt: float, limit_s: float) -> float:
