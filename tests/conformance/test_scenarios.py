@@ -1,83 +1,57 @@
-"""The same role code and the same expectations on the simulated network, the mesh and Zenoh."""
+"""The same role code and the same expectations on the simulated network, and on mesh and
+Zenoh nodes that each run in a process of their own."""
 
 from __future__ import annotations
 
 import math
-from collections.abc import AsyncIterator, Callable
-from typing import Any
+from collections.abc import AsyncIterator, Callable, Iterator
 
 import msgpack
 import pytest
 
-from objectplaces import Initiator, Participant, groups
-from objectplaces.roles import InitiatorRef, ParticipantRef
-from tests.conformance.harness import Harness, MeshHarness, SimHarness, ZenohHarness
+from objectplaces import groups
+from tests.conformance.harness import (
+    FAILURE_TIMEOUT,
+    Harness,
+    MeshProcesses,
+    SimHarness,
+    ZenohProcesses,
+)
+from tests.conformance.proxy import PuppetPool
+from tests.conformance.roles import RecorderLog
 
-HARNESSES: dict[str, Callable[[], Harness]] = {
+HARNESSES: dict[str, Callable[[PuppetPool], Harness]] = {
     "sim": SimHarness,
-    "mesh": MeshHarness,
-    "zenoh-peer": ZenohHarness,
-    "zenoh-client": lambda: ZenohHarness(via_router=True),
+    "mesh": MeshProcesses,
+    "zenoh-peer": ZenohProcesses,
+    "zenoh-client": lambda pool: ZenohProcesses(pool, via_router=True),
 }
+PROCESSES = pytest.mark.processes
 
 
-@pytest.fixture(params=list(HARNESSES))
+@pytest.fixture(scope="session")
+def puppets() -> Iterator[PuppetPool]:
+    """Node processes started ahead of need, shared by every scenario."""
+    pool = PuppetPool()
+    try:
+        yield pool
+    finally:
+        pool.close()
+
+
+@pytest.fixture(
+    params=[pytest.param(name, marks=[] if name == "sim" else [PROCESSES]) for name in HARNESSES]
+)
 async def net(request: pytest.FixtureRequest) -> AsyncIterator[Harness]:
-    harness = HARNESSES[request.param]()
+    pool = None if request.param == "sim" else request.getfixturevalue("puppets")
+    harness = HARNESSES[request.param](pool)  # type: ignore[arg-type]
     try:
         yield harness
     finally:
         await harness.close()
 
 
-class Recorder(Initiator):
-    """Logs every callback with the session it was told about."""
-
-    def __init__(self) -> None:
-        self.log: list[tuple[str, str, str, Any]] = []
-
-    def in_group(self, p: ParticipantRef) -> None:
-        self.log.append(("in", p.node_id, p.session_id, None))
-        self.send(p, "welcome")
-
-    def out_group(self, p: ParticipantRef) -> None:
-        self.log.append(("out", p.node_id, p.session_id, None))
-
-    def receive(self, p: ParticipantRef, message: Any) -> None:
-        self.log.append(("rx", p.node_id, p.session_id, message))
-
-    def members_now(self) -> set[str]:
-        return {p.node_id for p in self.members}
-
-    def heard(self, node: str, what: str) -> bool:
-        return any(e[0] == "rx" and e[1] == node and what in str(e[3]) for e in self.log)
-
-
-class Ticker(Participant):
-    """Says hello, ticks every 20 ms, echoes; logs its activation."""
-
-    def __init__(self) -> None:
-        self.log: list[str] = []
-        self.ticks = 0
-
-    def in_group_of(self, initiator: InitiatorRef) -> None:
-        self.log.append(f"in {initiator.session_id}")
-        self.send(f"hello from {self.node_id}")
-        self.call_later(0.02, self.tick)
-
-    def out_group_of(self, initiator: InitiatorRef) -> None:
-        self.log.append(f"out {initiator.session_id}")
-
-    def receive(self, message: Any) -> None:
-        self.send(f"echo {message}")
-
-    def tick(self) -> None:
-        self.ticks += 1
-        self.send(f"tick {self.ticks}")
-        self.call_later(0.02, self.tick)
-
-
-def only_members_spoke(recorder: Recorder, sid: str) -> None:
+def only_members_spoke(recorder: RecorderLog, sid: str) -> None:
     members: set[str] = set()
     for kind, node, session, message in recorder.log:
         assert session == sid, f"event of another session: {(kind, node, session, message)}"
@@ -105,66 +79,56 @@ async def test_start_every_node_sees_the_others(net: Harness) -> None:
 async def test_join_a_newcomer_in_range_enters_the_session(net: Harness) -> None:
     a = await net.add("a")
     a.update_node_property("position", (0.0, 0.0))
-    recorder = Recorder()
-    session = a.start_interaction(recorder, groups.within(5.0), "ticker")
-    tickers: dict[str, Ticker] = {}
-
-    def factory(name: str) -> Any:
-        return lambda: tickers.setdefault(name, Ticker())
-
+    recorder = await a.start_interaction(groups.within(5.0), "ticker")
+    tickers = {}
     for name, x in (("near", 3.0), ("far", 50.0)):
         node = await net.add(name)
-        node.set_participant_factory("ticker", factory(name))
+        tickers[name] = node.serve("ticker")
         node.update_node_property("position", (x, 0.0))
     await net.until(lambda: recorder.heard("near", "echo") and recorder.heard("near", "tick"))
     assert recorder.members_now() == {"near"}
-    assert "far" not in tickers
-    only_members_spoke(recorder, session.session_id)
+    assert not tickers["far"]
+    only_members_spoke(recorder, recorder.session_id)
 
 
 async def test_leave_a_member_that_leaves_is_removed(net: Harness) -> None:
     a = await net.add("a")
     a.update_node_property("position", (0.0, 0.0))
     b = await net.add("b")
-    ticker = Ticker()
-    b.set_participant_factory("ticker", lambda: ticker)
+    tickers = b.serve("ticker")
     b.update_node_property("position", (1.0, 0.0))
-    recorder = Recorder()
-    session = a.start_interaction(recorder, groups.within(5.0), "ticker")
+    recorder = await a.start_interaction(groups.within(5.0), "ticker")
+    sid = recorder.session_id
     await net.until(lambda: recorder.members_now() == {"b"})
     await net.leave("b")
-    await net.until(lambda: ("out", "b", session.session_id, None) in recorder.log)
-    assert ticker.log == [f"in {session.session_id}", f"out {session.session_id}"]
+    await net.until(lambda: ("out", "b", sid, None) in recorder.log)
+    assert [t.log for t in tickers] == [[f"in {sid}", f"out {sid}"]]
     assert "b" not in a.view()
-    only_members_spoke(recorder, session.session_id)
+    only_members_spoke(recorder, sid)
 
 
 async def test_stop_deactivates_every_participant_and_leaves_no_state(net: Harness) -> None:
     a = await net.add("a")
     a.update_node_property("position", (0.0, 0.0))
-    tickers: list[Ticker] = []
-
-    def make_ticker() -> Ticker:
-        tickers.append(Ticker())
-        return tickers[-1]
-
-    others = []
+    others, tickers = [], []
     for i in range(3):
         node = await net.add(f"p{i}")
-        node.set_participant_factory("ticker", make_ticker)
+        tickers.append(node.serve("ticker"))
         node.update_node_property("position", (1.0 + i, 0.0))
         others.append(node)
-    recorder = Recorder()
-    session = a.start_interaction(recorder, groups.within(5.0), "ticker")
+    recorder = await a.start_interaction(groups.within(5.0), "ticker")
     await net.until(lambda: recorder.members_now() == {"p0", "p1", "p2"})
-    a.stop_interaction(session)
+    a.stop_interaction(recorder)
     live = ("sessions", "members", "closing_channels", "participations", "role_timers")
 
     def clean() -> bool:
-        return all(all(node.machine.state_counts()[k] == 0 for k in live) for node in [a, *others])
+        return all(all(node.state_counts()[k] == 0 for k in live) for node in [a, *others])
 
-    await net.until(lambda: clean() and all(t.log[-1].startswith("out") for t in tickers))
-    assert len(tickers) == 3
+    def all_out() -> bool:
+        return all(t.log[-1].startswith("out") for made in tickers for t in made)
+
+    await net.until(lambda: clean() and all_out())
+    assert [len(made) for made in tickers] == [1, 1, 1]
 
 
 async def test_guarantee_1_initiator_hears_only_its_current_members(net: Harness) -> None:
@@ -175,20 +139,54 @@ async def test_guarantee_1_initiator_hears_only_its_current_members(net: Harness
     movers = []
     for i in range(2):
         node = await net.add(f"m{i}")
-        node.set_participant_factory("ticker", Ticker)
+        node.serve("ticker")
         node.update_node_property("position", (1.0 + i, 0.0))
         movers.append(node)
-    ours, theirs = Recorder(), Recorder()
-    session = a.start_interaction(ours, groups.within(5.0), "ticker")
-    other = c.start_interaction(theirs, groups.within(500.0), "ticker")
+    ours = await a.start_interaction(groups.within(5.0), "ticker")
+    theirs = await c.start_interaction(groups.within(500.0), "ticker")
     await net.until(lambda: ours.heard("m0", "tick 3") and theirs.heard("m1", "tick 3"))
     movers[0].update_node_property("position", (60.0, 0.0))  # m0 leaves a's group
-    await net.until(lambda: ("out", "m0", session.session_id, None) in ours.log)
+    await net.until(lambda: ("out", "m0", ours.session_id, None) in ours.log)
     mark = len(ours.log)
     await net.until(lambda: ours.heard("m1", "tick 10") and theirs.heard("m0", "tick 10"))
     assert not any(e[1] == "m0" for e in ours.log[mark:])
-    only_members_spoke(ours, session.session_id)
-    only_members_spoke(theirs, other.session_id)
+    only_members_spoke(ours, ours.session_id)
+    only_members_spoke(theirs, theirs.session_id)
+
+
+async def test_kill_a_crashed_node_leaves_every_group_it_was_in(net: Harness) -> None:
+    a = await net.add("a")
+    a.update_node_property("position", (0.0, 0.0))
+    c = await net.add("c")
+    c.update_node_property("position", (4.0, 0.0))
+    survivor, doomed = await net.add("survivor"), await net.add("doomed")
+    for node, x in ((survivor, 2.5), (doomed, 2.0)):
+        node.serve("ticker")
+        node.update_node_property("position", (x, 0.0))
+    ours = await a.start_interaction(groups.within(5.0), "ticker")
+    theirs = await c.start_interaction(groups.within(5.0), "ticker")
+    both = {"survivor", "doomed"}
+    await net.until(lambda: ours.members_now() == both and theirs.members_now() == both)
+    await net.until(lambda: ours.heard("doomed", "tick") and theirs.heard("doomed", "tick"))
+    await net.kill("doomed")  # no goodbye: failure detection (or Zenoh liveliness) notices
+    await net.until(
+        lambda: (
+            ("out", "doomed", ours.session_id, None) in ours.log
+            and ("out", "doomed", theirs.session_id, None) in theirs.log
+        ),
+        within=FAILURE_TIMEOUT + 5.0,
+    )
+    await net.until(lambda: "doomed" not in a.view() and "doomed" not in c.view())
+    mark = len(ours.log), len(theirs.log)
+    await net.until(
+        lambda: (
+            any(e[1] == "survivor" for e in ours.log[mark[0] :])
+            and any(e[1] == "survivor" for e in theirs.log[mark[1] :])
+        )
+    )
+    assert ours.members_now() == theirs.members_now() == {"survivor"}
+    only_members_spoke(ours, ours.session_id)
+    only_members_spoke(theirs, theirs.session_id)
 
 
 async def test_scoped_dissemination_hears_its_cells_and_forgets_the_departed(net: Harness) -> None:
@@ -209,10 +207,9 @@ async def test_scoped_dissemination_hears_its_cells_and_forgets_the_departed(net
 async def test_hostile_frames_cost_the_sender_never_the_node(net: Harness) -> None:
     a = await net.add("a")
     a.update_node_property("position", (0.0, 0.0))
-    recorder = Recorder()
-    session = a.start_interaction(recorder, groups.within(5.0), "ticker")  # indexes positions
+    recorder = await a.start_interaction(groups.within(5.0), "ticker")  # indexes positions
     b = await net.add("b")
-    b.set_participant_factory("ticker", Ticker)
+    b.serve("ticker")
     b.update_node_property("position", (1.0, 0.0))
     await net.until(lambda: recorder.members_now() == {"b"})
     unusable = [["x", "y"], [math.nan, 0], [math.inf, -math.inf], [None, 1]]
@@ -222,4 +219,4 @@ async def test_hostile_frames_cost_the_sender_never_the_node(net: Harness) -> No
     mark = len(recorder.log)
     await net.until(lambda: any(e[0] == "rx" for e in recorder.log[mark:]))
     assert recorder.members_now() == {"b"}
-    only_members_spoke(recorder, session.session_id)
+    only_members_spoke(recorder, recorder.session_id)
