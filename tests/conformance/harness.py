@@ -268,7 +268,7 @@ class ZenohProcesses(ProcessHarness):
             os.chmod(secret_file, 0o600)
             self.router = LineProcess(
                 ["-m", "objectplaces.router_cli", "--listen", "tcp/127.0.0.1:0",
-                 "--secret-file", str(secret_file), "--run-seconds", "600"]
+                 "--secret-file", str(secret_file), "--run-seconds", "120"]
             )  # fmt: skip
 
     async def _router_endpoints(self) -> list[str]:

@@ -27,7 +27,6 @@ import json
 import sys
 from typing import Any
 
-from objectplaces.core.errors import LocalProtocolError
 from objectplaces.groups import definition_from_json
 from objectplaces.mesh import MeshNode, start_node
 from objectplaces.zenoh_node import ZenohNode
@@ -52,6 +51,7 @@ class Puppet:
         self.reported: dict[str, Any] = {}
         self.log_marks: dict[str, int] = {}
         self.leaving = False
+        self.lost = False
 
     async def handle(self, command: dict[str, Any]) -> None:
         """Carry out one command."""
@@ -100,6 +100,9 @@ class Puppet:
         node = self.node
         if node is None:
             return
+        if node.closed and not self.leaving and not self.lost:
+            self.lost = True
+            emit("error", error=f"the node closed by itself: {node.close_reason}")
         now: dict[str, Any] = {
             "view": {n: dict(p) for n, p in node.view().items()},
             "counts": node.machine.state_counts(),
@@ -122,6 +125,7 @@ class Puppet:
 
     async def close(self) -> None:
         """Leave the network (the last roles' callbacks are reported) and say so."""
+        self.leaving = True
         if self.node is not None:
             await self.node.close()
             self.report()
@@ -135,7 +139,7 @@ async def _read_commands(puppet: Puppet) -> None:
     while not puppet.leaving and (line := await reader.readline()):
         try:
             await puppet.handle(json.loads(line))
-        except (LocalProtocolError, ValueError, TypeError, KeyError, OSError) as exc:
+        except Exception as exc:  # any failed command is the scenario's failure, reported
             emit("error", error=f"{type(exc).__name__}: {exc}")
         puppet.report()
 
@@ -163,7 +167,7 @@ async def run(run_seconds: float) -> None:
 def main() -> None:
     """Parse the arguments and run."""
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--run-seconds", type=float, default=600.0, help="stop after this")
+    parser.add_argument("--run-seconds", type=float, default=300.0, help="stop after this")
     args = parser.parse_args()
     asyncio.run(run(args.run_seconds))
 

@@ -29,9 +29,9 @@ HARNESSES: dict[str, Callable[[PuppetPool], Harness]] = {
 PROCESSES = pytest.mark.processes
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")
 def puppets() -> Iterator[PuppetPool]:
-    """Node processes started ahead of need, shared by every scenario."""
+    """Node processes started ahead of need, shared by the scenarios of this module."""
     pool = PuppetPool()
     try:
         yield pool
