@@ -115,6 +115,8 @@ class SimulatedNetwork:
         reorder: probability that a frame is held back by up to 4x (delay + jitter).
         cell_size: grid cell side for scoped dissemination and the spatial index.
         property_interval: default republication interval of new nodes (None: off).
+        beat_interval: default liveness beat interval of new nodes (None: no beats;
+            ``NodeConfig`` says what a beat is).
         failure_timeout: default failure timeout of new nodes (None: 3 intervals).
         retransmit_timeout: first retransmission delay of session channel frames.
     """
@@ -130,6 +132,7 @@ class SimulatedNetwork:
         reorder: float = 0.0,
         cell_size: float = 25.0,
         property_interval: float | None = None,
+        beat_interval: float | None = None,
         failure_timeout: float | None = None,
         retransmit_timeout: float = 0.2,
     ) -> None:
@@ -140,6 +143,7 @@ class SimulatedNetwork:
         )
         self._defaults = NodeConfig(
             property_interval=property_interval,
+            beat_interval=beat_interval,
             failure_timeout=failure_timeout,
             cell_size=cell_size,
             retransmit_timeout=retransmit_timeout,
@@ -165,6 +169,7 @@ class SimulatedNetwork:
         *,
         interest_radius: float | None = None,
         property_interval: float | None = _UNSET,
+        beat_interval: float | None = _UNSET,
         failure_timeout: float | None = _UNSET,
         space: TupleSpace | None = None,
     ) -> RoleActivator:
@@ -174,6 +179,7 @@ class SimulatedNetwork:
             node_id: unique among live nodes.
             interest_radius: scoped dissemination radius (None: hear every node).
             property_interval: overrides the network's default.
+            beat_interval: overrides the network's default.
             failure_timeout: overrides the network's default.
             space: the node's tuplespace (a new one on the virtual clock by default).
 
@@ -189,6 +195,7 @@ class SimulatedNetwork:
             property_interval=(
                 defaults.property_interval if property_interval is _UNSET else property_interval
             ),
+            beat_interval=defaults.beat_interval if beat_interval is _UNSET else beat_interval,
             failure_timeout=(
                 defaults.failure_timeout if failure_timeout is _UNSET else failure_timeout
             ),

@@ -78,10 +78,10 @@ CORE_LAYERS = [
     {"channel", "config"},
     {"timers", "observers", "intake"},
     {"own", "channels"},
-    {"plumbing"},
+    {"plumbing", "liveness"},
     {"view", "session_state"},
     {"sessions", "participations"},
-    {"bindings"},
+    {"bindings", "introspection"},
     {"node"},
 ]
 

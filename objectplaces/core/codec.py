@@ -11,6 +11,7 @@ Frame layouts (type code first)::
     8  [8]                                                send me all your properties
     9  like 1                                             property snapshot (all of them)
     10 like 2                                             property snapshot, compact
+    11 [11, seq]                                          beat: alive, latest publication
     4  [4, session, epoch, seq, kind, payload]            channel data, to participant
     5  [5, session, epoch, seq, kind, payload]            channel data, to initiator
     6  [6, session, epoch, ack]                           ack of the to-participant stream
@@ -37,6 +38,7 @@ from objectplaces.core.errors import (
     NotPlainDataError,
 )
 from objectplaces.core.messages import (
+    Beat,
     ChannelAck,
     ChannelData,
     FrameKind,
@@ -78,7 +80,7 @@ MAX_COUNTER: Final = 2**53
 beyond any real run); a larger one is a hostile or broken peer's, refused on decode."""
 
 _PROPS, _COMPACT, _LEAVE, _TO_PART, _TO_INIT, _ACK_PART, _ACK_INIT = 1, 2, 3, 4, 5, 6, 7
-_REQUEST, _PROPS_FULL, _COMPACT_FULL = 8, 9, 10
+_REQUEST, _PROPS_FULL, _COMPACT_FULL, _BEAT = 8, 9, 10, 11
 _FULL = {_PROPS: _PROPS_FULL, _COMPACT: _COMPACT_FULL}  # a snapshot's code, by layout
 _MM: Final = 1000.0
 _MAX_MM: Final = round(MAX_COORDINATE * _MM)
@@ -88,6 +90,7 @@ _KIND_NAMES: Final = {
     _REQUEST: "property",
     _PROPS_FULL: "property",
     _COMPACT_FULL: "property",
+    _BEAT: "beat",
     _LEAVE: "leave",
     _TO_PART: "channel",
     _TO_INIT: "channel",
@@ -170,6 +173,8 @@ def encode(message: Message) -> bytes:
         case ChannelAck(of_participant_stream, session, epoch, ack):
             code = _ACK_INIT if of_participant_stream else _ACK_PART
             frame = [code, session, epoch, ack]
+        case Beat(seq):
+            frame = [_BEAT, seq]
         case Leave():
             frame = [_LEAVE]
         case PropertyRequest():
@@ -320,6 +325,10 @@ def decode(data: bytes, *, max_size: int = DEFAULT_MAX_FRAME) -> Message:
             if len(frame) != 1:
                 raise DecodeError(f"frame of type {frame[0]} has {len(frame)} fields, expected 1")
             return Leave() if frame[0] == _LEAVE else PropertyRequest()
+        case 11:
+            if len(frame) != 2:
+                raise DecodeError(f"beat frame has {len(frame)} fields, expected 2")
+            return Beat(_uint(frame[1], "seq"))
         case 4 | 5:
             return _decode_channel(frame)
         case 6 | 7:

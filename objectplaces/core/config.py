@@ -20,9 +20,17 @@ class NodeConfig:
     """Tunables of one node; every duration is in seconds.
 
     Attributes:
-        property_interval: republish all properties this often (the heartbeat); None: never.
+        property_interval: republish all properties this often (repairs lost updates, and
+            is the heartbeat when no ``beat_interval`` is set); None: never.
+        beat_interval: the liveness beat: a node that has published nothing to its scope
+            for this long sends a beat, a frame of a few bytes with the number of its
+            latest publication (a receiver that is behind asks for a snapshot); a node
+            that publishes anyway sends none. With beats, ``property_interval`` can be
+            long: liveness no longer needs a full republication (docs/protocol.md §2).
+            None: no beats.
         failure_timeout: a node not heard for this long leaves every group; None: three
-            property intervals when those are on, else no failure detection.
+            times the shorter of the beat and property intervals that are on, else no
+            failure detection.
         interest_radius: scoped dissemination: hear only nodes within about this
             distance (None: hear every node, the paper's behaviour).
         cell_size: side of the grid cells used for dissemination scopes and the index.
@@ -35,6 +43,7 @@ class NodeConfig:
     """
 
     property_interval: float | None = None
+    beat_interval: float | None = None
     failure_timeout: float | None = None
     interest_radius: float | None = None
     cell_size: float = 25.0
@@ -46,10 +55,18 @@ class NodeConfig:
 
     @property
     def effective_failure_timeout(self) -> float | None:
-        """The failure timeout in force (explicit, or three property intervals)."""
+        """The failure timeout in force (explicit, or three liveness intervals)."""
         if self.failure_timeout is not None:
             return self.failure_timeout
-        return None if self.property_interval is None else 3 * self.property_interval
+        interval = self.liveness_interval
+        return None if interval is None else 3 * interval
+
+    @property
+    def liveness_interval(self) -> float | None:
+        """The longest a live node stays silent: the shorter of the beat and property
+        intervals that are on (None: neither is)."""
+        intervals = [i for i in (self.beat_interval, self.property_interval) if i is not None]
+        return min(intervals) if intervals else None
 
 
 @dataclass(frozen=True, slots=True)

@@ -2,7 +2,7 @@
 
 Two families travel between nodes:
 
-* property dissemination (unreliable, newest wins): ``PropertyUpdate``,
+* property dissemination (unreliable, newest wins): ``PropertyUpdate``, ``Beat``,
   ``PropertyRequest`` and ``Leave``;
 * session channels (reliable, FIFO per initiator-participant pair): ``ChannelData``
   carrying a ``FrameKind`` and ``ChannelAck``.
@@ -21,6 +21,7 @@ from typing import Any, Final, TypeAlias
 
 __all__ = [
     "KIND_NAMES",
+    "Beat",
     "ChannelAck",
     "ChannelData",
     "FrameKind",
@@ -61,6 +62,20 @@ class PropertyUpdate:
     seq: int
     values: Mapping[str, Any]
     full: bool = False
+
+
+@dataclass(frozen=True, slots=True)
+class Beat:
+    """ "I am alive, and my latest publication was number ``seq``": sent instead of a
+    property update by a node that has published nothing for a beat interval
+    (docs/protocol.md §2). A receiver holding an older number of the sender missed a
+    publication and asks for a snapshot (``PropertyRequest``).
+
+    Attributes:
+        seq: the sequence number of the sender's latest publication to its scope.
+    """
+
+    seq: int
 
 
 @dataclass(frozen=True, slots=True)
@@ -124,11 +139,14 @@ class ChannelAck:
     ack: int
 
 
-Message: TypeAlias = PropertyUpdate | PropertyRequest | Leave | ChannelData | ChannelAck | Unusable
+Message: TypeAlias = (
+    PropertyUpdate | Beat | PropertyRequest | Leave | ChannelData | ChannelAck | Unusable
+)
 
 
 KIND_NAMES: Final[Mapping[type, str]] = {
     PropertyUpdate: "property",
+    Beat: "beat",
     ChannelData: "channel",
     ChannelAck: "ack",
     Leave: "leave",
@@ -139,5 +157,5 @@ KIND_NAMES: Final[Mapping[type, str]] = {
 
 
 def kind_of(message: Message) -> str:
-    """Name a message's family for statistics ("property", "channel", "ack", "leave")."""
+    """Name a message's family for statistics ("property", "beat", "channel", "ack" ...)."""
     return KIND_NAMES[type(message)]

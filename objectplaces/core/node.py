@@ -4,6 +4,7 @@
 concerns, in an order fixed here and nowhere else (§ are docs/protocol.md sections):
 
 * ``OwnProperties``: this node's values, coalescing, publication routing (§2, §5);
+* ``Liveness``: the heartbeat and the liveness beat (§2);
 * ``PropertyView``: the others' values, liveness, spatial index, scope (§2, §5, §6);
 * ``SessionTable``: sessions this node initiated, members, closing channels (§3);
 * ``ParticipationTable``: roles this node plays for others, tombstones (§3);
@@ -38,7 +39,10 @@ from objectplaces.core.events import Broadcast, Callback, Output, Subscribe, Tim
 from objectplaces.core.groups import DefinitionLike
 from objectplaces.core.ids import SessionId
 from objectplaces.core.intake import Intake
+from objectplaces.core.introspection import Introspection
+from objectplaces.core.liveness import Liveness
 from objectplaces.core.messages import (
+    Beat,
     ChannelAck,
     ChannelData,
     Leave,
@@ -61,6 +65,7 @@ from objectplaces.core.timers import (
     Retransmit,
     RoleOwner,
     RunTimer,
+    SendBeat,
     TimerAction,
 )
 from objectplaces.core.values import POSITION
@@ -69,8 +74,9 @@ from objectplaces.core.view import PropertyView
 __all__ = ["NodeConfig", "NodeMachine", "ParticipationInfo", "SessionInfo"]
 
 
-class NodeMachine:
-    """One node's middleware state and decisions (sans-I/O).
+class NodeMachine(Introspection):
+    """One node's middleware state and decisions (sans-I/O); what it shows of itself
+    (``sessions``, ``counters``, ``footprint`` ...) is ``Introspection``'s.
 
     Args:
         node_id: this node's id, unique in the network.
@@ -100,7 +106,7 @@ class NodeMachine:
         self.driver = DriverLink(lambda: self._now)
         plumbing = Plumbing.build(node_id, config)
         self._outbox = outbox = plumbing.outbox
-        self._timers = timers = plumbing.timers
+        self._timers = plumbing.timers
         self._role_timers = plumbing.role_timers
         self._channels = plumbing.channels
         self._own = OwnProperties(config)
@@ -123,11 +129,7 @@ class NodeMachine:
         self.received_by_kind = MappingProxyType(self._intake.received_by_kind)
         if config.interest_radius is None:
             outbox.emit(Subscribe(None))
-        if config.property_interval is not None:
-            timers.push(now + config.property_interval, Republish(config.property_interval))
-        timeout = config.effective_failure_timeout
-        if timeout is not None:
-            timers.push(now + timeout / 3, CheckLiveness(timeout))
+        self._liveness = Liveness(config, self._own, outbox, plumbing.timers, now)
 
     @property
     def now(self) -> float:
@@ -141,6 +143,7 @@ class NodeMachine:
         outbox = self._outbox
         if self._own.pending:
             outbox.emit(self._own.take_update())
+            self._liveness.published(self._now)
         out, outbox.outputs = outbox.outputs, []
         return out
 
@@ -190,6 +193,8 @@ class NodeMachine:
                 accepted = self._participations.on_ack(source, message, now)
             case ChannelAck():
                 accepted = self._sessions.on_ack(source, message, now)
+            case Beat(seq):
+                self._view.beat(source, seq, now)
             case PropertyRequest():
                 self.send_properties_to(source, now)
             case Leave():
@@ -349,9 +354,10 @@ class NodeMachine:
                         self._sessions.channel_broken(target, channel)
                     else:
                         self._participations.channel_broken(target, channel, now)
-            case Republish(every):
-                self._outbox.emit(self._own.republish())
-                self._timers.push(now + every, action)
+            case Republish():
+                self._liveness.republish(action, now)
+            case SendBeat():
+                self._liveness.beat(action, now)
             case CheckLiveness(timeout):
                 for node in self._view.silent_since(now - timeout):
                     self._depart(node, "failed")
@@ -362,39 +368,3 @@ class NodeMachine:
                 self._participations.repeat_left(action, now)
             case _:
                 assert_never(action)
-
-    # ------------------------------------------------------------------ introspection
-
-    def sessions(self) -> list[SessionInfo]:
-        """Live sessions started on this node, oldest first."""
-        return self._sessions.infos()
-
-    def session_role(self, sid: str) -> Initiator | None:
-        """The initiator role of a live session of this node, if any."""
-        return self._sessions.role_of(sid)
-
-    def participations(self) -> list[ParticipationInfo]:
-        """Participant roles active on this node."""
-        return self._participations.infos()
-
-    @property
-    def dropped_by_peer(self) -> Mapping[str, int]:
-        """Frames refused per peer (malformed or with unusable values; read-only)."""
-        return self._intake.dropped_by_peer
-
-    @property
-    def counters(self) -> Mapping[str, int]:
-        """What this node dropped, broke, retransmitted ... and how often (read-only)."""
-        return MappingProxyType(self._outbox.counters)
-
-    def footprint(self) -> dict[str, int]:
-        """Sizes of everything the node keeps, sessions or not: memory bounds are tested
-        on this (``state_counts`` are the per-session structures alone)."""
-        parts = (self._view, self._intake, self._own)
-        counts = {k: v for part in parts for k, v in part.footprint().items()}
-        return {**counts, **self.state_counts(), "timers": len(self._timers)}
-
-    def state_counts(self) -> dict[str, int]:
-        """Sizes of every per-session structure, to check that nothing is left behind."""
-        counts = {**self._sessions.counts(), **self._participations.counts()}
-        return {**counts, "role_timers": len(self._role_timers)}

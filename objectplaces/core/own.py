@@ -10,6 +10,12 @@ peer only (``full_update_for``): receivers keep per property the highest number 
 so numbers must never repeat within a run. A frame that carries every property is
 marked a *snapshot*: a receiver holding a node from deltas only asks for one (§5).
 
+A node that has published nothing for a beat interval sends a *beat* instead (§2): the
+number of its latest publication to its scope, so a receiver that missed one (it holds
+an older number) asks for a snapshot. Unicast snapshots do not count: only the nodes
+that hear the publications compare numbers with the beat, and a unicast only ever
+raises what its one receiver holds.
+
 Where a frame goes depends on dissemination (§5). Without an interest radius it is
 broadcast. With one, it is published to the cell the node is in; when the node has just
 moved to another cell it is published to both, so the old cell's subscribers see the
@@ -30,7 +36,7 @@ from objectplaces.core import codec
 from objectplaces.core.config import NodeConfig
 from objectplaces.core.errors import InvalidValueError
 from objectplaces.core.events import Broadcast, Output, Publish, Send
-from objectplaces.core.messages import PropertyUpdate
+from objectplaces.core.messages import Beat, PropertyUpdate
 from objectplaces.core.values import (
     MAX_VALUE_SIZE,
     POSITION,
@@ -57,6 +63,7 @@ class OwnProperties:
         "_config",
         "_dirty",
         "_published_cell",
+        "_published_seq",
         "_readonly",
         "_seq",
         "_sizes",
@@ -72,6 +79,7 @@ class OwnProperties:
         self._dirty: dict[str, Any] = {}
         self._seq = 0
         self._published_cell: Cell | None = None
+        self._published_seq = 0  # the seq of the latest publication to the scope
         self._bounds: tuple[int, int, int, int] | None = None
         #: Whether changes wait to be published (an attribute: the driver asks per drain).
         self.pending = False
@@ -146,6 +154,18 @@ class OwnProperties:
         self.pending = False
         return self._publication(self._values, full=True) if self._values else None
 
+    def beat(self) -> Output | None:
+        """The liveness beat: the number of the latest publication, to where the
+        publications go (None when this node has no properties: it publishes nothing,
+        so it has never been heard of by its properties either)."""
+        if not self._values:
+            return None
+        data = codec.encode(Beat(self._published_seq))
+        cell = self._cell()
+        if self._config.interest_radius is None or cell is None:
+            return Broadcast(data, "beat")
+        return Publish((cell,), data, "beat")
+
     def full_update_for(self, peer: str) -> Send | None:
         """A snapshot for one peer (a newcomer, a new subscriber of our cell, an asker)."""
         if not self._values:
@@ -156,6 +176,7 @@ class OwnProperties:
 
     def _publication(self, values: Mapping[str, Any], *, full: bool) -> Output:
         self._seq += 1
+        self._published_seq = self._seq
         data = codec.encode(PropertyUpdate(self._seq, dict(values), full))
         cell = self._cell()
         if self._config.interest_radius is None or cell is None:

@@ -41,6 +41,7 @@ __all__ = [
     "RoleOwner",
     "RoleTimers",
     "RunTimer",
+    "SendBeat",
     "SessionOwner",
     "TimerAction",
     "TimerQueue",
@@ -61,6 +62,14 @@ class Retransmit:
 @dataclass(frozen=True, slots=True)
 class Republish:
     """Republish every own property, then again after ``every``: the heartbeat (§2)."""
+
+    every: float
+
+
+@dataclass(frozen=True, slots=True)
+class SendBeat:
+    """Send a liveness beat if nothing was published for ``every``; look again when the
+    node will next have been silent that long (§2)."""
 
     every: float
 
@@ -99,7 +108,7 @@ class RunTimer:
 
 
 TimerAction: TypeAlias = (
-    Retransmit | Republish | CheckLiveness | ExpireTombstone | RepeatLeft | RunTimer
+    Retransmit | Republish | SendBeat | CheckLiveness | ExpireTombstone | RepeatLeft | RunTimer
 )
 
 

@@ -7,9 +7,11 @@ one part and are forgotten together:
   Updates are unreliable and may arrive reordered or twice; "newest wins" per property
   (not per frame) because a republication carries every property while a delta carries
   only some, and an old full frame must not undo a newer delta.
-* **liveness**: when each node was last heard, by any frame (property or channel).
-  Failure detection (§2) only needs "not heard since"; the machine asks for the silent
-  nodes and decides what departure means.
+* **liveness**: when each node was last heard, by any frame (property, beat or
+  channel). Failure detection (§2) only needs "not heard since"; the machine asks for
+  the silent nodes and decides what departure means. A beat also says which
+  publication was the sender's latest: holding an older one, the view asks for a
+  snapshot (a lost update repaired without a republication).
 * **the index** (§6): a uniform grid per position property that a declarative group
   definition uses, and a running maximum per radius property, so that resolving a
   group costs about O(neighbours) instead of O(view). Both are built lazily, the first
@@ -149,6 +151,20 @@ class PropertyView:
     def heard(self, node: str, now: float) -> None:
         """``node`` sent something at ``now``: it is alive."""
         self._heard[node] = now
+
+    def beat(self, source: str, seq: int, now: float) -> None:
+        """Take a beat from ``source`` at ``now``: its latest publication was ``seq``.
+
+        A node in the view is heard; one whose latest publication we missed (we hold
+        only older numbers), or that is not in the view at all, is asked for a
+        snapshot, at most once per ``SNAPSHOT_RETRY``. A beat never adds a node to the
+        view or to the liveness table: only its properties do.
+        """
+        if source in self._props:
+            self._heard[source] = now
+            if seq <= self._tops.get(source, -1):
+                return
+        self._want_snapshot(source, now)
 
     def apply(self, source: str, update: PropertyUpdate, now: float) -> bool:
         """Take a property update from ``source`` at ``now`` (so it is heard, too); tell

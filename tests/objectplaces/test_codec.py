@@ -14,6 +14,7 @@ from objectplaces import DecodeError, LocalProtocolError
 from objectplaces.core import codec
 from objectplaces.core.errors import InvalidValueError, NotPlainDataError
 from objectplaces.core.messages import (
+    Beat,
     ChannelAck,
     ChannelData,
     FrameKind,
@@ -72,6 +73,8 @@ def test_position_is_rounded_to_millimetres_and_normalising_matches_the_wire() -
         PropertyUpdate(3, {"a": 1}, full=True),
         PropertyUpdate(4, {"position": (1.0, 2.0), "hull_length": 0.5}, full=True),
         PropertyRequest(),
+        Beat(0),
+        Beat(2**53 - 1),
     ],
 )
 def test_round_trip(message: object) -> None:
@@ -116,6 +119,7 @@ def test_random_bytes_decode_or_fail_with_decode_error(data: bytes) -> None:
             codec.encode(PropertyUpdate(3, {"position": (1.0, 2.0), "hull_length": 1.0})),
             codec.encode(ChannelData(True, 1, 1, 0, FrameKind.ROLE, {"x": 1})),
             codec.encode(ChannelAck(False, 1, 1, 3)),
+            codec.encode(Beat(70_000)),
         ]
     ),
     index=st.integers(0, 40),
@@ -140,6 +144,11 @@ def test_mutated_frames_decode_or_fail_with_decode_error(
         (msgpack.packb([4, 1, 1, 0, 77, None]), "unknown channel frame kind"),
         (msgpack.packb([6, 1, 1]), "ack frame has 3 fields"),
         (msgpack.packb([2, 1, 1.5, 2]), "integer millimetres"),
+        (msgpack.packb([11]), "beat frame has 1 fields, expected 2"),
+        (msgpack.packb([11, 1, 2]), "beat frame has 3 fields, expected 2"),
+        (msgpack.packb([11, -1]), "seq must be a non-negative integer"),
+        (msgpack.packb([11, "7"]), "seq must be a non-negative integer"),
+        (msgpack.packb([11, True]), "seq must be a non-negative integer"),
         (b"\xc1", "malformed frame"),
         (msgpack.packb([1, 1, {}]) + b"\x00", "malformed frame"),
     ],
@@ -159,8 +168,15 @@ def test_unserialisable_value_fails_where_it_is_sent() -> None:
         codec.encode_value({"f": object()})
 
 
+def test_a_beat_is_a_few_bytes() -> None:
+    # The point of a beat: liveness for the price of a frame header and a number.
+    assert len(codec.encode(Beat(5))) == 3
+    assert len(codec.encode(Beat(70_000))) <= 7
+
+
 def test_frame_type_peeks_without_decoding() -> None:
     assert codec.frame_type(codec.encode(Leave())) == 3
+    assert codec.message_kind(codec.encode(Beat(1))) == "beat"
     assert codec.message_kind(codec.encode(ChannelAck(True, 1, 1, 1))) == "ack"
     assert codec.message_kind(b"") == "malformed"
     with pytest.raises(DecodeError):
@@ -205,6 +221,7 @@ def test_well_known_properties_from_a_generic_frame_are_rounded_like_ours() -> N
         [4, 2**60, 1, 0, 4, None],
         [5, 1, 2**64 - 1, 0, 4, None],
         [6, 1, 1, 2**63],
+        [11, 2**53],
     ],
 )
 def test_absurd_counters_are_refused(frame: list[object]) -> None:
