@@ -156,15 +156,18 @@ class PropertyView:
         """Take a beat from ``source`` at ``now``: its latest publication was ``seq``.
 
         A node in the view is heard; one whose latest publication we missed (we hold
-        only older numbers), or that is not in the view at all, is asked for a
-        snapshot, at most once per ``SNAPSHOT_RETRY``. A beat never adds a node to the
-        view or to the liveness table: only its properties do.
+        only older numbers) is asked for a snapshot, at most once per
+        ``SNAPSHOT_RETRY``. A node not in the view is asked each time and nothing of it
+        is kept (§8: no frame makes state appear; its beats come once an interval). A
+        beat never adds a node to the view or to the liveness table: only its
+        properties do.
         """
-        if source in self._props:
-            self._heard[source] = now
-            if seq <= self._tops.get(source, -1):
-                return
-        self._want_snapshot(source, now)
+        if source not in self._props:
+            self._outbox.send(source, _REQUEST, "property")
+            return
+        self._heard[source] = now
+        if seq > self._tops.get(source, -1):
+            self._want_snapshot(source, now)
 
     def apply(self, source: str, update: PropertyUpdate, now: float) -> bool:
         """Take a property update from ``source`` at ``now`` (so it is heard, too); tell

@@ -142,18 +142,26 @@ def test_a_node_without_properties_sends_no_beat() -> None:
     assert [o for o in a.messages_to_send() if not isinstance(o, Subscribe)] == []
 
 
-def test_beats_from_strangers_never_add_to_the_view_and_asking_is_rate_limited() -> None:
+def test_beats_from_strangers_never_add_to_the_view_or_to_any_table() -> None:
     b = NodeMachine("b", config=BEATING)
     for i in range(50):
         b.receive("stranger", codec.encode(Beat(10**9 + i)), now=i * 0.1)
     sent = [o for o in b.messages_to_send() if not isinstance(o, Subscribe)]
-    asked = [o for o in sent if codec.decode(o.data) == PropertyRequest()]
-    assert len(asked) == 5  # once per SNAPSHOT_RETRY over five seconds
-    assert SNAPSHOT_RETRY == 1.0
+    assert {codec.decode(o.data) for o in sent} == {PropertyRequest()}  # two bytes each
     assert b.view() == {}
-    assert b.footprint()["heard"] == 0
+    assert b.footprint()["heard"] == b.footprint()["asked"] == 0
     b.tick(60.0)
     assert "departed_failed" not in b.counters  # never known, never departed
+
+
+def test_a_node_behind_asks_once_per_snapshot_retry() -> None:
+    _, _, b = pair()
+    for i in range(50):
+        b.receive("a", codec.encode(Beat(10**9 + i)), now=1.0 + i * 0.1)
+    sent = [o for o in b.messages_to_send() if not isinstance(o, Subscribe)]
+    assert len([o for o in sent if codec.decode(o.data) == PropertyRequest()]) == 5
+    assert SNAPSHOT_RETRY == 1.0
+    assert b.footprint()["asked"] == 1
 
 
 def test_malformed_beats_are_refused_and_counted() -> None:
