@@ -32,6 +32,9 @@ Cell = tuple[int, int]
 _SAFE: Final = re.compile(r"[A-Za-z0-9_.:@+=-]")
 _FLEET: Final = re.compile(r"[A-Za-z0-9_.-]{1,64}")
 _NO_CELL: Final = "none"
+_PARSED_KEYS: Final = 4096
+"""Sample keys whose reading a node remembers: a node hears few distinct keys (one per
+sender and kind), and reading one costs microseconds on every sample otherwise."""
 
 
 def escape_id(node: str) -> str:
@@ -88,7 +91,7 @@ class FleetKeys:
         node: this node's id.
     """
 
-    __slots__ = ("_me", "node", "prefix")
+    __slots__ = ("_me", "_parsed", "node", "prefix")
 
     def __init__(self, fleet: str, node: str) -> None:
         if not _FLEET.fullmatch(fleet):
@@ -96,6 +99,7 @@ class FleetKeys:
         self.prefix = f"objectplaces/{fleet}"
         self.node = node
         self._me = escape_id(node)
+        self._parsed: dict[str, Inbound | None] = {}
 
     # ------------------------------------------------------------------ what we put
 
@@ -157,7 +161,23 @@ class FleetKeys:
     # ------------------------------------------------------------------ reading keys
 
     def parse(self, key: str) -> Inbound | None:
-        """Kind and sender of a data sample's key; None for a key that is none of ours."""
+        """Kind and sender of a data sample's key; None for a key that is none of ours.
+
+        Remembers the readings of the last few thousand keys (safe from several threads:
+        a reading is the same whoever made it, and a full memory starts afresh).
+        """
+        parsed = self._parsed
+        try:
+            return parsed[key]
+        except KeyError:
+            pass
+        inbound = self._parse(key)
+        if len(parsed) >= _PARSED_KEYS:
+            parsed.clear()
+        parsed[key] = inbound
+        return inbound
+
+    def _parse(self, key: str) -> Inbound | None:
         rest = _below(key, self.prefix)
         if rest is None:
             return None
