@@ -4,9 +4,9 @@ Zenoh runs subscriber, liveliness and queryable callbacks on threads of its own 
 on a Python thread per subscriber, ``batched``; the rare rest directly on Zenoh's
 threads, ``direct``). These callbacks do as little as they can there: read the key (a
 key that is none of ours is counted and dropped), copy the payload, and append one
-item to a bounded queue. The
-loop is woken once for everything queued meanwhile and hands the items on in arrival
-order. A full queue drops new items (counted): a flood can cost frames, never memory.
+item to a bounded queue. The loop is woken once for everything queued meanwhile and
+hands the items on in arrival order. A full queue drops new items (counted): a flood
+can cost frames, never memory.
 """
 
 from __future__ import annotations
