@@ -153,7 +153,14 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "--transport", choices=["websocket", "zenoh"], default="websocket", help="how nodes talk"
     )
     parser.add_argument(
-        "--connect", action="append", default=[], metavar="ENDPOINT", help="zenoh: a peer"
+        "--connect",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help="zenoh: a peer, or the router of a client",
+    )
+    parser.add_argument(
+        "--mode", choices=["peer", "client"], default="peer", help="zenoh: peer or client"
     )
     parser.add_argument(
         "--secret-file", type=Path, required=True, help="file holding the mesh secret"
@@ -300,7 +307,9 @@ async def run(args: argparse.Namespace, secret: bytes) -> int:
     }
     node: MeshNode | ZenohNode
     if args.transport == "zenoh":
-        node = await start_zenoh_node(args.id, secret=secret, connect=args.connect, **timing)
+        node = await start_zenoh_node(
+            args.id, secret=secret, connect=args.connect, mode=args.mode, **timing
+        )
     else:
         node = await start_node(
             args.id, listen=args.listen, join=args.join, secret=secret, **timing

@@ -54,6 +54,7 @@ from agv_app.vda5050.topics import parse_broker_url
 from agv_app.vehicle.kinematics import VehicleSpec
 from objectplaces import RoleActivator
 from objectplaces.mesh import MeshNode, start_node
+from objectplaces.zenoh_router import ZenohRouter, start_router
 
 __all__ = ["MeshFleet"]
 
@@ -87,9 +88,13 @@ class MeshFleet(FleetSourceBase):
             terminal (they go to files in the run's temp dir).
         vda5050: ``mqtt://HOST:PORT`` of a broker: every AGV process speaks VDA 5050
             over it (docs/vda5050.md), and ``metrics()`` adds the broker's figures.
+        transport: ``websocket`` (the mesh) or ``zenoh``.
+        zenoh_mode: on Zenoh, ``client`` (default: a router in this process, every node
+            its client) or ``peer`` (every node a peer, found through the observer).
 
     Raises:
-        ValueError: ``agvs`` < 1, ``start_tasks`` < 0, or more AGVs than parking spots.
+        ValueError: ``agvs`` < 1, ``start_tasks`` < 0, more AGVs than parking spots, or
+            an unknown ``zenoh_mode``.
     """
 
     def __init__(
@@ -109,6 +114,7 @@ class MeshFleet(FleetSourceBase):
         capture_output: bool = True,
         vda5050: str | None = None,
         transport: str = "websocket",
+        zenoh_mode: str = "client",
     ) -> None:
         if agvs < 1:
             raise ValueError(f"agvs must be at least 1, got {agvs!r}")
@@ -125,6 +131,10 @@ class MeshFleet(FleetSourceBase):
         self.dwell = dwell
         self.stop_timeout = stop_timeout
         self.transport = transport
+        if zenoh_mode not in ("client", "peer"):
+            raise ValueError(f"zenoh_mode must be 'client' or 'peer', got {zenoh_mode!r}")
+        self.zenoh_mode = zenoh_mode
+        self._router: ZenohRouter | None = None
         self.python = python
         self.capture_output = capture_output
         spec = VehicleSpec(DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M)
@@ -211,7 +221,17 @@ class MeshFleet(FleetSourceBase):
             "failure_timeout": 3 * self.t_update,
         }
         zenoh = self.transport == "zenoh"
-        if zenoh:  # every node a Zenoh peer; the others find each other through the observer
+        link: dict[str, Any]
+        if zenoh and self.zenoh_mode == "client":
+            # One router and every node its client: a link per node, where peers would
+            # open one per pair (1,225 at 50 AGVs) and route by link state over all.
+            self._router = await start_router(secret=secret, listen=[f"tcp/{_HOST}:0"])
+            endpoints = self._router.endpoints
+            node_args.update(transport="zenoh", mode="client", connect=endpoints)
+            link = {}
+            link_args = ["--transport", "zenoh", "--mode", "client"]
+            link_args += [a for e in endpoints for a in ("--connect", e)]
+        elif zenoh:  # every node a peer; the others find each other through the observer
             node_args.update(transport="zenoh", listen=[f"tcp/{_HOST}:0"])
         else:
             node_args["listen"] = f"{_HOST}:0"
@@ -219,9 +239,10 @@ class MeshFleet(FleetSourceBase):
         self.observer = observer
         observer.register_node_property_observer(self._on_property)
         observer.register_node_departure_observer(lambda node_id, _: self._departed(node_id))
-        join = [observer.address]
-        link: dict[str, Any] = {"connect": join} if zenoh else {"join": join}
-        link_args = ["--transport", "zenoh", "--connect"] if zenoh else ["--join"]
+        if not (zenoh and self.zenoh_mode == "client"):
+            link = {"connect": [observer.address]} if zenoh else {"join": [observer.address]}
+            link_args = ["--transport", "zenoh", "--connect"] if zenoh else ["--join"]
+            link_args.append(observer.address)
         for sid in pick_stations(self.layout):
             node = await start_node(f"st:{sid}", **link, **node_args)
             self._station_nodes[sid] = node
@@ -232,7 +253,7 @@ class MeshFleet(FleetSourceBase):
                 agv_id,
                 [
                     "--listen", f"{_HOST}:0",
-                    *link_args, observer.address,
+                    *link_args,
                     "--secret-file", str(secret_file),
                     "--home", home,
                     "--seed", str(self.seed * 1000 + i),
@@ -287,6 +308,9 @@ class MeshFleet(FleetSourceBase):
         await self.processes.reap(self.stop_timeout)
         for node in [*self._station_nodes.values(), *([self.observer] if self.observer else [])]:
             await node.close()
+        if self._router is not None:
+            await self._router.close()
+            self._router = None
         self.processes.close()
 
     # -- observing --------------------------------------------------------------------

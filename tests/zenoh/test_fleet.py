@@ -31,6 +31,8 @@ async def test_agv_processes_on_zenoh_take_a_task() -> None:
         except TimeoutError:
             pytest.fail(f"unheard: {fleet.missing()}; logs: {fleet.child_logs()}")
         assert set(fleet.nodes()) == {OBSERVER_ID, *AGVS, *(f"st:{s}" for s in fleet.stations)}
+        assert fleet.observer is not None
+        assert fleet.observer.address == "", "by default every node is a client of a router"
         task = fleet.create_task("pick-A3-1")
         taken = None
         async with asyncio.timeout(30):
