@@ -162,7 +162,7 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
     )
     parser.add_argument("--mode", choices=["peer", "client"], default="peer", help="zenoh mode")
     parser.add_argument("--fleet", default="default", help="zenoh: the fleet's name")
-    parser.add_argument("--lease", type=float, default=2.0, help="zenoh: link lease, s")
+    parser.add_argument("--lease", type=float, default=10.0, help="zenoh: link lease, s")
     parser.add_argument(
         "--join", action="append", default=[], metavar="HOST:PORT", help="a node to join through"
     )
