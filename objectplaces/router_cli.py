@@ -43,7 +43,7 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
     )
     parser.add_argument("--secret-file", help="file holding the fleet secret")
     parser.add_argument("--fleet", default="default", help="the fleet's name")
-    parser.add_argument("--lease", type=float, default=2.0, help="link lease, s")
+    parser.add_argument("--lease", type=float, default=10.0, help="link lease, s")
     parser.add_argument("--run-seconds", type=float, default=3600.0, help="stop after this")
     parser.set_defaults(func=run_router)
 

@@ -106,7 +106,7 @@ async def start_zenoh_node(
     connect: Sequence[str] = (),
     mode: Mode = "peer",
     fleet: str = "default",
-    lease: float = 2.0,
+    lease: float = 10.0,
     interest_radius: float | None = None,
     property_interval: float | None = 1.0,
     failure_timeout: float | None = None,
@@ -124,7 +124,8 @@ async def start_zenoh_node(
         connect: endpoints of peers or a router to connect to.
         mode: ``peer`` or ``client`` (a client needs a router in ``connect``).
         fleet: the fleet's name (its key prefix).
-        lease: a silent node leaves every group after about this long.
+        lease: a silent node's links close after this long (and it leaves every
+            group, if ``failure_timeout`` has not made it leave before).
         interest_radius: scoped dissemination radius (None: hear every node).
         property_interval: republish properties this often (None: never).
         failure_timeout: a node not heard this long leaves every group (None: three

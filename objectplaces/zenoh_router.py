@@ -62,7 +62,7 @@ async def start_router(
     listen: Sequence[str] = ("tcp/127.0.0.1:7447",),
     connect: Sequence[str] = (),
     fleet: str = "default",
-    lease: float = 2.0,
+    lease: float = 10.0,
 ) -> ZenohRouter:
     """Start a router listening on ``listen`` (port 0 picks a free port).
 
