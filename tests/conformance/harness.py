@@ -10,7 +10,9 @@ carries it, nor whether the nodes live in this process.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import os
+import secrets
 import tempfile
 from collections.abc import Callable, Mapping, Sequence
 from functools import partial
@@ -27,7 +29,6 @@ from tests.zenoh.intruder import open_fleet_session
 
 INTERVAL = 0.2
 FAILURE_TIMEOUT = 1.0
-SECRET = b"conformance"
 
 
 class TickerLog(Protocol):
@@ -187,6 +188,7 @@ class ProcessHarness:
     def __init__(self, pool: PuppetPool) -> None:
         self.pool = pool
         self.nodes: dict[str, PuppetNode] = {}
+        self.secret = secrets.token_hex(8).encode()  # no link to another scenario's nodes
 
     async def links(self) -> dict[str, Any]:
         """How the next node finds the others (``start_node`` keywords)."""
@@ -196,20 +198,23 @@ class ProcessHarness:
         links = await self.links()
         node = self.pool.take()
         node.start_node(
-            node_id, self.transport, SECRET, property_interval=INTERVAL,
+            node_id, self.transport, self.secret, property_interval=INTERVAL,
             failure_timeout=FAILURE_TIMEOUT, **links, **kwargs,
         )  # fmt: skip
         self.nodes[node_id] = node
-        await self.until(lambda: node.address is not None)
+        # Bounds for start-up on a loaded machine, not figures of the protocol.
+        await self.until(lambda: node.address is not None, within=30.0)
         linked = len(self.nodes) - 1
-        await self.until(lambda: all(len(n.peers) >= linked for n in self.nodes.values()))
+        await self.until(
+            lambda: all(len(n.peers) >= linked for n in self.nodes.values()), within=20.0
+        )
         return node
 
     async def leave(self, node_id: str) -> None:
         node = self.nodes.pop(node_id)
         node.process.send(cmd="leave")
         await poll([node], lambda: node.closed, within=10)
-        self.pool.retire(node)
+        self.pool.give_back(node)
 
     async def kill(self, node_id: str) -> None:
         node = self.nodes.pop(node_id)
@@ -221,9 +226,17 @@ class ProcessHarness:
         await poll(list(self.nodes.values()), predicate, within)
 
     async def close(self) -> None:
-        for node in self.nodes.values():
-            self.pool.retire(node)
+        nodes = list(self.nodes.values())
         self.nodes.clear()
+        for node in nodes:
+            with contextlib.suppress(OSError):
+                node.process.send(cmd="leave")
+        # A node that does not leave in time, or says something amiss meanwhile (after
+        # a failed scenario), is not used again: give_back retires it.
+        with contextlib.suppress(AssertionError):
+            await poll(nodes, lambda: all(n.closed for n in nodes), within=10)
+        for node in nodes:
+            self.pool.give_back(node)
 
 
 class MeshProcesses(ProcessHarness):
@@ -243,7 +256,7 @@ class MeshProcesses(ProcessHarness):
         assert node.address is not None
         for n, frame in enumerate(frames):
             ws = await open_raw(node.address)
-            await authenticate(ws, SECRET, node=f"intruder-{n}")
+            await authenticate(ws, self.secret, node=f"intruder-{n}")
             before = node.dropped
             await ws.send(frame)
             await self.until(partial(_answered, node, before, ws))
@@ -264,7 +277,7 @@ class ZenohProcesses(ProcessHarness):
         self.secret_dir = tempfile.TemporaryDirectory(prefix="conformance-")
         if via_router:  # starts while the first node's process is taken from the pool
             secret_file = Path(self.secret_dir.name) / "secret"
-            secret_file.write_bytes(SECRET)
+            secret_file.write_bytes(self.secret)
             os.chmod(secret_file, 0o600)
             self.router = LineProcess(
                 ["-m", "objectplaces.router_cli", "--listen", "tcp/127.0.0.1:0",
@@ -293,7 +306,7 @@ class ZenohProcesses(ProcessHarness):
         # the target refuses each and counts it.
         node = self.nodes[target]
         connect = self.endpoints if self.router else [str(node.address)]
-        session = await open_fleet_session(SECRET, connect)
+        session = await open_fleet_session(self.secret, connect)
         try:
             for frame in frames:
                 before = node.dropped

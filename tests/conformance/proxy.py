@@ -42,6 +42,7 @@ class LineProcess:
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
         )
+        self.born = time.monotonic()
         self.events: deque[Event] = deque()
         self.stderr: deque[str] = deque(maxlen=40)
         assert self.proc.stdout is not None
@@ -245,10 +246,12 @@ class PuppetNode:
 
 class PuppetPool:
     """Puppet processes started ahead of need, so that a scenario's nodes start in
-    parallel with whatever runs before them; finished ones exit in the background."""
+    parallel with whatever runs before them. A process whose node left is used again
+    (for at most ``max_age`` seconds); others exit in the background."""
 
-    def __init__(self, spares: int = 4) -> None:
+    def __init__(self, spares: int = 4, max_age: float = 120.0) -> None:
         self.spares = spares
+        self.max_age = max_age
         self._idle: deque[LineProcess] = deque()
         self._retired: list[LineProcess] = []
         self._fill()
@@ -257,14 +260,26 @@ class PuppetPool:
         while len(self._idle) < self.spares:
             self._idle.append(LineProcess(PUPPET))
 
+    def _usable(self, process: LineProcess) -> bool:
+        return process.running and time.monotonic() - process.born < self.max_age
+
     def take(self) -> PuppetNode:
-        """A started process with no node yet."""
-        while self._idle and not self._idle[0].running:
+        """A started process with no node."""
+        while self._idle and not self._usable(self._idle[0]):
             self._retire(self._idle.popleft())
         self._fill()
         process = self._idle.popleft()
         self._fill()
         return PuppetNode(process)
+
+    def give_back(self, node: PuppetNode) -> None:
+        """Take back the process of a node that left (``closed``); retire any other."""
+        process = node.process
+        reusable = node.closed and not node.killed and not process.events
+        if reusable and self._usable(process) and len(self._idle) < 2 * self.spares:
+            self._idle.append(process)
+        else:
+            self._retire(process)
 
     def _retire(self, process: LineProcess) -> None:
         process.end_input()
@@ -274,7 +289,7 @@ class PuppetPool:
             self._retired.remove(done)
 
     def retire(self, node: PuppetNode) -> None:
-        """Let a puppet leave and exit (stdin ends) without waiting for it."""
+        """Let a puppet's node leave and the process exit (stdin ends), without waiting."""
         self._retire(node.process)
 
     def close(self) -> None:
@@ -290,11 +305,14 @@ class PuppetPool:
 
 async def poll(nodes: Iterable[PuppetNode], predicate: Callable[[], bool], within: float) -> None:
     """Drain ``nodes`` until ``predicate()`` holds; fail after ``within`` seconds."""
+    nodes = list(nodes)
     deadline = time.monotonic() + within
     while True:
         for node in nodes:
             node.drain()
         if predicate():
             return
-        assert time.monotonic() < deadline, f"not within {within}s"
+        if time.monotonic() > deadline:
+            seen = "\n".join(f"{n!r}: peers {n.peers}; {n.process.describe()}" for n in nodes)
+            raise AssertionError(f"not within {within}s\n{seen}")
         await asyncio.sleep(0.005)

@@ -3,20 +3,22 @@
 ``python -m tests.conformance.puppet`` waits for JSON commands, one per line on stdin:
 
 - ``{"cmd": "node", "id": ..., "transport": "websocket"|"zenoh", "secret": HEX,
-  "options": {...}}`` starts the node (the options are ``start_node``'s) and answers
+  "options": {...}}`` starts a node (the options are ``start_node``'s) and answers
   ``{"event": "ready", "address": ...}``;
 - ``{"cmd": "set", "name": ..., "value": ...}`` sets a property;
 - ``{"cmd": "serve", "role": ...}`` plays ``role`` with a new ``Ticker`` per activation;
 - ``{"cmd": "start", "ref": N, "definition": JSON, "role": ...}`` starts a session with a
   ``Recorder`` and answers ``{"event": "started", "ref": N, "session": ...}``;
 - ``{"cmd": "stop", "session": ...}`` stops one;
-- ``{"cmd": "leave"}``, or the end of stdin (the test process is gone), leaves and exits.
+- ``{"cmd": "leave"}`` lets the node leave and answers ``{"event": "closed"}``; the
+  process then waits for its next ``node`` command, a new node with nothing of the last.
 
-Every 10 ms it prints ``{"event": "state", ...}`` with what changed since the last one:
-``view``, ``counts`` (``machine.state_counts()``), ``members`` and ``peers``,
-``dropped`` (frames refused), and the new entries of each recorder and ticker log. The
-last line is ``{"event": "closed"}``. The process ends after ``--run-seconds`` whatever
-happens.
+While a node runs, it prints ``{"event": "state", ...}`` every 10 ms with what changed
+since the last one: ``view``, ``counts`` (``machine.state_counts()``), ``members`` of
+each session and ``peers``, ``dropped`` (frames refused), and the new entries of each
+recorder and ticker log. A failed command, or a node that closes by itself, prints
+``{"event": "error", ...}``. The end of stdin (the test process is gone) lets the node
+leave and ends the process; so do ``--run-seconds``, whatever happens.
 """
 
 from __future__ import annotations
@@ -42,10 +44,14 @@ def emit(event: str, **fields: Any) -> None:
 
 
 class Puppet:
-    """One node and the roles it plays, reported as deltas of its state."""
+    """One node at a time and the roles it plays, reported as deltas of its state."""
 
     def __init__(self) -> None:
         self.node: MeshNode | ZenohNode | None = None
+        self.forget()
+
+    def forget(self) -> None:
+        """Drop every role and report of the last node."""
         self.recorders: dict[str, Recorder] = {}
         self.tickers: list[Ticker] = []
         self.reported: dict[str, Any] = {}
@@ -59,11 +65,13 @@ class Puppet:
             case "node":
                 await self._start_node(command)
             case "leave":
-                self.leaving = True
+                await self.leave()
             case other:
                 self._on_node(other, command)
 
     async def _start_node(self, command: dict[str, Any]) -> None:
+        assert self.node is None, "a node runs already"
+        self.forget()
         self.node = await start_node(
             command["id"],
             transport=command["transport"],
@@ -123,20 +131,23 @@ class Puppet:
         if changed or entries:
             emit("state", logs=entries, **changed)
 
-    async def close(self) -> None:
-        """Leave the network (the last roles' callbacks are reported) and say so."""
+    async def leave(self) -> None:
+        """Let the node leave (the last roles' callbacks are reported) and say so."""
+        node = self.node
+        if node is None:
+            return
         self.leaving = True
-        if self.node is not None:
-            await self.node.close()
-            self.report()
+        await node.close()
+        self.report()
+        self.node = None
         emit("closed")
 
 
-async def _read_commands(puppet: Puppet) -> None:
+async def _obey(puppet: Puppet) -> None:
     loop = asyncio.get_running_loop()
     reader = asyncio.StreamReader(limit=1 << 20)
     await loop.connect_read_pipe(lambda: asyncio.StreamReaderProtocol(reader), sys.stdin)
-    while not puppet.leaving and (line := await reader.readline()):
+    while line := await reader.readline():
         try:
             await puppet.handle(json.loads(line))
         except Exception as exc:  # any failed command is the scenario's failure, reported
@@ -151,17 +162,17 @@ async def _report(puppet: Puppet) -> None:
 
 
 async def run(run_seconds: float) -> None:
-    """Obey commands until told to leave, stdin ends or ``run_seconds`` pass."""
+    """Obey commands until stdin ends or ``run_seconds`` pass; then leave."""
     puppet = Puppet()
     reporter = asyncio.create_task(_report(puppet))
     try:
         async with asyncio.timeout(run_seconds):
-            await _read_commands(puppet)
+            await _obey(puppet)
     except TimeoutError:
         emit("error", error=f"ran out of time ({run_seconds} s)")
     finally:
         reporter.cancel()
-        await puppet.close()
+        await puppet.leave()
 
 
 def main() -> None:
