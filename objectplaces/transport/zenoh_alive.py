@@ -2,7 +2,8 @@
 
 Zenoh reports a token's appearance (put) and disappearance (delete); a node that
 restarts declares a token of a newer incarnation, and the two reports of its old and
-new runs may arrive in either order. ``AliveTable`` turns them into what the node
+new runs may arrive in either order. A run reported gone stays gone: the answer to a
+liveliness query sent before it went may come after. ``AliveTable`` turns them into what the node
 machine needs to know: a node appeared, came back as a new run, or is gone.
 """
 
@@ -25,15 +26,16 @@ class Change(Enum):
 class AliveTable:
     """The newest incarnation of every node whose token is up."""
 
-    __slots__ = ("_alive", "_me")
+    __slots__ = ("_alive", "_gone", "_me")
 
     def __init__(self, me: str) -> None:
         self._me = me
         self._alive: dict[str, int] = {}
+        self._gone: dict[str, int] = {}
 
     def token_up(self, node: str, incarnation: int) -> Change:
         """A token of ``node``'s run ``incarnation`` appeared."""
-        if node == self._me:
+        if node == self._me or incarnation <= self._gone.get(node, -1):
             return Change.NOTHING
         known = self._alive.get(node)
         if known is not None and known >= incarnation:
@@ -46,6 +48,7 @@ class AliveTable:
         if self._alive.get(node) != incarnation:
             return Change.NOTHING  # an older run's token, or one never seen
         del self._alive[node]
+        self._gone[node] = incarnation
         return Change.GONE
 
     def nodes(self) -> list[str]:

@@ -102,6 +102,21 @@ class ZenohInbox:
 
         return direct(on_token)
 
+    def alive_reply_callback(self, keys: FleetKeys) -> zenoh.handlers.Callback[zenoh.Reply]:
+        """The callback of a liveliness query of ``keys``' fleet: each token up now."""
+
+        def on_reply(reply: zenoh.Reply) -> None:
+            sample = reply.ok
+            if sample is None:
+                return  # an error reply: nothing to learn
+            parsed = keys.parse_alive(str(sample.key_expr))
+            if parsed is None:
+                self._drop("dropped_foreign_key")
+            else:
+                self._push(("alive", *parsed))
+
+        return direct(on_reply)
+
     def query_callback(self) -> zenoh.handlers.Callback[zenoh.Query]:
         """The callback of a node's queryable: who asks, and which cells it hears."""
 

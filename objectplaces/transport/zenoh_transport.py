@@ -49,6 +49,9 @@ __all__ = ["ZenohTransport"]
 log = logging.getLogger("objectplaces.zenoh")
 
 _QUERY_TIMEOUT = 2.0
+RECONCILE_EVERY = 3.0
+"""Seconds between two liveliness queries of every token up: a token report lost while
+links churn (many processes starting on a loaded machine) is made good by the next."""
 _ASK_AGAIN_AFTER = (0.3, 1.5)
 """Seconds after which an ask is repeated: an asked node's queryable, just moved to the
 cell we ask, may not have reached us yet (nor our subscription it), and a node without
@@ -88,6 +91,7 @@ class ZenohTransport:
         self._my_cell: Cell | None = None
         self._queryable: Any = None
         self._changed = asyncio.Event()
+        self._reconcile_timer: asyncio.TimerHandle | None = None
         self.closed = False
 
     # ------------------------------------------------------------------ lifecycle
@@ -133,6 +137,7 @@ class ZenohTransport:
             )
         )
         self._declared.append(session.liveliness().declare_token(keys.alive(self.incarnation)))
+        self._reconcile_timer = loop.call_later(RECONCILE_EVERY, self._reconcile)
 
     async def close(self) -> None:
         """Withdraw our token and close the session (what was put is flushed first;
@@ -140,6 +145,8 @@ class ZenohTransport:
         if self.closed:
             return
         self.closed = True
+        if self._reconcile_timer is not None:
+            self._reconcile_timer.cancel()
         session = self._session
         if self._inbox is not None:
             self._inbox.close()
@@ -153,6 +160,21 @@ class ZenohTransport:
         if self._file is not None:
             self._file.remove()
         self._changed.set()
+
+    def _reconcile(self) -> None:
+        """Ask for every token up now (the answers are token reports like any other:
+        known ones change nothing), then again in ``RECONCILE_EVERY`` seconds."""
+        session, inbox = self._session, self._inbox
+        if self.closed or session is None or inbox is None:
+            return
+        try:
+            session.liveliness().get(
+                self.keys.alive_all(), inbox.alive_reply_callback(self.keys), timeout=_QUERY_TIMEOUT
+            )
+        except zenoh.ZError:
+            self._count("dropped_query_failed")
+        loop = asyncio.get_running_loop()
+        self._reconcile_timer = loop.call_later(RECONCILE_EVERY, self._reconcile)
 
     # ------------------------------------------------------------------ introspection
 

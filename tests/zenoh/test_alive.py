@@ -29,3 +29,13 @@ def test_our_own_token_is_no_peer() -> None:
     table = AliveTable("me")
     assert table.token_up("me", 1) is Change.NOTHING
     assert table.nodes() == []
+
+
+def test_a_run_gone_stays_gone_whatever_comes_late() -> None:
+    table = AliveTable("me")
+    table.token_up("a", 3)
+    assert table.token_down("a", 3) is Change.GONE
+    assert table.token_up("a", 3) is Change.NOTHING  # a query's answer sent before it went
+    assert table.token_up("a", 2) is Change.NOTHING
+    assert table.nodes() == []
+    assert table.token_up("a", 4) is Change.APPEARED  # a new run is welcome

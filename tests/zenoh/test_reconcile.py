@@ -1,0 +1,50 @@
+"""A token report lost (links churning while many processes start on a loaded machine)
+is made good by the periodic liveliness query: the node is a peer again within seconds."""
+
+from __future__ import annotations
+
+import asyncio
+import time
+
+import pytest
+
+from objectplaces.transport import zenoh_transport
+from objectplaces.zenoh_node import ZenohNode, start_zenoh_node
+
+SECRET = b"fleet"
+
+
+async def until_peers(node: ZenohNode, peers: list[str], within: float = 10.0) -> None:
+    deadline = time.monotonic() + within
+    while node.peers() != peers:
+        assert time.monotonic() < deadline, f"{node.node_id} has {node.peers()}, not {peers}"
+        await asyncio.sleep(0.01)
+
+
+async def test_a_lost_token_report_is_made_good(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(zenoh_transport, "RECONCILE_EVERY", 0.2)
+    a = await start_zenoh_node("a", secret=SECRET)
+    b = await start_zenoh_node("b", secret=SECRET, connect=[a.address])
+    try:
+        await until_peers(a, ["b"])
+        a._transport._alive.token_down("b", b._transport.incarnation)  # the report is lost
+        a._transport._alive._gone.clear()  # ... as if it had never come
+        assert a.peers() == []
+        await until_peers(a, ["b"])
+    finally:
+        await b.close()
+        await a.close()
+
+
+async def test_a_node_that_left_is_not_brought_back(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(zenoh_transport, "RECONCILE_EVERY", 0.05)
+    a = await start_zenoh_node("a", secret=SECRET)
+    b = await start_zenoh_node("b", secret=SECRET, connect=[a.address])
+    try:
+        await until_peers(a, ["b"])
+        await b.close()
+        await until_peers(a, [])
+        await asyncio.sleep(0.5)  # several queries, some sent before b went
+        assert a.peers() == []
+    finally:
+        await a.close()
