@@ -42,6 +42,9 @@ from objectplaces.sim import SimulatedNetwork
 
 __all__ = ["TRAFFIC_MODES", "Fleet", "FleetConfig", "SafetyError"]
 
+_REPUBLISH_BEATS = 10
+"""Heartbeats between two republications of every property, by default."""
+
 TRAFFIC_MODES = ("protocol", "central")
 """How locks are granted: by the AGVs' collision groups, or by one central scheduler."""
 
@@ -68,8 +71,13 @@ class FleetConfig:
             interest radius (:func:`agv_app.traffic.reach.interest_radius`); stations
             and the observer hear every node. Broadcast runs are never scoped.
         interest_radius: the AGVs' interest radius when scoped (None: from the layout).
-        heartbeat: seconds between republications of every property (None: ``t_update``);
+        heartbeat: the liveness interval (None: ``t_update``): a node that has published
+            nothing for this long sends a beat of a few bytes (``NodeConfig.beat_interval``);
             a node unheard for three heartbeats counts as failed.
+        republish: seconds between republications of every property, which repair lost
+            updates (None: ten heartbeats).
+        beats: False: no beats; every node republishes every property each heartbeat
+            instead (how the fleet ran before beats; ``republish`` is then ignored).
         load: target share of busy AGVs, in (0, 1]; the task rate follows from it and
             the layout (:mod:`agv_app.tasks.load`) unless ``task_interval`` is given.
         task_interval: mean seconds between new tasks (None: from ``load``).
@@ -96,6 +104,8 @@ class FleetConfig:
     scoped: bool = True
     interest_radius: float | None = None
     heartbeat: float | None = None
+    republish: float | None = None
+    beats: bool = True
     load: float = DEFAULT_LOAD
     task_interval: float | None = None
     start_tasks: int | None = None
@@ -113,7 +123,7 @@ class FleetConfig:
             self.task_interval > 0 and math.isfinite(self.task_interval)
         ):
             raise ValueError(f"task_interval must be a positive number, got {self.task_interval!r}")
-        for name in ("interest_radius", "heartbeat"):
+        for name in ("interest_radius", "heartbeat", "republish"):
             value = getattr(self, name)
             if value is not None and not (value > 0 and math.isfinite(value)):
                 raise ValueError(f"{name} must be a positive number, got {value!r}")
@@ -155,6 +165,7 @@ class Fleet(FleetSourceBase):
         self.config = cfg = config or FleetConfig()
         self.spec = spec or VehicleSpec(DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M)
         heartbeat = cfg.t_update if cfg.heartbeat is None else cfg.heartbeat
+        republish = heartbeat * _REPUBLISH_BEATS if cfg.republish is None else cfg.republish
         self.net = SimulatedNetwork(
             cfg.seed,
             delay=cfg.delay,
@@ -162,7 +173,8 @@ class Fleet(FleetSourceBase):
             loss=cfg.loss,
             reorder=cfg.reorder,
             duplicate=cfg.duplicate,
-            property_interval=heartbeat,
+            property_interval=republish if cfg.beats else heartbeat,
+            beat_interval=heartbeat if cfg.beats else None,
             failure_timeout=3 * heartbeat,
         )
         self.rng = random.Random(cfg.seed)

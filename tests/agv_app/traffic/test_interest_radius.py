@@ -121,23 +121,32 @@ def test_broadcast_and_unscoped_fleets_hear_every_node() -> None:
     assert Fleet(config=FleetConfig(agvs=2, interest_radius=30.0)).interest_radius == 30.0
 
 
-@pytest.mark.parametrize("field", ["interest_radius", "heartbeat"])
+@pytest.mark.parametrize("field", ["interest_radius", "heartbeat", "republish"])
 @pytest.mark.parametrize("value", [0.0, -1.0, float("inf")])
 def test_config_refuses_bad_radius_and_heartbeat(field: str, value: float) -> None:
     with pytest.raises(ValueError, match=field):
         FleetConfig(**{field: value})  # type: ignore[arg-type]
 
 
-def _property_frames(heartbeat: float | None) -> int:
-    fleet = Fleet(config=FleetConfig(agvs=2, heartbeat=heartbeat, start_tasks=0, load=0.01))
+def _sent(heartbeat: float | None, kind: str, *, beats: bool = True) -> tuple[int, int]:
+    config = FleetConfig(agvs=2, heartbeat=heartbeat, start_tasks=0, load=0.01, beats=beats)
+    fleet = Fleet(config=config)
     fleet.run(12.0)
-    frames: int = fleet.net.stats().per_node["agv-01"].sent["property"][0]
-    return frames
+    frames, size = fleet.net.stats().per_node["agv-01"].sent.get(kind, (0, 0))
+    return frames, size
 
 
-def test_a_slower_heartbeat_republishes_less() -> None:
-    # Idle AGVs publish nothing new: every frame after the first is a heartbeat.
-    assert 3 * _property_frames(5.0) < _property_frames(None)
+def test_a_slower_heartbeat_beats_less() -> None:
+    # Idle AGVs publish nothing new: they only beat.
+    assert 3 * _sent(5.0, "beat")[0] < _sent(None, "beat")[0]
+
+
+def test_idle_agvs_beat_instead_of_republishing_every_property() -> None:
+    beats, first = _sent(None, "beat"), _sent(None, "property")  # first: the start's
+    before = _sent(None, "property", beats=False)
+    assert beats[0] + first[0] == before[0]  # a frame a second all the same ...
+    assert 5 * beats[1] < before[1] - first[1]  # ... for a fraction of the bytes
+    assert _sent(None, "beat", beats=False) == (0, 0)
 
 
 # -- the bound itself -------------------------------------------------------------------
