@@ -103,8 +103,9 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
     p.add_argument(
         "--heartbeat",
         type=float,
-        help="seconds between republications of every property (default: the 1 s update "
-        "interval); a node unheard for three heartbeats counts as failed",
+        help="liveness interval (default: the 1 s update interval): a node silent this long "
+        "sends a beat of a few bytes, every property is republished every ten; a node "
+        "unheard for three heartbeats counts as failed",
     )
     p.add_argument("--json", dest="json_path", help="write the metrics to this JSON file")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
