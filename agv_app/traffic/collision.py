@@ -41,7 +41,7 @@ The bookkeeping all of them share lives in the node's tuplespace
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Container, Mapping
 from typing import Any
 
 import shapely
@@ -55,6 +55,7 @@ from objectplaces.groups import GroupDefinition
 from tuplespace import ANY, NotifyHandle, TupleSpace
 
 __all__ = [
+    "LazyGroup",
     "Requester",
     "Voter",
     "broadcast_group",
@@ -83,7 +84,7 @@ def decide_vote(
     priority: Priority,
     requester: str,
     book: LockBook,
-    group: frozenset[str],
+    group: Container[str],
     circle: tuple[float, float, float] | None = None,
     claims: frozenset[Claim] = frozenset(),
 ) -> str:
@@ -105,11 +106,12 @@ def decide_vote(
         priority: the requester's priority.
         requester: the requester's node id.
         book: the voter node's bookkeeping.
-        group: the voter's own collision group, from its view.
+        group: the voter's own collision group, from its view (asked only when the
+            requester's circle does not cover the request; see ``LazyGroup``).
         circle: the requester's ``(x, y, hull_length)`` in the voter's view.
         claims: the direction claims the request asks for.
     """
-    if requester not in group and not _covers(circle, request):
+    if not _covers(circle, request) and requester not in group:
         return "group"
     for lock in book.locks():
         if overlaps(request, lock.area) or claims_conflict(claims, lock.claims):
@@ -147,6 +149,29 @@ def _covers(circle: tuple[float, float, float] | None, area: Area) -> bool:
     # The area arrived grown for the wire (request_coords); the requester's real area,
     # the one its circle covers, lies that much inside it.
     return hull_length((x, y), [area]) <= r + _WIRE_GROWTH_M + 0.05
+
+
+class LazyGroup:
+    """A collision group resolved on the first membership question, or never.
+
+    Resolving a group tries the definition on every node near the voter (a hundred on
+    a crowded floor), while the vote rarely needs it: the requester publishes its new
+    circle before it asks, so the circle usually covers the request already.
+
+    Args:
+        resolve: the group as the view has it now (``view_group``).
+    """
+
+    __slots__ = ("_members", "_resolve")
+
+    def __init__(self, resolve: Callable[[], frozenset[str]]) -> None:
+        self._resolve = resolve
+        self._members: frozenset[str] | None = None
+
+    def __contains__(self, node: object) -> bool:
+        if self._members is None:
+            self._members = self._resolve()
+        return node in self._members
 
 
 def _outwaited(since: Mapping[str, float], patience: float | None, now: float) -> bool:
@@ -410,7 +435,7 @@ class Voter(Participant):
             self._priority,
             requester,
             book,
-            self._group_view(),
+            LazyGroup(self._group_view),
             self._circle_of(requester),
             self._claims,
         )

@@ -16,6 +16,7 @@ from agv_app.traffic import (
     collision_group,
     decide_vote,
 )
+from agv_app.traffic.collision import LazyGroup
 from objectplaces.sim import SimulatedNetwork
 
 
@@ -110,6 +111,27 @@ def test_decide_vote_rule() -> None:
     assert decide_vote(strip(-1, 1), (1.0, "r"), "r", book, group) == "lock"
     assert decide_vote(strip(4, 8), (1.0, "r"), "r", book, group) == "allow"  # higher priority
     assert decide_vote(strip(4, 8), (9.0, "r"), "r", book, group) == "priority"
+
+
+def test_the_group_is_resolved_only_when_the_requesters_circle_does_not_cover() -> None:
+    net = SimulatedNetwork(seed=1)
+    book = LockBook(net.add_node("v").space)
+    asked: list[int] = []
+
+    def resolve() -> frozenset[str]:
+        asked.append(1)
+        return frozenset({"r"})
+
+    covering = (11.0, 0.0, 3.0)
+    assert decide_vote(strip(10, 12), (1.0, "r"), "r", book, LazyGroup(resolve), covering)
+    assert asked == []  # the circle covers the request: no group to resolve
+    short = (11.0, 0.0, 0.5)
+    lazy = LazyGroup(resolve)
+    assert decide_vote(strip(10, 12), (1.0, "r"), "r", book, lazy, short) == "allow"
+    assert "r" in lazy
+    assert asked == [1]  # resolved once, and only then
+    nobody = LazyGroup(frozenset)
+    assert decide_vote(strip(10, 12), (1.0, "r"), "r", book, nobody, short) == "group"
 
 
 class Node:
