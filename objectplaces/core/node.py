@@ -185,6 +185,8 @@ class NodeMachine(Introspection):
         match message:
             case PropertyUpdate():
                 self._on_properties(source, message, now)
+            case Beat(seq):  # second: the most frequent frame of an idle network
+                self._view.beat(source, seq, now)
             case ChannelData(to_participant=True):
                 accepted = self._participations.on_frame(source, message, now)
             case ChannelData():
@@ -193,8 +195,6 @@ class NodeMachine(Introspection):
                 accepted = self._participations.on_ack(source, message, now)
             case ChannelAck():
                 accepted = self._sessions.on_ack(source, message, now)
-            case Beat(seq):
-                self._view.beat(source, seq, now)
             case PropertyRequest():
                 self.send_properties_to(source, now)
             case Leave():
