@@ -2,9 +2,10 @@
 
 Zenoh reports a token's appearance (put) and disappearance (delete); a node that
 restarts declares a token of a newer incarnation, and the two reports of its old and
-new runs may arrive in either order. A run reported gone stays gone: the answer to a
-liveliness query sent before it went may come after. ``AliveTable`` turns them into what the node
-machine needs to know: a node appeared, came back as a new run, or is gone.
+new runs may arrive in either order. A run reported gone may be reported up again
+(peers withdraw and redeclare tokens as the routes between them change).
+``AliveTable`` turns them into what the node machine needs to know: a node appeared,
+came back as a new run, or is gone.
 """
 
 from __future__ import annotations
@@ -26,16 +27,15 @@ class Change(Enum):
 class AliveTable:
     """The newest incarnation of every node whose token is up."""
 
-    __slots__ = ("_alive", "_gone", "_me")
+    __slots__ = ("_alive", "_me")
 
     def __init__(self, me: str) -> None:
         self._me = me
         self._alive: dict[str, int] = {}
-        self._gone: dict[str, int] = {}
 
     def token_up(self, node: str, incarnation: int) -> Change:
         """A token of ``node``'s run ``incarnation`` appeared."""
-        if node == self._me or incarnation <= self._gone.get(node, -1):
+        if node == self._me:
             return Change.NOTHING
         known = self._alive.get(node)
         if known is not None and known >= incarnation:
@@ -48,7 +48,6 @@ class AliveTable:
         if self._alive.get(node) != incarnation:
             return Change.NOTHING  # an older run's token, or one never seen
         del self._alive[node]
-        self._gone[node] = incarnation
         return Change.GONE
 
     def nodes(self) -> list[str]:

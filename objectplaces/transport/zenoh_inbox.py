@@ -27,8 +27,9 @@ from objectplaces.transport.zenoh_keys import FleetKeys
 __all__ = ["Item", "ZenohInbox", "batched", "direct"]
 
 Item = tuple[Any, ...]
-"""``("frame", source, data)``, ``("alive" | "gone", node, incarnation)`` or
-``("query", asker, cells)`` (cells None: the asker hears everything)."""
+"""``("frame", source, data)``, ``("alive" | "gone", node, incarnation)``,
+``("answer", node, incarnation, query)`` (a token up, answered to liveliness query
+number ``query``) or ``("query", asker, cells)`` (cells None: the asker hears everything)."""
 
 _MAX_CELLS = 4096
 
@@ -102,8 +103,11 @@ class ZenohInbox:
 
         return direct(on_token)
 
-    def alive_reply_callback(self, keys: FleetKeys) -> zenoh.handlers.Callback[zenoh.Reply]:
-        """The callback of a liveliness query of ``keys``' fleet: each token up now."""
+    def alive_reply_callback(
+        self, keys: FleetKeys, query: int
+    ) -> zenoh.handlers.Callback[zenoh.Reply]:
+        """The callback of liveliness query number ``query`` of ``keys``' fleet: each
+        token up when it was answered."""
 
         def on_reply(reply: zenoh.Reply) -> None:
             sample = reply.ok
@@ -113,7 +117,7 @@ class ZenohInbox:
             if parsed is None:
                 self._drop("dropped_foreign_key")
             else:
-                self._push(("alive", *parsed))
+                self._push(("answer", *parsed, query))
 
         return direct(on_reply)
 

@@ -92,6 +92,8 @@ class ZenohTransport:
         self._queryable: Any = None
         self._changed = asyncio.Event()
         self._reconcile_timer: asyncio.TimerHandle | None = None
+        self._liveliness_queries = 0
+        self._gone_after_query: dict[str, int] = {}
         self.closed = False
 
     # ------------------------------------------------------------------ lifecycle
@@ -162,15 +164,16 @@ class ZenohTransport:
         self._changed.set()
 
     def _reconcile(self) -> None:
-        """Ask for every token up now (the answers are token reports like any other:
-        known ones change nothing), then again in ``RECONCILE_EVERY`` seconds."""
+        """Ask for every token up now (an answer is a token report like any other, but
+        for a node reported gone after the query left), then again in
+        ``RECONCILE_EVERY`` seconds."""
         session, inbox = self._session, self._inbox
         if self.closed or session is None or inbox is None:
             return
+        self._liveliness_queries += 1
+        on_reply = inbox.alive_reply_callback(self.keys, self._liveliness_queries)
         try:
-            session.liveliness().get(
-                self.keys.alive_all(), inbox.alive_reply_callback(self.keys), timeout=_QUERY_TIMEOUT
-            )
+            session.liveliness().get(self.keys.alive_all(), on_reply, timeout=_QUERY_TIMEOUT)
         except zenoh.ZError:
             self._count("dropped_query_failed")
         loop = asyncio.get_running_loop()
@@ -332,8 +335,13 @@ class ZenohTransport:
                     if self._subscribed:
                         self._ask(self.keys.who_is(node))
                     self._signal()
+            case ("answer", node, incarnation, query):
+                # An answer to a query sent before the node was reported gone is old news.
+                if query > self._gone_after_query.get(node, 0):
+                    self._handle(driver, ("alive", node, incarnation))
             case ("gone", node, incarnation):
                 if self._alive.token_down(node, incarnation) is Change.GONE:
+                    self._gone_after_query[node] = self._liveliness_queries
                     # Its run is over, whether it left or died: it leaves every group now.
                     driver.peer_restarted(node)
                     self._signal()
