@@ -18,7 +18,10 @@ For each transport and size, every node a separate process on 127.0.0.1:
 
 The floors, measured in the same run: a plain ``websockets`` echo round trip and a plain
 Zenoh put/subscribe round trip of the same payload between two processes. Last, a fleet
-of AGV processes on Zenoh (``MeshFleet``) runs for a while; its safety counters are read.
+of AGV processes on Zenoh (``MeshFleet``: clients of a router in this process, as
+``objectplaces demo --processes N --transport zenoh`` runs it) runs for a while; its
+safety counters are read. ``--before-size`` adds Zenoh peers receiving as before the
+receive-path work, in the same run, to show what that work bought.
 """
 
 from __future__ import annotations
@@ -49,11 +52,16 @@ from bench.transports_wire import zenoh_bytes_per_update  # noqa: E402
 from objectplaces import groups  # noqa: E402
 from objectplaces.activator import RoleActivator  # noqa: E402
 from objectplaces.mesh import MeshOptions, start_mesh_node  # noqa: E402
+from objectplaces.transport import zenoh_inbox  # noqa: E402
 from objectplaces.transport.zenoh_inbox import direct  # noqa: E402
+from objectplaces.transport.zenoh_keys import FleetKeys  # noqa: E402
 from objectplaces.zenoh_node import start_zenoh_node  # noqa: E402
 
 SECRET = b"bench-secret"
 TRANSPORTS = ["mesh", "zenoh-peer", "zenoh-client"]
+BEFORE = "zenoh-peer-before"
+"""Zenoh peers receiving as before the receive-path work (``receive_path_as_before``),
+measured in the same run at ``--before-size`` nodes: what that work bought."""
 FANOUT_COUNT = 300
 FANOUT_GAP = 0.002
 BLAST_SECONDS = 3.0
@@ -100,8 +108,18 @@ class Worker(MeshWorker):
         return times
 
 
+def receive_path_as_before() -> None:
+    """This process's Zenoh nodes receive as before the receive-path work: each data
+    sample's callback on Zenoh's own thread, and each sample's key parsed afresh."""
+    zenoh_inbox.batched = zenoh_inbox.direct
+    FleetKeys.parse = FleetKeys._parse  # type: ignore[method-assign]
+
+
 async def start_worker_node(node_id: str, transport: str, connect: list[str]) -> RoleActivator:
     timing: dict[str, Any] = {"secret": SECRET, "property_interval": 1.0, "failure_timeout": 60.0}
+    if transport == BEFORE:
+        receive_path_as_before()
+        transport = "zenoh-peer"
     if transport == "mesh":
         options = MeshOptions(queue_size=65_536, flood_rate=1e7, flood_burst=1e6)
         return await start_mesh_node(node_id, join=connect, options=options, **timing)
@@ -362,7 +380,9 @@ def verdict(ok: bool, met: str, missed: str) -> str:
     return f"met ({met})" if ok else f"missed ({missed})"
 
 
-async def coordinate(sizes: list[int], transports: list[str], fleet_agvs: int, fleet_s: float):
+async def coordinate(
+    sizes: list[int], transports: list[str], fleet_agvs: int, fleet_s: float, before_size: int
+) -> None:
     payload = position_frame()
     load_before = os.getloadavg()[0]
     echo = await Proc.start_script(ROOT / "bench" / "mesh.py", "--echo-server")
@@ -375,7 +395,7 @@ async def coordinate(sizes: list[int], transports: list[str], fleet_agvs: int, f
     rows = []
     failed: list[str] = []
     for size in sizes:
-        for transport in transports:
+        for transport in [*transports, *([BEFORE] if size == before_size else [])]:
             print(f"measuring {transport} with {size} nodes ...", file=sys.stderr)
             try:
                 rows.append(await measure(transport, size))
@@ -428,6 +448,13 @@ async def coordinate(sizes: list[int], transports: list[str], fleet_agvs: int, f
             "- Zenoh peers >= 5x the mesh's received updates per node at 20 nodes: "
             + verdict(ratio >= 5, f"{ratio:.1f}x", f"{ratio:.1f}x")
         )
+    now, before = by.get(("zenoh-peer", before_size)), by.get((BEFORE, before_size))
+    if now and before:
+        verdicts.append(
+            f"- what the receive-path work bought, {before_size} Zenoh peers, same run: "
+            f"{now['recv'] / max(before['recv'], 1e-9):.2f}x the updates received per node, "
+            f"fan-out p50 {now['fan_p50'] * ms:.2f} ms against {before['fan_p50'] * ms:.2f} ms"
+        )
     floor = min(ws_floor["rtt_p50"], z_floor)
     for transport in transports:
         r = by.get((transport, 50))
@@ -459,7 +486,7 @@ async def coordinate(sizes: list[int], transports: list[str], fleet_agvs: int, f
         fleet_text = markdown_table(
             ["fleet on Zenoh", "value"],
             [
-                ["AGV processes", fleet["agvs"]],
+                ["AGV processes", f"{fleet['agvs']}, clients of a router in this process"],
                 ["run (after every AGV was heard)", f"{fleet['seconds']:.0f} s"],
                 ["time until every AGV was heard", f"{fleet['ready']:.1f} s"],
                 ["CPU of the AGV processes", f"{fleet['cpu_cores']:.2f} cores"],
@@ -469,6 +496,7 @@ async def coordinate(sizes: list[int], transports: list[str], fleet_agvs: int, f
                 ["collisions / lock overlaps / deadlocks",
                  f"{m['collisions']:.0f} / {m['lock_overlaps']:.0f} / {m['deadlocks']:.0f}"],
                 ["stalls over 60 s", f"{m['stalls_60s']:.0f}"],
+                ["frames of this driver late by over 0.5 s", fleet["late"]],
             ],
         )  # fmt: skip
     body = "\n\n".join(
@@ -484,7 +512,9 @@ async def coordinate(sizes: list[int], transports: list[str], fleet_agvs: int, f
             f"as it can for {BLAST_SECONDS:g} s; setup = {SESSIONS} sessions in a row, "
             "`start_interaction` until `in_group` from every other node. Zenoh peers connect "
             "to the first node and find the others by gossip; Zenoh clients connect to an "
-            "`objectplaces router` process. Bytes per update: WebSocket frame (payload + "
+            "`objectplaces router` process; `zenoh-peer-before` = Zenoh peers receiving as "
+            "before the receive-path work (each sample's callback on Zenoh's own thread, "
+            "each key parsed afresh). Bytes per update: WebSocket frame (payload + "
             "2-byte header) or the bytes a Zenoh session writes per update, counted by a relay.",
             table,
             floors,
@@ -511,6 +541,7 @@ def main() -> None:
     parser.add_argument("--transports", default=",".join(TRANSPORTS))
     parser.add_argument("--fleet-agvs", type=int, default=50)
     parser.add_argument("--fleet-seconds", type=float, default=60.0)
+    parser.add_argument("--before-size", type=int, default=20, help="0: no before row")
     parser.add_argument("--worker")
     parser.add_argument("--index", type=int, default=0)
     parser.add_argument("--transport", default="mesh")
@@ -528,6 +559,7 @@ def main() -> None:
                 args.transports.split(","),
                 args.fleet_agvs,
                 args.fleet_seconds,
+                args.before_size,
             )
         )
 
