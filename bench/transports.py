@@ -117,9 +117,9 @@ def receive_path_as_before() -> None:
 
 async def start_worker_node(node_id: str, transport: str, connect: list[str]) -> RoleActivator:
     timing: dict[str, Any] = {"secret": SECRET, "property_interval": 1.0, "failure_timeout": 60.0}
-    if transport == BEFORE:
+    if transport.endswith("-before"):  # BEFORE, or zenoh-client-before by hand
         receive_path_as_before()
-        transport = "zenoh-peer"
+        transport = transport.removesuffix("-before")
     if transport == "mesh":
         options = MeshOptions(queue_size=65_536, flood_rate=1e7, flood_burst=1e6)
         return await start_mesh_node(node_id, join=connect, options=options, **timing)
@@ -271,7 +271,8 @@ async def measure(transport: str, size: int) -> dict[str, Any]:
     router: Proc | None = None
     try:
         connect: list[str] = []
-        if transport == "zenoh-client":
+        client = transport.removesuffix("-before") == "zenoh-client"
+        if client:
             router, endpoint = await start_router_proc()
             connect = [endpoint]
         seed = await Proc.start_script(HERE, "--worker", "w0", "--index", "0",
@@ -279,7 +280,7 @@ async def measure(transport: str, size: int) -> dict[str, Any]:
                                        *[a for c in connect for a in ("--connect", c)])  # fmt: skip
         procs.append(seed)
         address = (await seed.recv())["ready"]
-        if transport != "zenoh-client":
+        if not client:
             connect = [address]
         for i in range(1, size):
             args = ["--worker", f"w{i}", "--index", str(i), "--transport", transport]
