@@ -77,16 +77,20 @@ class ZenohInbox:
         """The callback of a data subscriber of ``keys``' fleet."""
         max_frame = self._max_frame
 
+        parse, me, push = keys.parse, keys.node, self._push
+
         def on_sample(sample: zenoh.Sample) -> None:
-            inbound = keys.parse(str(sample.key_expr))
+            inbound = parse(str(sample.key_expr))
             if inbound is None:
                 self._drop("dropped_foreign_key")
-            elif inbound.source == keys.node:
+            elif inbound.source == me:
                 pass  # our own put, heard back through a wildcard
-            elif len(sample.payload) > max_frame:
-                self._drop("dropped_oversize")
             else:
-                self._push(("frame", inbound.source, sample.payload.to_bytes()))
+                payload = sample.payload  # each read of the attribute makes a new object
+                if len(payload) > max_frame:
+                    self._drop("dropped_oversize")
+                else:
+                    push(("frame", inbound.source, payload.to_bytes()))
 
         return batched(on_sample)
 
