@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import contextlib
 import json
 import os
 import statistics
@@ -66,6 +67,8 @@ FANOUT_COUNT = 300
 FANOUT_GAP = 0.002
 BLAST_SECONDS = 3.0
 SESSIONS = 20
+PEERS_TIMEOUT = 110.0
+"""Seconds a worker waits to see every other node (the coordinator waits 120 s)."""
 
 
 # ---------------------------------------------------------------------------- worker side
@@ -143,8 +146,9 @@ async def run_worker(node_id: str, index: int, transport: str, connect: list[str
             cmd = json.loads(line)
             match cmd["cmd"]:
                 case "peers":
-                    async with asyncio.timeout(120):
-                        await node.wait_for_peers(cmd["n"])
+                    with contextlib.suppress(TimeoutError):
+                        async with asyncio.timeout(PEERS_TIMEOUT):
+                            await node.wait_for_peers(cmd["n"])
                     say(peers=len(node.peers()))
                 case "cpu_mark":
                     cpu_mark = (time.monotonic(), time.process_time())
@@ -291,7 +295,15 @@ async def measure(transport: str, size: int) -> dict[str, Any]:
             )
         for proc in procs[1:]:
             await proc.recv()
-        await asyncio.gather(*(p.ask(cmd="peers", n=size - 1) for p in procs))
+        seen = [
+            r["peers"]
+            for r in await asyncio.gather(*(p.ask(cmd="peers", n=size - 1) for p in procs))
+        ]
+        if min(seen) < size - 1:
+            raise RuntimeError(
+                f"not formed within {PEERS_TIMEOUT:g} s: each node saw {min(seen)} to "
+                f"{max(seen)} others (median {statistics.median(seen):g}) of {size - 1}"
+            )
         await asyncio.sleep(1.0)
 
         await asyncio.gather(*(p.ask(cmd="cpu_mark") for p in procs[1:]))
