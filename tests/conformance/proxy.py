@@ -247,18 +247,23 @@ class PuppetNode:
 class PuppetPool:
     """Puppet processes started ahead of need, so that a scenario's nodes start in
     parallel with whatever runs before them. A process whose node left is used again
-    (for at most ``max_age`` seconds); others exit in the background."""
+    (for at most ``max_age`` seconds); others exit in the background. ``close()`` ends
+    every process the pool ever started."""
 
     def __init__(self, spares: int = 4, max_age: float = 120.0) -> None:
         self.spares = spares
         self.max_age = max_age
         self._idle: deque[LineProcess] = deque()
-        self._retired: list[LineProcess] = []
+        self._spawned: list[LineProcess] = []
         self._fill()
+
+    def _spawn(self) -> LineProcess:
+        self._spawned.append(LineProcess(PUPPET))
+        return self._spawned[-1]
 
     def _fill(self) -> None:
         while len(self._idle) < self.spares:
-            self._idle.append(LineProcess(PUPPET))
+            self._idle.append(self._spawn())
 
     def _usable(self, process: LineProcess) -> bool:
         return process.running and time.monotonic() - process.born < self.max_age
@@ -266,9 +271,8 @@ class PuppetPool:
     def take(self) -> PuppetNode:
         """A started process with no node."""
         while self._idle and not self._usable(self._idle[0]):
-            self._retire(self._idle.popleft())
-        self._fill()
-        process = self._idle.popleft()
+            self._idle.popleft().end_input()
+        process = self._idle.popleft() if self._idle else self._spawn()
         self._fill()
         return PuppetNode(process)
 
@@ -276,31 +280,23 @@ class PuppetPool:
         """Take back the process of a node that left (``closed``); retire any other."""
         process = node.process
         reusable = node.closed and not node.killed and not process.events
-        if reusable and self._usable(process) and len(self._idle) < 2 * self.spares:
+        if reusable and self._usable(process) and len(self._idle) < max(2 * self.spares, 1):
             self._idle.append(process)
         else:
-            self._retire(process)
-
-    def _retire(self, process: LineProcess) -> None:
-        process.end_input()
-        self._retired.append(process)
-        for done in [p for p in self._retired if not p.running]:
-            done.reap(timeout=1)
-            self._retired.remove(done)
+            self.retire(node)
 
     def retire(self, node: PuppetNode) -> None:
         """Let a puppet's node leave and the process exit (stdin ends), without waiting."""
-        self._retire(node.process)
+        node.process.end_input()
 
     def close(self) -> None:
         """End every process, waiting a bounded time for each."""
-        while self._idle:
-            self._retire(self._idle.popleft())
-        for process in self._retired:
+        self._idle.clear()
+        for process in self._spawned:
             process.end_input()
-        for process in self._retired:
+        for process in self._spawned:
             process.reap(timeout=10)
-        self._retired.clear()
+        self._spawned.clear()
 
 
 async def poll(nodes: Iterable[PuppetNode], predicate: Callable[[], bool], within: float) -> None:
