@@ -18,7 +18,8 @@ what the dashboard shows of its node: ``sessions``, ``roles`` and ``traffic``
 It stops by itself, always through a graceful ``node.close()``: when ``--run-seconds``
 pass, when its stdin (a pipe from its parent) closes, when its parent process dies, or
 on SIGTERM or SIGINT. Output is one JSON object per line on stdout (``ready``,
-``stopping``, ``closed``); errors go to stderr.
+``stopping``, ``closed`` with how late its control steps ran: ``steps``, ``late_steps``
+late by more than ``--dt``, ``max_lag_s``); errors go to stderr.
 """
 
 from __future__ import annotations
@@ -49,7 +50,7 @@ from objectplaces.core.errors import LocalProtocolError
 from objectplaces.mesh import MeshNode, start_node
 from objectplaces.zenoh_node import ZenohNode, start_zenoh_node
 
-__all__ = ["DisplayPublisher", "main", "parse_args", "run"]
+__all__ = ["DisplayPublisher", "StepLag", "main", "parse_args", "run"]
 
 _PARENT_CHECK_S = 1.0
 _MAX_LAG_S = 1.0
@@ -251,8 +252,31 @@ async def _settle(node: MeshNode | ZenohNode, args: argparse.Namespace) -> None:
     await asyncio.sleep(args.t_update)
 
 
-async def _drive(agv: AgvController, display: DisplayPublisher, args: argparse.Namespace) -> None:
-    """Step the AGV every ``dt`` of real time, for ever."""
+class StepLag:
+    """How late the control steps ran: whether the process keeps real time."""
+
+    __slots__ = ("late_steps", "max_lag_s", "steps")
+
+    def __init__(self) -> None:
+        self.steps = 0
+        self.late_steps = 0
+        self.max_lag_s = 0.0
+
+    def note(self, lag_s: float, dt: float) -> None:
+        """A step ran ``lag_s`` seconds after its time (late: by more than ``dt``)."""
+        self.steps += 1
+        self.late_steps += lag_s > dt
+        self.max_lag_s = max(self.max_lag_s, lag_s)
+
+    def fields(self) -> dict[str, Any]:
+        """The figures, for the ``closed`` event."""
+        return {"steps": self.steps, "late_steps": self.late_steps, "max_lag_s": self.max_lag_s}
+
+
+async def _drive(
+    agv: AgvController, display: DisplayPublisher, args: argparse.Namespace, lag: StepLag
+) -> None:
+    """Step the AGV every ``dt`` of real time, for ever, noting how late each step ran."""
     loop = asyncio.get_running_loop()
     dt = args.dt
     # Processes started together would otherwise step (and publish) in lockstep.
@@ -260,6 +284,7 @@ async def _drive(agv: AgvController, display: DisplayPublisher, args: argparse.N
     next_step = loop.time()
     next_publish = next_step
     while True:
+        lag.note(loop.time() - next_step, dt)
         agv.step(dt)
         now = loop.time()
         if now >= next_publish:
@@ -305,6 +330,7 @@ async def run(args: argparse.Namespace, secret: bytes) -> int:
         "failure_timeout": 3 * args.t_update,
         "interest_radius": None if radius == "none" else radius,
     }
+    lag = StepLag()
     node: MeshNode | ZenohNode
     if args.transport == "zenoh":
         node = await start_zenoh_node(
@@ -330,7 +356,7 @@ async def run(args: argparse.Namespace, secret: bytes) -> int:
         async def drive() -> None:
             await _settle(node, args)
             _emit("driving", peers=node.peers())
-            await _drive(agv, display, args)
+            await _drive(agv, display, args, lag)
 
         async with asyncio.TaskGroup() as tg:
             tasks = [
@@ -348,7 +374,7 @@ async def run(args: argparse.Namespace, secret: bytes) -> int:
                 task.cancel()
     finally:
         await node.close()
-        _emit("closed")
+        _emit("closed", **lag.fields())
         for signum in (signal.SIGTERM, signal.SIGINT):
             loop.remove_signal_handler(signum)
             # Already on the way out: a late SIGTERM (the parent sends one after closing

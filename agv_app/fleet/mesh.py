@@ -135,6 +135,9 @@ class MeshFleet(FleetSourceBase):
             raise ValueError(f"zenoh_mode must be 'client' or 'peer', got {zenoh_mode!r}")
         self.zenoh_mode = zenoh_mode
         self._router: ZenohRouter | None = None
+        self.final_logs: dict[str, str] = {}
+        """Every AGV process's output once ``stop`` has reaped them (its last line,
+        ``closed``, tells how late its control steps ran)."""
         self.python = python
         self.capture_output = capture_output
         spec = VehicleSpec(DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M)
@@ -311,6 +314,7 @@ class MeshFleet(FleetSourceBase):
         if self._router is not None:
             await self._router.close()
             self._router = None
+        self.final_logs = self.processes.logs()
         self.processes.close()
 
     # -- observing --------------------------------------------------------------------

@@ -4,11 +4,13 @@ task and drive it, seen by the observer node, and leave cleanly."""
 from __future__ import annotations
 
 import asyncio
+import json
 import math
 
 import pytest
 
 from agv_app.fleet import OBSERVER_ID, MeshFleet
+from agv_app.fleet.agv_process import StepLag
 from objectplaces.cli import build_parser
 
 pytestmark = [pytest.mark.processes, pytest.mark.timeout(150)]
@@ -54,3 +56,13 @@ async def test_agv_processes_on_zenoh_take_a_task() -> None:
     finally:
         await fleet.stop()
     assert fleet.exit_codes() == dict.fromkeys(AGVS, 0), "each left the fleet gracefully"
+    closed = [json.loads(log.splitlines()[-1]) for log in fleet.final_logs.values()]
+    assert [c["event"] for c in closed] == ["closed"] * len(AGVS)
+    assert all(c["steps"] > 0 and c["late_steps"] <= c["steps"] for c in closed)
+
+
+def test_step_lag_counts_the_late_steps() -> None:
+    lag = StepLag()
+    for seconds in (0.0, 0.05, 0.3, 0.01):
+        lag.note(seconds, dt=0.1)
+    assert lag.fields() == {"steps": 4, "late_steps": 1, "max_lag_s": 0.3}
