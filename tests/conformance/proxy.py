@@ -19,13 +19,12 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from pathlib import Path
 from typing import IO, Any
 
 from objectplaces.groups import GroupDefinition
 from tests.conformance.roles import RecorderEntry, RecorderLog, heard_in
+from tests.mesh.procs import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 Event = dict[str, Any]
 PUPPET = ["-m", "tests.conformance.puppet"]
 
