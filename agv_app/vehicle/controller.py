@@ -42,6 +42,7 @@ from tuplespace import ANY
 __all__ = ["AgvConfig", "AgvController"]
 
 _LEAD_M = 0.01  # a short piece in the old heading, so the first turn is swept and locked
+_MIN_ADVANCE_M = 1.25  # the shortest stretch a request held up by a lock shrinks to
 
 
 @dataclass(frozen=True, slots=True)
@@ -158,6 +159,8 @@ class AgvController:
         self._first_try: tuple[float, float] | None = None
         self._route_started_at = 0.0
         self._asking_again = False
+        self._advance = self.config.advance_m
+        """How far the next request reaches beyond the locks (shorter while held up)."""
         self._resume: str | None = None
         """Where a yielding AGV goes once it has reached its waiting place."""
         self.node = node
@@ -487,10 +490,23 @@ class AgvController:
         if requester.blocked_by:
             if self._must_yield(now):
                 requester.withdraw()
+            elif self._may_shorten():
+                # Held up by a lock while standing: ask for half the stretch, which
+                # may fit behind the AGV ahead (followers close up on a full lane).
+                self._advance = max(_MIN_ADVANCE_M, self._advance / 2)
+                self._ask_again()
             return
         entry = requester.entry
         if self._priority_for(entry.area) < entry.priority:
             self._ask_again()
+
+    def _may_shorten(self) -> bool:
+        """True if the standing AGV's pending request may be asked again shorter."""
+        return (
+            self.config.patience is None
+            and self.vehicle.speed == 0.0
+            and self._advance > _MIN_ADVANCE_M
+        )
 
     @property
     def stalled(self) -> bool:
@@ -509,7 +525,7 @@ class AgvController:
         if lock_end - vehicle.s > need:
             return
         follow = self.config.direction_claims
-        end = self._plan.next_stop(lock_end, self.config.advance_m, follow=follow)
+        end = self._plan.next_stop(lock_end, self._advance, follow=follow)
         claims = self._plan.claims_between(lock_end, end) if follow else frozenset()
         area = hull_projection(
             vehicle.route, lock_end, end, length=spec.length_m, width=spec.width_m
@@ -548,6 +564,7 @@ class AgvController:
         self._requester = None
         now = self.node.now()
         if outcome == "locked":
+            self._advance = self.config.advance_m
             if self._on_lock_wait is not None and self._first_try is not None:
                 self._on_lock_wait(now - self._first_try[1])
         elif not self._asking_again:
