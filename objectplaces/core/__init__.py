@@ -9,11 +9,12 @@ Its modules, bottom up (each imports only lower ones; tests/test_architecture.py
 * ``channel``, ``config``: one reliable channel with flow control; the tunables;
 * ``timers``, ``observers``, ``intake``: typed timers, application observers, frames
   refused at the boundary;
-* ``own``, ``channels``, ``plumbing``: this node's properties; channel frames on the
-  wire; what every part shares;
+* ``own``, ``channels``, ``plumbing``, ``liveness``: this node's properties; channel
+  frames on the wire; what every part shares; the heartbeat and the liveness beat;
 * ``view``: the others' properties, liveness, index, scope and completeness;
 * ``sessions``, ``participations``: the initiator side and the participant side;
-* ``bindings``: the context a role is bound to;
+* ``bindings``, ``introspection``: the context a role is bound to; what the machine
+  shows of itself;
 * ``node``: ``NodeMachine``, the router that owns the order of operations.
 
 docs/protocol.md says what the nodes say to each other, and why; its sections (§) are
