@@ -434,10 +434,16 @@ class MeshFleet(FleetSourceBase):
         return [n for n in nodes if not n.closed]
 
     def _traffic(self) -> tuple[int, int]:
-        """Frames and bytes on the links of the nodes in this process, each frame once."""
+        """Frames and bytes on the links of the nodes in this process, each frame once
+        (on Zenoh, which keeps no per-link counters: what these nodes put and heard)."""
         local = {n.node_id: n for n in self._local_nodes()}
         messages = bytes_ = 0
         for node in local.values():
+            if self.transport == "zenoh":
+                counters = node.transport_counters()
+                messages += counters.get("frames_out", 0) + counters.get("frames_in", 0)
+                bytes_ += counters.get("bytes_out", 0) + counters.get("bytes_in", 0)
+                continue
             for peer, stats in node.peer_stats().items():
                 messages += stats.messages_out
                 bytes_ += stats.bytes_out

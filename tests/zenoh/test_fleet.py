@@ -52,6 +52,8 @@ async def test_agv_processes_on_zenoh_take_a_task() -> None:
         fleet.check()
         metrics = fleet.metrics()
         assert metrics["collisions"] == 0
+        assert metrics["messages"] > 0, "what the observer and the stations put and heard"
+        assert metrics["bytes"] > 0
         assert metrics["lock_overlaps"] == 0
     finally:
         await fleet.stop()
