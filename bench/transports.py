@@ -470,6 +470,8 @@ async def coordinate(
         verdicts.append(
             "- Zenoh peers >= 5x the mesh's received updates per node at 20 nodes: "
             + verdict(ratio >= 5, f"{ratio:.1f}x", f"{ratio:.1f}x")
+            + f" (CPU per node in the blast: mesh {mesh20['cpu_blast']:.0%}, Zenoh peers "
+            f"{zen20['cpu_blast']:.0%}; a mesh below 10% waits on something else than CPU)"
         )
     now, before = by.get(("zenoh-peer", before_size)), by.get((BEFORE, before_size))
     if now and before:
