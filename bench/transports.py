@@ -471,7 +471,8 @@ async def coordinate(
             "- Zenoh peers >= 5x the mesh's received updates per node at 20 nodes: "
             + verdict(ratio >= 5, f"{ratio:.1f}x", f"{ratio:.1f}x")
             + f" (CPU per node in the blast: mesh {mesh20['cpu_blast']:.0%}, Zenoh peers "
-            f"{zen20['cpu_blast']:.0%}; a mesh below 10% waits on something else than CPU)"
+            f"{zen20['cpu_blast']:.0%}; {(os.cpu_count() or 1) / 20:.0%} per node is every "
+            "core full)"
         )
     now, before = by.get(("zenoh-peer", before_size)), by.get((BEFORE, before_size))
     if now and before:
