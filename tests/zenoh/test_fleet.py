@@ -23,8 +23,16 @@ def test_demo_takes_the_transport_flag() -> None:
     assert args.transport == "zenoh"
 
 
-async def test_agv_processes_on_zenoh_take_a_task() -> None:
-    fleet = MeshFleet(agvs=3, seed=2, task_interval=None, run_seconds=80.0, transport="zenoh")
+def test_an_unknown_zenoh_mode_is_refused() -> None:
+    with pytest.raises(ValueError, match="zenoh_mode"):
+        MeshFleet(agvs=1, transport="zenoh", zenoh_mode="router")
+
+
+@pytest.mark.parametrize("mode", ["client", "peer"])
+async def test_agv_processes_on_zenoh_take_a_task(mode: str) -> None:
+    fleet = MeshFleet(
+        agvs=3, seed=2, task_interval=None, run_seconds=80.0, transport="zenoh", zenoh_mode=mode
+    )
     await fleet.start()
     try:
         try:
@@ -34,7 +42,8 @@ async def test_agv_processes_on_zenoh_take_a_task() -> None:
             pytest.fail(f"unheard: {fleet.missing()}; logs: {fleet.child_logs()}")
         assert set(fleet.nodes()) == {OBSERVER_ID, *AGVS, *(f"st:{s}" for s in fleet.stations)}
         assert fleet.observer is not None
-        assert fleet.observer.address == "", "by default every node is a client of a router"
+        # A client has no address of its own: it reaches the fleet through the router.
+        assert (fleet.observer.address == "") == (mode == "client")
         task = fleet.create_task("pick-A3-1")
         taken = None
         async with asyncio.timeout(30):
