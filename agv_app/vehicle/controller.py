@@ -526,6 +526,11 @@ class AgvController:
             return
         follow = self.config.direction_claims
         end = self._plan.next_stop(lock_end, self._advance, follow=follow)
+        if self._advance < self.config.advance_m and not self._plan.may_rest(end):
+            # A shortened request ends only where the AGV may rest outside every run,
+            # never inside one it follows through (at a dead-end start that place can
+            # be with the hull still in the lane it joins).
+            end = self._plan.next_stop(lock_end, self.config.advance_m, follow=follow)
         claims = self._plan.claims_between(lock_end, end) if follow else frozenset()
         area = hull_projection(
             vehicle.route, lock_end, end, length=spec.length_m, width=spec.width_m
