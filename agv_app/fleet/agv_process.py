@@ -18,8 +18,9 @@ what the dashboard shows of its node: ``sessions``, ``roles`` and ``traffic``
 It stops by itself, always through a graceful ``node.close()``: when ``--run-seconds``
 pass, when its stdin (a pipe from its parent) closes, when its parent process dies, or
 on SIGTERM or SIGINT. Output is one JSON object per line on stdout (``ready``,
-``stopping``, ``closed`` with how late its control steps ran: ``steps``, ``late_steps``
-late by more than ``--dt``, ``max_lag_s``); errors go to stderr.
+``driving``, ``lag`` every 5 s while driving and ``closed``, both with how late its
+control steps ran so far: ``steps``, ``late_steps`` late by more than ``--dt``,
+``max_lag_s``; ``stopping``); errors go to stderr.
 """
 
 from __future__ import annotations
@@ -54,6 +55,7 @@ __all__ = ["DisplayPublisher", "StepLag", "main", "parse_args", "run"]
 
 _PARENT_CHECK_S = 1.0
 _MAX_LAG_S = 1.0
+_LAG_EVERY_S = 5.0
 
 
 def _emit(event: str, **fields: Any) -> None:
@@ -283,10 +285,14 @@ async def _drive(
     await asyncio.sleep(random.Random(args.seed).uniform(0.0, dt))
     next_step = loop.time()
     next_publish = next_step
+    next_lag_report = next_step + _LAG_EVERY_S
     while True:
         lag.note(loop.time() - next_step, dt)
         agv.step(dt)
         now = loop.time()
+        if now >= next_lag_report:
+            next_lag_report = now + _LAG_EVERY_S
+            _emit("lag", **lag.fields())
         if now >= next_publish:
             next_publish = now + args.publish_interval
             display.publish()
