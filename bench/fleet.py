@@ -13,6 +13,10 @@ Bandwidth (groups against broadcast) is measured by ``bench/fleet_bandwidth.py``
 
     python -m bench.fleet [--agvs 20] [--load 0.9] [--minutes 30] [--seeds 1,2,3,4,5]
                           [--layout FILE] [--jobs N]
+    python -m bench.fleet --time-shares [--agvs 20] [--load 0.9] [--minutes 10] [--seeds 5]
+
+``--time-shares`` runs nothing side by side: it prints where the AGVs' time goes in one
+protocol run per seed (:func:`time_shares`) and writes nothing.
 """
 
 from __future__ import annotations
@@ -21,6 +25,7 @@ import argparse
 import json
 import os
 import time
+from collections import Counter
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
@@ -28,9 +33,10 @@ from pathlib import Path
 from agv_app.fleet import Fleet, FleetConfig
 from agv_app.layout.json_format import load_any
 from agv_app.tasks import check_load
+from agv_app.vehicle.controller import AgvController
 from bench.report import markdown_table, publish
 
-__all__ = ["Goal", "collected", "goals", "main", "run_one"]
+__all__ = ["Goal", "activity", "collected", "goals", "main", "run_one", "time_shares"]
 
 MODES = ("protocol", "central")
 MAX_WAIT_GOAL_S = 120.0
@@ -63,6 +69,40 @@ def run_one(
         so_far = fleet.summary(time.process_time() - started)
         print(json.dumps({"seed": seed, "traffic": traffic, "minutes": done, **so_far}), flush=True)
     return fleet.summary(time.process_time() - started)
+
+
+def activity(agv: AgvController) -> str:
+    """What ``agv`` is doing now: its phase (``to_home+task`` when it drives home with
+    the next task awarded), then, driving, whether it stands, drives at top speed,
+    brakes for the end of its locks, or is otherwise slower (accelerating, the route's
+    end)."""
+    phase = agv.phase
+    if phase == "to_home" and agv.pending_task is not None:
+        phase = "to_home+task"
+    if agv.vehicle.remaining() <= 1e-9 or phase in ("home", "at_pick", "at_drop"):
+        return phase
+    vehicle, spec = agv.vehicle, agv.spec
+    if vehicle.speed == 0.0:
+        return f"{phase}: standing"
+    if vehicle.speed >= spec.max_speed_m_s - 1e-6:
+        return f"{phase}: top speed"
+    lock_end = agv.book.lock_end(default=vehicle.s)
+    short = lock_end - vehicle.s < spec.braking_distance(vehicle.speed) + 0.6
+    if lock_end < vehicle.route.length - 1e-6 and short:
+        return f"{phase}: braking for the lock end"
+    return f"{phase}: slower"
+
+
+def time_shares(agvs: int, minutes: float, seed: int, load: float) -> dict[str, float]:
+    """The share of the AGVs' time in each :func:`activity`, largest first (one
+    protocol run on the demo warehouse, counted every step)."""
+    fleet = Fleet(None, FleetConfig(agvs=agvs, seed=seed, load=load))
+    counts: Counter[str] = Counter()
+    for _ in range(round(minutes * 60 / fleet.config.dt)):
+        fleet.step()
+        counts.update(activity(agv) for agv in fleet.agvs.values())
+    total = sum(counts.values())
+    return {name: n / total for name, n in counts.most_common()}
 
 
 @dataclass(frozen=True, slots=True)
@@ -149,12 +189,23 @@ def main(argv: list[str] | None = None) -> None:
         "run_one's JSON lines, e.g. from runs started as separate processes); runs cut "
         "short count, each seed's two at the minutes both reached",
     )
+    parser.add_argument(
+        "--time-shares",
+        action="store_true",
+        help="print where the AGVs' time goes in one protocol run per seed; write nothing",
+    )
     args = parser.parse_args(argv)
     try:
         check_load(args.load)
     except ValueError as exc:
         raise SystemExit(f"bench.fleet: --load: {exc}") from exc
     seeds = [int(s) for s in args.seeds.split(",") if s]
+    if args.time_shares:
+        for seed in seeds:
+            print(f"seed {seed}, {args.agvs} AGVs, load {args.load:g}, {args.minutes:g} min:")
+            for name, share in time_shares(args.agvs, args.minutes, seed, args.load).items():
+                print(f"  {share:6.1%}  {name}")
+        return
     if args.collect is not None:
         _publish(args, seeds, collected(args.collect, seeds))
     else:
