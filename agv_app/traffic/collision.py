@@ -8,8 +8,9 @@ Roles on ObjectPlaces (DESIGN.md, "The AGV application"):
   members that leave no longer count. It locks only when every current member
   allowed, every node its own view puts in the group is such a member (an activation
   still on its way counts as a missing vote), and the safe time ``2 * t_update`` has
-  passed since the session started. Then it writes the lock to the tuplespace and
-  stops the session.
+  passed since the session started, or since a circle covering the area went out if
+  the request is asked again for no more than before. Then it writes the lock to the
+  tuplespace and stops the session.
 * :class:`Voter` (participant) allows iff the request overlaps none of its AGV's
   requested or locked projections, or only requested ones of lower priority, and the
   requester is in the voter's own group (``view_group``). Otherwise it defers and
@@ -193,6 +194,11 @@ class Requester(Initiator):
         queue_patience: seconds a voter's older request may hold it up before it
             withdraws (None: never).
         tally: counts the messages sent.
+        announced_at: when a circle that covers the area was published, if that was
+            before the session starts and every circle published since covered the area
+            too (an AGV asks again for no more than before): the safe time counts from
+            then, as the others have had such a circle since (docs/traffic.md, "Asking
+            again").
     """
 
     def __init__(
@@ -205,9 +211,11 @@ class Requester(Initiator):
         group_view: Callable[[], frozenset[str]],
         on_done: Callable[[str], None],
         tally: MessageTally | None = None,
+        announced_at: float | None = None,
     ) -> None:
         self.entry = entry
         self.safe_time = safe_time
+        self._announced_at = announced_at
         self._group_view = group_view
         self._on_done = on_done
         self._tally = tally
@@ -225,6 +233,7 @@ class Requester(Initiator):
         if entry.claims:
             self._message["c"] = [[seg, way] for seg, way in sorted(entry.claims)]
         self._started_at: float | None = None
+        self._safe_from = 0.0
         self.done = ""
         """``""`` while pending, then ``"locked"`` or ``"withdrawn"``."""
 
@@ -241,8 +250,11 @@ class Requester(Initiator):
 
     def started(self) -> None:
         """Remember the start time and check again once the safe time has passed."""
-        self._started_at = self.now()
-        self.call_later(self.safe_time, self._check)
+        now = self.now()
+        self._started_at = now
+        announced = self._announced_at
+        self._safe_from = now if announced is None else min(now, announced)
+        self.call_later(max(0.0, self._safe_from + self.safe_time - now), self._check)
 
     def in_group(self, participant: ParticipantRef) -> None:
         """A new member (late joiners too) gets the request; the lock waits for its vote."""
@@ -307,7 +319,7 @@ class Requester(Initiator):
         ):
             self._finish("withdrawn")
             return
-        if now - self._started_at < self.safe_time - 1e-9:
+        if now - self._safe_from < self.safe_time - 1e-9:
             return
         if not all(self._votes.values()):
             return

@@ -32,7 +32,7 @@ from agv_app.protocol import AGV_KIND, MessageTally
 from agv_app.tasks.auction import Bidder, TaskSpec
 from agv_app.traffic.central import CentralRequest, CentralScheduler
 from agv_app.traffic.collision import Requester, Voter, broadcast_group, collision_group
-from agv_app.traffic.deadlock import StopPlan, clearance_for, followable_segments
+from agv_app.traffic.deadlock import Claim, StopPlan, clearance_for, followable_segments
 from agv_app.traffic.lockbook import LockBook, LockEntry, RequestEntry, StaleRecord
 from agv_app.vehicle.kinematics import Vehicle, VehicleSpec
 from objectplaces import RoleActivator
@@ -43,6 +43,10 @@ __all__ = ["AgvConfig", "AgvController"]
 
 _LEAD_M = 0.01  # a short piece in the old heading, so the first turn is swept and locked
 _MIN_ADVANCE_M = 1.25  # the shortest stretch a request held up by a lock shrinks to
+_DEPART_SLACK_S = 0.2  # a request before departure starts this much before the safe time
+
+_Announced = tuple[float, Area, frozenset[Claim]]
+"""Since when a published circle covers a request, its area and direction claims."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -163,6 +167,12 @@ class AgvController:
         """How far the next request reaches beyond the locks (shorter while held up)."""
         self._resume: str | None = None
         """Where a yielding AGV goes once it has reached its waiting place."""
+        self._hold_until = 0.0
+        """The vehicle stands still until then (the dwell ends) though its route is set."""
+        self._done_later: str | None = None
+        """A task finished at the drop station, reported when the dwell ends."""
+        self._announced: _Announced | None = None
+        """Since when a published circle covers the pending request, its area, claims."""
         self.node = node
         self.attach(node)
         if central is not None:
@@ -226,13 +236,14 @@ class AgvController:
         requester = self._requester
         if requester is None:
             return
+        prior = self._announced
         self._asking_again = True
         try:
             requester.withdraw()
         finally:
             self._asking_again = False
         self._retry_at = 0.0
-        self._request_ahead(self.node.now())
+        self._request_ahead(self.node.now(), prior)
 
     def _priority_for(self, area: Area) -> tuple[float, str]:
         """The priority of a request over ``area``: when the AGV started waiting for this
@@ -291,7 +302,7 @@ class AgvController:
         """A finer state for the dashboard: idle, driving, waiting, loading or failed."""
         if self.failed:
             return "failed"
-        if self.phase in ("at_pick", "at_drop"):
+        if self.phase in ("at_pick", "at_drop") or self.node.now() < self._hold_until:
             return "loading"
         if self._dest is not None and self.vehicle.speed == 0.0:
             return "waiting"
@@ -459,8 +470,10 @@ class AgvController:
             return
         now = self.node.now()
         vehicle = self.vehicle
+        if self._done_later is not None and now >= self._hold_until:
+            self._report_done()
         if self._dest is not None:
-            limit = self.book.lock_end(default=vehicle.s)
+            limit = vehicle.s if now < self._hold_until else self.book.lock_end(default=vehicle.s)
             moved = vehicle.step(dt, limit)
             self._stalled = moved == 0.0
             self._request_ahead(now)
@@ -513,7 +526,20 @@ class AgvController:
         """True while the AGV wants to move and did not move in its last step."""
         return self._stalled
 
-    def _request_ahead(self, now: float) -> None:
+    def _announced_at(
+        self, now: float, area: Area, claims: frozenset[Claim], prior: _Announced | None
+    ) -> float:
+        """Since when a published circle covers ``area``: ``now``, or, asked again for
+        no more than the withdrawn request (area and claims), the time that request's
+        circle went out: every circle published while it was pending covered it too."""
+        if prior is None:
+            return now
+        since, before, claimed = prior
+        if not claims <= claimed or not before.geom.buffer(1e-6).covers(area.geom):
+            return now
+        return since
+
+    def _request_ahead(self, now: float, prior: _Announced | None = None) -> None:
         if self._requester is not None or self._plan is None or now < self._retry_at:
             return
         vehicle, spec, book = self.vehicle, self.spec, self.book
@@ -544,6 +570,8 @@ class AgvController:
         entry = RequestEntry(self._key, end, area, self._priority_for(area), claims)
         book.add_request(entry)
         self.publish()
+        announced_at = self._announced_at(now, area, claims, prior)
+        self._announced = (announced_at, area, claims)
         if self._central is not None:
             request = self._central.submit(
                 self.node_id, entry, lambda outcome: self._request_done(request, outcome)
@@ -559,6 +587,7 @@ class AgvController:
             group_view=self._group_view,
             on_done=lambda outcome: self._request_done(requester, outcome),
             tally=self.tally,
+            announced_at=announced_at,
         )
         self._requester = requester
         self.node.start_interaction(requester, self.definition, "voter")
@@ -658,19 +687,20 @@ class AgvController:
             if home is None or home == self.home:
                 return
             self.home = home
-        if self.phase in ("at_pick", "at_drop") and now < self._dwell_until:
-            return
+        if self.phase in ("at_pick", "at_drop"):
+            if now < self._dwell_until - self._departure_lead():
+                return
+            # The route is set while the AGV still dwells, so that its first request
+            # is granted as the dwell ends; the vehicle stands until then.
+            self._hold_until = self._dwell_until
         if self.phase == "at_pick" and self.task is not None:
             self.phase = "to_drop"
             self._route_to(self.layout.station(self.task.drop).point)
         elif self.phase == "at_drop" and self.task is not None:
-            done = self.task.id
+            self._done_later = self.task.id
             self.task = None
-            self.last_done = done
-            self.node.update_node_property("last_done", done)
-            self.node.update_node_property("task", None)
-            if self._on_task_done is not None:
-                self._on_task_done(done)
+            if now >= self._hold_until:
+                self._report_done()
             if self.pending_task is not None:
                 self._start_pending()  # awarded while dwelling: no drive home
             else:
@@ -684,6 +714,26 @@ class AgvController:
             self.phase = "at_pick" if self.phase == "to_pick" else "at_drop"
             self._dwell_until = now + self.config.dwell
         self.publish()
+
+    def _departure_lead(self) -> float:
+        """Seconds before the end of a dwell at which the next route is set: the safe
+        time a request waits (and a little), none with the central scheduler, which
+        grants at once."""
+        if self._central is not None:
+            return 0.0
+        return 2 * self.config.t_update + _DEPART_SLACK_S
+
+    def _report_done(self) -> None:
+        """Report the task finished at the drop station (when its dwell ends)."""
+        done, self._done_later = self._done_later, None
+        assert done is not None
+        self.last_done = done
+        self.node.update_node_property("last_done", done)
+        # The next task may have been taken (or started) in the meantime.
+        current = self.task or self.pending_task
+        self.node.update_node_property("task", None if current is None else current.id)
+        if self._on_task_done is not None:
+            self._on_task_done(done)
 
     def _start_pending(self) -> None:
         assert self.pending_task is not None
