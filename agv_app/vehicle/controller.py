@@ -279,6 +279,8 @@ class AgvController:
         self.task = None
         self.pending_task = None
         self._resume = None
+        self._done_later = None  # crashed before its dwell at the drop ended: not done
+        self._hold_until = 0.0
         self.phase = "to_home" if self._dest is not None else "lost"
         self._requester = None
         self._retry_at = 0.0

@@ -44,3 +44,15 @@ def test_a_task_counts_as_done_when_the_dwell_at_the_drop_ends() -> None:
     run_until(fleet, lambda: agv.last_done == task)
     assert fleet.now >= dwell_end
     assert agv.vehicle.speed == 0.0 or fleet.now - dwell_end < 0.2
+
+
+def test_a_task_is_not_done_if_the_agv_crashes_before_the_dwell_at_the_drop_ends() -> None:
+    fleet, agv = one_agv()
+    fleet.create_task("pick-A1-1", "drop-A5-3")
+    run_until(fleet, lambda: agv.phase == "at_drop")
+    dwell_end = agv._dwell_until
+    run_until(fleet, lambda: agv.phase != "at_drop")
+    fleet.crash("agv-01")
+    fleet.recover("agv-01")
+    run_until(fleet, lambda: fleet.now >= dwell_end + 1.0)
+    assert agv.last_done is None
