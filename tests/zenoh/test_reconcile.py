@@ -4,7 +4,9 @@ is made good by the periodic liveliness query: the node is a peer again within s
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import time
+from collections.abc import AsyncIterator
 
 import pytest
 
@@ -21,29 +23,32 @@ async def until_peers(node: ZenohNode, peers: list[str], within: float = 10.0) -
         await asyncio.sleep(0.01)
 
 
-async def test_a_lost_token_report_is_made_good(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(zenoh_transport, "RECONCILE_EVERY", 0.2)
+@contextlib.asynccontextmanager
+async def linked_pair(
+    monkeypatch: pytest.MonkeyPatch, reconcile_every: float
+) -> AsyncIterator[tuple[ZenohNode, ZenohNode]]:
+    """Nodes a and b, b connected to a, each a peer of the other; both closed after."""
+    monkeypatch.setattr(zenoh_transport, "RECONCILE_EVERY", reconcile_every)
     a = await start_zenoh_node("a", secret=SECRET)
     b = await start_zenoh_node("b", secret=SECRET, connect=[a.address])
     try:
         await until_peers(a, ["b"])
-        a._transport._alive.token_down("b", b._transport.incarnation)  # as if never reported
-        assert a.peers() == []
-        await until_peers(a, ["b"])
+        yield a, b
     finally:
         await b.close()
         await a.close()
 
 
-async def test_a_node_that_left_is_not_brought_back(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(zenoh_transport, "RECONCILE_EVERY", 0.05)
-    a = await start_zenoh_node("a", secret=SECRET)
-    b = await start_zenoh_node("b", secret=SECRET, connect=[a.address])
-    try:
+async def test_a_lost_token_report_is_made_good(monkeypatch: pytest.MonkeyPatch) -> None:
+    async with linked_pair(monkeypatch, 0.2) as (a, b):
+        a._transport._alive.token_down("b", b._transport.incarnation)  # as if never reported
+        assert a.peers() == []
         await until_peers(a, ["b"])
+
+
+async def test_a_node_that_left_is_not_brought_back(monkeypatch: pytest.MonkeyPatch) -> None:
+    async with linked_pair(monkeypatch, 0.05) as (a, b):
         await b.close()
         await until_peers(a, [])
         await asyncio.sleep(0.5)  # several queries, some sent before b went
         assert a.peers() == []
-    finally:
-        await a.close()
