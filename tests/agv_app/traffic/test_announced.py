@@ -8,24 +8,15 @@ locks without another safe time (docs/traffic.md, "Asking again").
 from __future__ import annotations
 
 from agv_app.geometry import Area
-from agv_app.traffic import RequestEntry, Requester, collision_group
+from agv_app.traffic import Requester
 from objectplaces.sim import SimulatedNetwork
 from tests.agv_app.traffic.test_collision import Node, strip
 from tests.agv_app.vehicle.test_next_task import one_agv
 
 
 def _request(node: Node, announced_at: float | None) -> tuple[Requester, list[str]]:
-    entry = RequestEntry(1, 5.0, strip(0.0, 5.0), (node.node.now(), node.node.node_id))
-    node.book.add_request(entry)
     outcomes: list[str] = []
-    req = Requester(
-        entry,
-        safe_time=2.0,
-        group_view=lambda: node.node.view_group(collision_group()),
-        on_done=outcomes.append,
-        announced_at=announced_at,
-    )
-    node.node.start_interaction(req, collision_group(), "voter")
+    req = node.request(0.0, 5.0, node.node.now(), announced_at=announced_at, outcomes=outcomes)
     return req, outcomes
 
 

@@ -155,15 +155,24 @@ class Node:
         self.node.update_node_property("position", (x, 0.0))
         self.node.update_node_property("hull_length", r)
 
-    def request(self, x0: float, x1: float, t: float) -> Requester:
+    def request(
+        self,
+        x0: float,
+        x1: float,
+        t: float,
+        *,
+        announced_at: float | None = None,
+        outcomes: list[str] | None = None,
+    ) -> Requester:
+        """Ask for the strip x0..x1, ranked at ``t``; each outcome goes to ``outcomes``."""
         entry = RequestEntry(1, x1, strip(x0, x1), (t, self.node.node_id))
         self.book.add_request(entry)
-        outcomes: list[str] = []
         req = Requester(
             entry,
             safe_time=2.0,
             group_view=lambda: self.node.view_group(collision_group()),
-            on_done=outcomes.append,
+            on_done=(outcomes if outcomes is not None else []).append,
+            announced_at=announced_at,
         )
         self.node.start_interaction(req, collision_group(), "voter")
         return req
