@@ -47,7 +47,8 @@ from typing import Any
 
 import shapely
 
-from agv_app.geometry import Area, coords_to_polygon, hull_length, overlaps, polygon_to_coords
+from agv_app.geometry import Area, coords_to_polygon, polygon_to_coords
+from agv_app.geometry.probe import Probe
 from agv_app.protocol import AGV_KIND, MessageTally, tally_send
 from agv_app.traffic.deadlock import Claim, claims_conflict
 from agv_app.traffic.lockbook import LockBook, Priority, RequestEntry
@@ -81,7 +82,7 @@ def broadcast_group() -> GroupDefinition:
 
 
 def decide_vote(
-    request: Area,
+    request: Area | Probe,
     priority: Priority,
     requester: str,
     book: LockBook,
@@ -103,7 +104,8 @@ def decide_vote(
     still allow others).
 
     Args:
-        request: the requested projection (as received).
+        request: the requested projection (as received); a :class:`Probe` of it
+            when it is asked again and again (its answers are remembered).
         priority: the requester's priority.
         requester: the requester's node id.
         book: the voter node's bookkeeping.
@@ -112,15 +114,18 @@ def decide_vote(
         circle: the requester's ``(x, y, hull_length)`` in the voter's view.
         claims: the direction claims the request asks for.
     """
-    if not _covers(circle, request) and requester not in group:
+    probe = request if isinstance(request, Probe) else Probe(request)
+    if not _covers(circle, probe) and requester not in group:
         return "group"
-    for lock in book.locks():
-        if overlaps(request, lock.area) or claims_conflict(claims, lock.claims):
+    # Without claims of its own a request conflicts with no claim: the locks' claims
+    # are looked up only when it has some.
+    for key, area in book.lock_areas():
+        if probe.overlaps(area) or (claims and claims_conflict(claims, book.claims_of(key))):
             return "lock"
     own = book.request()
     if (
         own is not None
-        and (overlaps(request, own.area) or claims_conflict(claims, own.claims))
+        and (probe.overlaps(own.area) or claims_conflict(claims, own.claims))
         and not priority < own.priority
     ):
         return "priority"
@@ -143,13 +148,30 @@ def request_coords(area: Area, *, grow_m: float = _WIRE_GROWTH_M, tolerance_m: f
     return polygon_to_coords(Area(grown), margin_m=0.0)
 
 
-def _covers(circle: tuple[float, float, float] | None, area: Area) -> bool:
+def _covers(circle: tuple[float, float, float] | None, probe: Probe) -> bool:
     if circle is None:
         return False
     x, y, r = circle
     # The area arrived grown for the wire (request_coords); the requester's real area,
     # the one its circle covers, lies that much inside it.
-    return hull_length((x, y), [area]) <= r + _WIRE_GROWTH_M + 0.05
+    return probe.hull_length((x, y)) <= r + _WIRE_GROWTH_M + 0.05
+
+
+_AREAS_KEPT = 256
+_areas_received: dict[Any, Area] = {}
+
+
+def _received_area(coords: Any) -> Area:
+    """``coords_to_polygon(coords)``, shared by the voters of one process: a request
+    goes to every member of the group, and on a simulated floor they all decode it."""
+    key = tuple(tuple(tuple(ring) for ring in polygon) for polygon in coords)
+    area = _areas_received.get(key)
+    if area is None:
+        area = coords_to_polygon(coords)
+        if len(_areas_received) >= _AREAS_KEPT:
+            del _areas_received[next(iter(_areas_received))]
+        _areas_received[key] = area
+    return area
 
 
 class LazyGroup:
@@ -378,6 +400,7 @@ class Voter(Participant):
         self._recheck = recheck
         self._tally = tally
         self._area: Area | None = None
+        self._probe: Probe | None = None
         self._claims: frozenset[Claim] = frozenset()
         self._priority: Priority = (0.0, "")
         self._said = ""
@@ -417,7 +440,8 @@ class Voter(Participant):
         if not isinstance(message, dict) or message.get("t") != "req" or self._area is not None:
             return
         try:
-            self._area = coords_to_polygon(message["a"])
+            self._area = _received_area(message["a"])
+            self._probe = Probe(self._area)
             p = message["p"]
             self._priority = (float(p[0]), str(p[1]))
             self._claims = frozenset((str(seg), int(way)) for seg, way in message.get("c", ()))
@@ -438,12 +462,13 @@ class Voter(Participant):
             self.call_later(0.0, self._evaluate)
 
     def _evaluate(self) -> None:
-        if not self._active or self._area is None or self._said == "allow":
+        probe = self._probe
+        if not self._active or probe is None or self._said == "allow":
             return
         book = LockBook(self.space)
         requester = self.initiator.node_id
         verdict = decide_vote(
-            self._area,
+            probe,
             self._priority,
             requester,
             book,
@@ -460,7 +485,7 @@ class Voter(Participant):
         if verdict == "allow" or aside:
             self._unwatch()
             self._said = "allow"
-            book.note_allowed(self.session_id, self._area, self._priority)
+            book.note_allowed(self.session_id, probe.area, self._priority)
             if aside and self._step_aside is not None:
                 # The requester's lock holds up our request, so it must move first: our
                 # request goes, and comes back ranked below the one we allow.

@@ -90,11 +90,17 @@ class LockBook:
     def locks(self) -> list[LockEntry]:
         """Locked projections, oldest first."""
         return [
-            LockEntry(t[1], t[2], t[3], self._claims(t[1]))
+            LockEntry(t[1], t[2], t[3], self.claims_of(t[1]))
             for t in self.space.rd_all(("lock", ANY, ANY, ANY))
         ]
 
-    def _claims(self, key: int) -> frozenset[Claim]:
+    def lock_areas(self) -> list[tuple[int, Area]]:
+        """``(key, area)`` of each locked projection, oldest first (``locks`` without
+        the claims, which cost a lookup per lock)."""
+        return [(t[1], t[3]) for t in self.space.rd_all(("lock", ANY, ANY, ANY))]
+
+    def claims_of(self, key: int) -> frozenset[Claim]:
+        """The direction claims the lock or request ``key`` holds."""
         t = self.space.rdp(("claims", key, ANY))
         return frozenset() if t is None else t[2]
 
@@ -105,16 +111,18 @@ class LockBook:
 
     def claims(self) -> frozenset[Claim]:
         """Every direction claim the locks hold."""
-        return frozenset(c for e in self.locks() for c in e.claims)
+        return frozenset(
+            c for t in self.space.rd_all(("lock", ANY, ANY, ANY)) for c in self.claims_of(t[1])
+        )
 
     def request(self) -> RequestEntry | None:
         """The pending request, if any."""
         t = self.space.rdp(("request", ANY, ANY, ANY, ANY))
-        return None if t is None else RequestEntry(t[1], t[2], t[3], t[4], self._claims(t[1]))
+        return None if t is None else RequestEntry(t[1], t[2], t[3], t[4], self.claims_of(t[1]))
 
     def lock_end(self, default: float = 0.0) -> float:
         """The furthest arc length any lock reaches (``default`` without locks)."""
-        return max((e.end_s for e in self.locks()), default=default)
+        return max((t[2] for t in self.space.rd_all(("lock", ANY, ANY, ANY))), default=default)
 
     def add_request(self, entry: RequestEntry) -> None:
         """Record the pending request (there is at most one)."""
@@ -126,7 +134,7 @@ class LockBook:
         t = self.space.rdp(("request", key, ANY, ANY, ANY))
         if t is None:
             return None
-        entry = LockEntry(key, t[2], t[3], self._claims(key))
+        entry = LockEntry(key, t[2], t[3], self.claims_of(key))
         self.space.out(("lock", key, entry.end_s, entry.area))
         self.space.inp(("request", key, ANY, ANY, ANY))
         return entry
