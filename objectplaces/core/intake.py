@@ -91,6 +91,18 @@ class Intake:
             return False
         return True
 
+    def admit_beat(self, source: str, size: int) -> bool:
+        """``admit`` for a ``Beat`` (whose kind is known without a lookup)."""
+        tally = self.received_by_kind.get("beat")
+        if tally is None:
+            tally = self.received_by_kind["beat"] = [0, 0]
+        tally[0] += 1
+        tally[1] += size
+        if source == self._node_id:
+            self._outbox.count("dropped_own")
+            return False
+        return True
+
     def drop(self, source: str, reason: str, detail: str, now: float) -> None:
         """Count one frame from ``source`` dropped for ``reason``; log it unless logged lately."""
         self._outbox.count(reason)

@@ -166,3 +166,23 @@ def test_the_collector_is_spaced_while_events_run_and_restored_after() -> None:
     loop.run_until(1.0)
     assert seen[0][0] == max(before[0], GC_ALLOCATIONS)
     assert gc.get_threshold() == before
+
+
+def test_a_beat_takes_its_short_path_with_the_same_accounting() -> None:
+    from objectplaces.core.messages import Beat
+    from objectplaces.core.node import NodeMachine
+
+    a = NodeMachine("a")
+    a.messages_to_send()  # its subscription
+    a.receive_message("a", Beat(3), 1.0, size=4)  # claims to be us: tallied, dropped
+    assert a.counters == {"dropped_own": 1}
+    a.receive_message("b", Beat(3), 1.0, size=4)  # not in the view: asked for a snapshot
+    assert [type(o).__name__ for o in a.messages_to_send()] == ["Send"]
+    a.receive_message("b", PropertyUpdate(3, {"x": 1}, full=True), 2.0, size=9)
+    a.messages_to_send()
+    a.receive_message("b", Beat(3), 5.0, size=5)  # the latest publication: only heard
+    assert a.messages_to_send() == []
+    assert a.received_by_kind["beat"] == [3, 13]
+    assert a.received_by_kind["property"] == [1, 9]
+    a.receive_message("b", Beat(4), 6.0, size=4)  # a publication missed: snapshot asked
+    assert [type(o).__name__ for o in a.messages_to_send()] == ["Send"]
