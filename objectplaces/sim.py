@@ -168,6 +168,7 @@ class SimulatedNetwork:
         node_id: str,
         *,
         interest_radius: float | None = None,
+        footprint_margin: float | None = None,
         property_interval: float | None = _UNSET,
         beat_interval: float | None = _UNSET,
         failure_timeout: float | None = _UNSET,
@@ -178,6 +179,8 @@ class SimulatedNetwork:
         Args:
             node_id: unique among live nodes.
             interest_radius: scoped dissemination radius (None: hear every node).
+            footprint_margin: with an interest radius, publish to the cells within the
+                node's radius plus this margin (``NodeConfig.footprint_margin``).
             property_interval: overrides the network's default.
             beat_interval: overrides the network's default.
             failure_timeout: overrides the network's default.
@@ -190,6 +193,8 @@ class SimulatedNetwork:
             raise LocalProtocolError(f"node {node_id!r} is already on the network")
         if interest_radius is not None and not interest_radius > 0:
             raise LocalProtocolError(f"interest_radius must be > 0, got {interest_radius!r}")
+        if footprint_margin is not None and not footprint_margin >= 0:
+            raise LocalProtocolError(f"footprint_margin must be >= 0, got {footprint_margin!r}")
         defaults = self._defaults
         config = NodeConfig(
             property_interval=(
@@ -200,6 +205,7 @@ class SimulatedNetwork:
                 defaults.failure_timeout if failure_timeout is _UNSET else failure_timeout
             ),
             interest_radius=interest_radius,
+            footprint_margin=footprint_margin,
             cell_size=defaults.cell_size,
             retransmit_timeout=defaults.retransmit_timeout,
         )

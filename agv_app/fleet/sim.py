@@ -33,7 +33,7 @@ from agv_app.tasks.load import (
 )
 from agv_app.traffic.central import CentralScheduler
 from agv_app.traffic.monitor import SafetyMonitor, SafetyViolation
-from agv_app.traffic.reach import interest_radius
+from agv_app.traffic.reach import footprint_margin, interest_radius
 from agv_app.traffic.stale_relay import StaleListener, StaleRelay
 from agv_app.vehicle.controller import AgvConfig, AgvController
 from agv_app.vehicle.kinematics import VehicleSpec
@@ -71,6 +71,10 @@ class FleetConfig:
             interest radius (:func:`agv_app.traffic.reach.interest_radius`); stations
             and the observer hear every node. Broadcast runs are never scoped.
         interest_radius: the AGVs' interest radius when scoped (None: from the layout).
+        footprints: when scoped, each AGV publishes to the cells its own circle reaches
+            (its hull length plus half the dissemination margin) and listens over the
+            largest hull length plus the other half, instead of publishing in its own
+            cell and listening over twice the largest (``NodeConfig.footprint_margin``).
         heartbeat: the liveness interval (None: ``t_update``): a node that has published
             nothing for this long sends a beat of a few bytes (``NodeConfig.beat_interval``);
             a node unheard for three heartbeats counts as failed.
@@ -103,6 +107,7 @@ class FleetConfig:
     traffic: str = "protocol"
     scoped: bool = True
     interest_radius: float | None = None
+    footprints: bool = True
     heartbeat: float | None = None
     republish: float | None = None
     beats: bool = True
@@ -212,12 +217,16 @@ class Fleet(FleetSourceBase):
         self.agv_config = AgvConfig(t_update=cfg.t_update, dwell=cfg.dwell, broadcast=cfg.broadcast)
         self.interest_radius = self._interest_radius()
         """The AGV nodes' interest radius (None: they hear every node)."""
+        self.footprint_margin = self._footprint_margin()
+        """The AGV nodes' footprint margin (None: they publish in their own cell)."""
         self.central = CentralScheduler() if cfg.traffic == "central" else None
         self.agvs: dict[str, AgvController] = {}
         width = max(2, len(str(cfg.agvs)))
         for i, home in enumerate(self.parking.homes):
             agv_id = f"agv-{i + 1:0{width}d}"
-            node = self.net.add_node(agv_id, interest_radius=self.interest_radius)
+            node = self.net.add_node(
+                agv_id, interest_radius=self.interest_radius, footprint_margin=self.footprint_margin
+            )
             start = home if starts is None else starts[i]
             self.agvs[agv_id] = vehicle(
                 node,
@@ -260,16 +269,22 @@ class Fleet(FleetSourceBase):
             return None
         if cfg.interest_radius is not None:
             return cfg.interest_radius
+        return interest_radius(
+            self.layout, self.spec, self.agv_config, footprints=cfg.footprints, **self._timing()
+        )
+
+    def _footprint_margin(self) -> float | None:
+        if self.interest_radius is None or not self.config.footprints:
+            return None
+        return footprint_margin(self.spec, self.agv_config, **self._timing())
+
+    def _timing(self) -> dict[str, float]:
+        """The network delay and failure timeout the dissemination margin allows for."""
+        cfg = self.config
         # A held-back frame waits up to four more delays (SimulatedNetwork's reorder).
         worst_delay = (cfg.delay + cfg.jitter) * (5 if cfg.reorder else 1)
         heartbeat = cfg.t_update if cfg.heartbeat is None else cfg.heartbeat
-        return interest_radius(
-            self.layout,
-            self.spec,
-            self.agv_config,
-            delay_s=worst_delay,
-            failure_timeout_s=3 * heartbeat,
-        )
+        return {"delay_s": worst_delay, "failure_timeout_s": 3 * heartbeat}
 
     def _relocate(self, agv: AgvController) -> str | None:
         """A free rest point for an idle AGV that stands in the way (nearest ahead).
@@ -309,7 +324,9 @@ class Fleet(FleetSourceBase):
 
     def recover(self, agv_id: str) -> None:
         """Bring a crashed AGV back on a fresh node."""
-        node = self.net.add_node(agv_id, interest_radius=self.interest_radius)
+        node = self.net.add_node(
+            agv_id, interest_radius=self.interest_radius, footprint_margin=self.footprint_margin
+        )
         self.agvs[agv_id].restart(node)
         self._listen(agv_id, node)
 

@@ -5,9 +5,14 @@ of its locked and requested projections. Two AGVs can only conflict when their c
 overlap (``|p_i - p_j| <= r_i + r_j``), so a node that hears every AGV within twice the
 largest hull length any AGV can publish hears every member of every collision group it
 may form or vote in. :func:`largest_hull_length` bounds that length from the layout and
-the controller's rules, :func:`interest_radius` adds a margin for movement between
-property updates and for network delay. docs/traffic.md ("Why the interest radius
-keeps every collider in the group") gives the argument.
+the controller's rules, :func:`dissemination_margin` adds a margin for movement between
+property updates, for network delay and for detecting a crash.
+
+With footprints (``NodeConfig.footprint_margin``) a node publishes to the cells within
+its own hull length plus half the margin and listens over the largest hull length plus
+the other half, so it hears every AGV whose circle may meet any circle it may publish:
+:func:`interest_radius` and :func:`footprint_margin`. docs/traffic.md ("Why the
+interest radius keeps every collider in the group") gives the argument.
 
 The bound follows the request rule of :class:`~agv_app.vehicle.controller.AgvController`:
 a request is made when the locked stretch ahead is at most ``need`` long (braking
@@ -32,6 +37,8 @@ from agv_app.vehicle.controller import AgvConfig
 from agv_app.vehicle.kinematics import VehicleSpec
 
 __all__ = [
+    "dissemination_margin",
+    "footprint_margin",
     "interest_radius",
     "largest_hull_length",
     "longest_no_rest_zone",
@@ -138,6 +145,48 @@ def largest_hull_length(layout: Layout, spec: VehicleSpec, config: AgvConfig) ->
     return along + half_diagonal + config.hull_margin_m + _ROUNDING_M
 
 
+def dissemination_margin(
+    spec: VehicleSpec,
+    config: AgvConfig,
+    *,
+    delay_s: float = 0.0,
+    failure_timeout_s: float = 0.0,
+) -> float:
+    """How much further than two circles' reach an AGV must hear the other, metres.
+
+    The distance two AGVs may close while one update interval and two network delays
+    pass (both at top speed), plus the distance an AGV covers towards a crashed one
+    before the failure is detected and relayed (:mod:`agv_app.traffic.stale_relay`): a
+    failure is found at most four thirds of the timeout after the node was last heard
+    (liveness is checked every third of it).
+
+    Args:
+        spec: the vehicles' size and speed.
+        config: the AGV component's tunables (``t_update``).
+        delay_s: the largest one-way network delay.
+        failure_timeout_s: the nodes' failure timeout (0: no crash to relay).
+    """
+    speed = spec.max_speed_m_s
+    movement = 2 * speed * (config.t_update + 2 * delay_s)
+    detection = speed * (4 / 3 * failure_timeout_s + 2 * delay_s) if failure_timeout_s else 0.0
+    return movement + detection
+
+
+def footprint_margin(
+    spec: VehicleSpec,
+    config: AgvConfig,
+    *,
+    delay_s: float = 0.0,
+    failure_timeout_s: float = 0.0,
+) -> float:
+    """An AGV node's footprint margin (``NodeConfig.footprint_margin``): half the
+    dissemination margin (:func:`dissemination_margin`, same arguments); the interest
+    radius with footprints carries the other half."""
+    return (
+        dissemination_margin(spec, config, delay_s=delay_s, failure_timeout_s=failure_timeout_s) / 2
+    )
+
+
 def interest_radius(
     layout: Layout,
     spec: VehicleSpec,
@@ -145,16 +194,16 @@ def interest_radius(
     *,
     delay_s: float = 0.0,
     failure_timeout_s: float = 0.0,
+    footprints: bool = False,
 ) -> float:
     """The interest radius of an AGV node: every possible collider of its requests, and
-    every requester it may vote for, lies within it.
+    every requester it may vote for, lies within it (or, with footprints, has its
+    footprint reach into it).
 
-    Twice the largest hull length (both circles at their largest), plus the distance
-    two AGVs may close while one update interval and two network delays pass (both at
-    top speed), plus the distance an AGV covers towards a crashed one before the
-    failure is detected and relayed (:mod:`agv_app.traffic.stale_relay`): a failure is
-    found at most four thirds of the timeout after the node was last heard (liveness is
-    checked every third of it).
+    Without footprints (every node publishes in its own cell): twice the largest hull
+    length (both circles at their largest) plus the dissemination margin. With
+    footprints: the largest hull length plus half the margin; the other AGV's
+    footprint adds its own hull length and the other half (:func:`footprint_margin`).
 
     Args:
         layout: the floor plan.
@@ -162,11 +211,13 @@ def interest_radius(
         config: the AGV component's tunables (``t_update``, ``advance_m``).
         delay_s: the largest one-way network delay.
         failure_timeout_s: the nodes' failure timeout (0: no crash to relay).
+        footprints: the nodes publish to their footprints.
     """
-    speed = spec.max_speed_m_s
-    movement = 2 * speed * (config.t_update + 2 * delay_s)
-    detection = speed * (4 / 3 * failure_timeout_s + 2 * delay_s) if failure_timeout_s else 0.0
-    return 2 * largest_hull_length(layout, spec, config) + movement + detection
+    margin = dissemination_margin(
+        spec, config, delay_s=delay_s, failure_timeout_s=failure_timeout_s
+    )
+    largest = largest_hull_length(layout, spec, config)
+    return largest + margin / 2 if footprints else 2 * largest + margin
 
 
 def unheard_colliders(

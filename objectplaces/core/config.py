@@ -33,6 +33,11 @@ class NodeConfig:
             failure detection.
         interest_radius: scoped dissemination: hear only nodes within about this
             distance (None: hear every node, the paper's behaviour).
+        footprint_margin: with an interest radius, publish to every cell within this
+            margin plus the node's own radius (``hull_length``, 0 when unset) of its
+            position, instead of to its own cell only (None). A node then hears another
+            when its interest square meets the other's footprint square, so a node
+            whose circle is small reaches few listeners (docs/protocol.md §5).
         cell_size: side of the grid cells used for dissemination scopes and the index.
         retransmit_timeout: first retransmission of an unacknowledged channel frame.
         max_retransmissions: tries before a channel counts as broken (its peer gone).
@@ -46,6 +51,7 @@ class NodeConfig:
     beat_interval: float | None = None
     failure_timeout: float | None = None
     interest_radius: float | None = None
+    footprint_margin: float | None = None
     cell_size: float = 25.0
     retransmit_timeout: float = 0.2
     max_retransmissions: int = 12

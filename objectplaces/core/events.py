@@ -30,13 +30,17 @@ class Broadcast:
 class Publish:
     """Deliver ``data`` to every node subscribed to any of ``cells`` (scoped dissemination).
 
-    More than one cell when the publisher just left a cell: its old cell's subscribers
-    must learn that it is gone, or they keep a stale position forever.
+    The first ``home`` cells are the ones the publisher publishes in now (its own cell,
+    or every cell of its footprint, ``NodeConfig.footprint_margin``); the rest are cells
+    it just left: their subscribers must learn that it is gone, or they keep a stale
+    position forever. A subscriber of several of the cells hears the frame once where
+    the transport can tell (a router); a receiver takes a repeated frame as a no-op.
     """
 
     cells: tuple[tuple[int, int], ...]
     data: bytes
     kind: str
+    home: int = 1
 
 
 @dataclass(frozen=True, slots=True)

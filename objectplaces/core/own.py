@@ -17,12 +17,13 @@ that hear the publications compare numbers with the beat, and a unicast only eve
 raises what its one receiver holds.
 
 Where a frame goes depends on dissemination (§5). Without an interest radius it is
-broadcast. With one, it is published to the cell the node is in; when the node has just
-moved to another cell it is published to both, so the old cell's subscribers see the
-new position, drop the node from their scope, and do not keep a stale position forever
-(the trap DESIGN.md warns of). The subscription itself is the square of cells that
-covers the interest radius around the node's position; it is recomputed on every move
-but re-announced only when the square's bounds change.
+broadcast. With one, it is published to the node's *home*: the cell it is in, or, with
+a footprint margin, every cell within its own radius plus that margin. When the home
+has just changed the frame goes to the cells left too, so their subscribers see the
+new position (or the smaller circle), drop the node from their scope, and do not keep
+a stale position forever (the trap DESIGN.md warns of). The subscription itself is the
+square of cells that covers the interest radius around the node's position; it is
+recomputed on every move but re-announced only when the square's bounds change.
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ from objectplaces.core.config import NodeConfig
 from objectplaces.core.errors import InvalidValueError
 from objectplaces.core.events import Broadcast, Output, Publish, Send
 from objectplaces.core.messages import Beat, PropertyUpdate
+from objectplaces.core.spatial import home_cells
 from objectplaces.core.values import (
     MAX_VALUE_SIZE,
     POSITION,
@@ -62,7 +64,7 @@ class OwnProperties:
         "_bounds",
         "_config",
         "_dirty",
-        "_published_cell",
+        "_published_home",
         "_published_seq",
         "_readonly",
         "_seq",
@@ -78,7 +80,7 @@ class OwnProperties:
         self._readonly: Mapping[str, Any] = MappingProxyType(self._values)
         self._dirty: dict[str, Any] = {}
         self._seq = 0
-        self._published_cell: Cell | None = None
+        self._published_home: tuple[Cell, ...] = ()  # where the last publication went
         self._published_seq = 0  # the seq of the latest publication to the scope
         self._bounds: tuple[int, int, int, int] | None = None
         #: Whether changes wait to be published (an attribute: the driver asks per drain).
@@ -143,10 +145,17 @@ class OwnProperties:
             return None
         dirty, self._dirty = self._dirty, {}
         self.pending = False
-        scoped = self._config.interest_radius is not None
-        if len(dirty) == len(self._values) or (scoped and self._cell() != self._published_cell):
+        if len(dirty) == len(self._values) or self._home_grows():
             return self._publication(self._values, full=True)
         return self._publication(dirty, full=False)
+
+    def _home_grows(self) -> bool:
+        """Whether the next publication reaches a cell the last one did not."""
+        if self._config.interest_radius is None:
+            return False
+        home = self._home()
+        published = self._published_home
+        return home != published and not set(home).issubset(published)
 
     def republish(self) -> Output | None:
         """The heartbeat: a snapshot of every value (pending changes included)."""
@@ -161,10 +170,10 @@ class OwnProperties:
         if not self._values:
             return None
         data = codec.encode(Beat(self._published_seq))
-        cell = self._cell()
-        if self._config.interest_radius is None or cell is None:
+        home = self._published_home or self._home()
+        if self._config.interest_radius is None or not home:
             return Broadcast(data, "beat")
-        return Publish((cell,), data, "beat")
+        return Publish(home, data, "beat", len(home))
 
     def full_update_for(self, peer: str) -> Send | None:
         """A snapshot for one peer (a newcomer, a new subscriber of our cell, an asker)."""
@@ -178,24 +187,30 @@ class OwnProperties:
         self._seq += 1
         self._published_seq = self._seq
         data = codec.encode(PropertyUpdate(self._seq, dict(values), full))
-        cell = self._cell()
-        if self._config.interest_radius is None or cell is None:
+        home = self._home()
+        if self._config.interest_radius is None or not home:
             return Broadcast(data, "property")
-        old = self._published_cell
-        cells = (cell,) if old is None or old == cell else (cell, old)
-        self._published_cell = cell
-        return Publish(cells, data, "property")
+        old = self._published_home
+        cells = home
+        if old and old != home:
+            kept = set(home)
+            cells = home + tuple(c for c in old if c not in kept)
+        self._published_home = home
+        return Publish(cells, data, "property", len(home))
 
     def _position(self) -> tuple[float, float] | None:
         position = self._values.get(POSITION)
         return position if isinstance(position, tuple) else None
 
-    def _cell(self) -> Cell | None:
+    def _home(self) -> tuple[Cell, ...]:
+        """The cells this node publishes in now (none without a position)."""
         position = self._position()
         if position is None:
-            return None
-        size = self._config.cell_size
-        return (math.floor(position[0] / size), math.floor(position[1] / size))
+            return ()
+        config = self._config
+        return home_cells(
+            position, self._values.get(RADIUS), config.footprint_margin, config.cell_size
+        )
 
     def footprint(self) -> dict[str, int]:
         """Sizes of what this node keeps of its own properties."""

@@ -1,4 +1,5 @@
-"""A uniform-grid index of node positions, and a running maximum of a numeric property.
+"""A uniform-grid index of node positions, a running maximum of a numeric property, and
+the cells a node publishes in (its home, §5).
 
 The engine keeps one grid per position property that declarative definitions use. A
 query for the nodes within ``r`` of a point visits only the cells that square touches,
@@ -10,8 +11,9 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator
+from typing import Any
 
-__all__ = ["GridIndex", "RunningMax"]
+__all__ = ["GridIndex", "RunningMax", "footprint_bounds", "home_cells"]
 
 Cell = tuple[int, int]
 
@@ -110,3 +112,34 @@ class RunningMax:
             self._max = max(self._values.values(), default=0.0)
             self._stale = False
         return self._max
+
+
+def home_cells(
+    position: tuple[float, float], radius: Any, margin: float | None, cell_size: float
+) -> tuple[Cell, ...]:
+    """Where a node at ``position`` publishes: its own cell (``margin`` None), or every
+    cell of the square of half-side ``radius + margin`` around it (its footprint), in
+    row order. A radius that is not a number counts as 0.
+
+    Senders and receivers compute it alike: a receiver tells from a sender's properties
+    whether the sender still publishes where it listens (``PropertyView.in_scope``).
+    """
+    x, y = position
+    if margin is None:
+        return ((math.floor(x / cell_size), math.floor(y / cell_size)),)
+    x0, y0, x1, y1 = footprint_bounds(position, radius, margin, cell_size)
+    return tuple((cx, cy) for cx in range(x0, x1 + 1) for cy in range(y0, y1 + 1))
+
+
+def footprint_bounds(
+    position: tuple[float, float], radius: Any, margin: float, cell_size: float
+) -> tuple[int, int, int, int]:
+    """The first and last cell columns and rows of a footprint (``home_cells``)."""
+    x, y = position
+    half = margin + (float(radius) if isinstance(radius, int | float) else 0.0)
+    return (
+        math.floor((x - half) / cell_size),
+        math.floor((y - half) / cell_size),
+        math.floor((x + half) / cell_size),
+        math.floor((y + half) / cell_size),
+    )

@@ -46,8 +46,8 @@ from objectplaces.core.groups import DefinitionLike, GroupDefinition
 from objectplaces.core.messages import PropertyRequest, PropertyUpdate
 from objectplaces.core.observers import Observers
 from objectplaces.core.plumbing import Plumbing
-from objectplaces.core.spatial import GridIndex, RunningMax
-from objectplaces.core.values import POSITION
+from objectplaces.core.spatial import GridIndex, RunningMax, footprint_bounds
+from objectplaces.core.values import POSITION, RADIUS
 
 __all__ = ["SNAPSHOT_RETRY", "Cell", "PropertyView"]
 
@@ -75,6 +75,7 @@ class PropertyView:
         "_asked",
         "_cell_size",
         "_complete",
+        "_footprint_margin",
         "_heard",
         "_indexes",
         "_maxima",
@@ -85,6 +86,7 @@ class PropertyView:
         "_proxies",
         "_readonly",
         "_scope",
+        "_scope_bounds",
         "_seqs",
         "_tops",
         "scoped",
@@ -93,6 +95,7 @@ class PropertyView:
     def __init__(self, plumbing: Plumbing, *, observers: Observers) -> None:
         self._node_id = plumbing.node_id
         self._cell_size = plumbing.config.cell_size
+        self._footprint_margin = plumbing.config.footprint_margin
         self._outbox = plumbing.outbox
         self._observers = observers
         self._props: dict[str, dict[str, Any]] = {}
@@ -107,6 +110,7 @@ class PropertyView:
         self._indexes: dict[str, GridIndex] = {}
         self._maxima: dict[str, RunningMax] = {}
         self._scope: frozenset[Cell] | None = None
+        self._scope_bounds = (0, 0, -1, -1)  # first and last column and row of the scope
         self._complete: set[str] = set()  # nodes heard in a snapshot since they came in
         self._asked: dict[str, float] = {}  # when each incomplete node was last asked
         #: Whether this node hears only some cells (a plain attribute: read per update).
@@ -256,23 +260,42 @@ class PropertyView:
     # ------------------------------------------------------------------ scope (§5)
 
     def set_scope(self, cells: frozenset[Cell]) -> list[str]:
-        """Hear only ``cells`` from now on; return the nodes now out of scope, sorted."""
+        """Hear only ``cells`` from now on (a rectangle of cells, as a subscription is);
+        return the nodes now out of scope, sorted."""
         self._scope = cells
+        self._scope_bounds = (
+            (
+                min(c[0] for c in cells),
+                min(c[1] for c in cells),
+                max(c[0] for c in cells),
+                max(c[1] for c in cells),
+            )
+            if cells
+            else (0, 0, -1, -1)
+        )
         self.scoped = True
         return sorted(n for n in self._props if not self.in_scope(n))
 
     def in_scope(self, node: str) -> bool:
-        """Whether ``node``'s last position lies in a cell this node hears.
+        """Whether ``node`` still publishes where this node hears: its cell (or, with
+        footprints, a cell of its footprint) lies in the scope, judged from its last
+        properties as it judged them itself (``own.home_cells``).
 
         A node without a position stays in scope: nothing says it is elsewhere.
         """
         if self._scope is None:
             return True
-        position = self._props[node].get(POSITION)
+        props = self._props[node]
+        position = props.get(POSITION)
         if not isinstance(position, tuple):
             return True
         size = self._cell_size
-        return (math.floor(position[0] / size), math.floor(position[1] / size)) in self._scope
+        margin = self._footprint_margin
+        if margin is None:
+            return (math.floor(position[0] / size), math.floor(position[1] / size)) in self._scope
+        x0, y0, x1, y1 = footprint_bounds(position, props.get(RADIUS), margin, size)
+        sx0, sy0, sx1, sy1 = self._scope_bounds
+        return x0 <= sx1 and sx0 <= x1 and y0 <= sy1 and sy0 <= y1
 
     # ------------------------------------------------------------------ groups (§6)
 

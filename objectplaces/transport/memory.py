@@ -170,8 +170,8 @@ class MemoryNetwork:
                 return self._send(source, (target,), data, kind)
             case Broadcast(data, kind):
                 return self._send(source, [n for n in self._nodes if n != source], data, kind)
-            case Publish(cells, data, kind):
-                return self._send(source, self._router.publish(source, cells), data, kind)
+            case Publish(cells, data, kind, home):
+                return self._send(source, self._router.publish(source, cells, home), data, kind)
             case Subscribe(cells):
                 self._subscribe(source, cells)
                 return 0

@@ -1,12 +1,13 @@
 """Cell routing, shared by every transport: who hears a publication in which cells.
 
 Nodes declare what they want to hear (``Subscribe``): a set of grid cells, or everything
-(``None``). A ``Publish`` names the cells it concerns (the publisher's cell, and the cell
-it just left, so that cell's subscribers learn it moved away); it reaches every full
-subscriber and every subscriber of one of those cells, the publisher excepted.
+(``None``). A ``Publish`` names the cells it concerns (the publisher's home: its cell or
+its footprint; then the cells it just left, so their subscribers learn it moved away);
+it reaches every full subscriber and every subscriber of one of those cells, once, the
+publisher excepted.
 
-The router also remembers the cell each node last published in, so that a new
-subscriber of a cell can be sent the properties of the nodes already there at once,
+The router also remembers the home each node last published in, so that a new
+subscriber of a cell can be sent the properties of the nodes publishing there at once,
 instead of waiting one republication interval. The in-memory network keeps one router
 for the whole network (it plays a content router's part); a mesh node keeps one for its
 peers' subscriptions and its own publications (a mesh has no router).
@@ -44,13 +45,13 @@ class Subscribed:
 class CellRouter:
     """Subscriptions per node and the cell each node last published in."""
 
-    __slots__ = ("_cell_subs", "_last_cell", "_publishers_in", "_subscriptions", "_wildcard")
+    __slots__ = ("_cell_subs", "_homes", "_publishers_in", "_subscriptions", "_wildcard")
 
     def __init__(self) -> None:
         self._subscriptions: dict[str, frozenset[Cell] | None] = {}
         self._wildcard: dict[str, None] = {}
         self._cell_subs: dict[Cell, dict[str, None]] = {}
-        self._last_cell: dict[str, Cell] = {}
+        self._homes: dict[str, tuple[Cell, ...]] = {}
         self._publishers_in: dict[Cell, dict[str, None]] = {}
 
     def subscribe(self, node: str, cells: frozenset[Cell] | None) -> Subscribed:
@@ -83,18 +84,18 @@ class CellRouter:
     def forget(self, node: str) -> None:
         """Forget ``node`` entirely: its subscription and where it last published."""
         self._drop_subscription(node)
-        cell = self._last_cell.pop(node, None)
-        if cell is not None:
+        for cell in self._homes.pop(node, ()):
             self._drop_publisher(node, cell)
 
-    def publish(self, node: str, cells: Sequence[Cell]) -> dict[str, None]:
-        """Route one publication of ``node`` concerning ``cells`` (its own cell first).
+    def publish(self, node: str, cells: Sequence[Cell], home: int = 1) -> dict[str, None]:
+        """Route one publication of ``node`` concerning ``cells``, the first ``home`` of
+        them the cells it publishes in now (``Publish.home``).
 
         Returns:
             The subscribers to deliver it to, in a reproducible order, ``node`` excluded.
         """
         if cells:
-            self._published_in(node, cells[0])
+            self._published_in(node, tuple(cells[:home]))
         targets = dict(self._wildcard)
         cell_subs = self._cell_subs
         for cell in cells:
@@ -104,25 +105,28 @@ class CellRouter:
         targets.pop(node, None)
         return targets
 
-    def last_cell(self, node: str) -> Cell | None:
-        """The cell ``node`` last published in (None: it has not published in one)."""
-        return self._last_cell.get(node)
+    def home(self, node: str) -> tuple[Cell, ...]:
+        """The cells ``node`` last published in (empty: it has not published in one)."""
+        return self._homes.get(node, ())
 
     def __len__(self) -> int:
         """How many nodes the router holds any state for."""
-        return len(self._subscriptions.keys() | self._last_cell.keys())
+        return len(self._subscriptions.keys() | self._homes.keys())
 
-    def _published_in(self, node: str, cell: Cell) -> None:
-        old = self._last_cell.get(node)
-        if old == cell:
+    def _published_in(self, node: str, home: tuple[Cell, ...]) -> None:
+        old = self._homes.get(node, ())
+        if old == home:
             return
-        if old is not None:
-            self._drop_publisher(node, old)
-        self._last_cell[node] = cell
-        publishers = self._publishers_in.get(cell)
-        if publishers is None:
-            publishers = self._publishers_in[cell] = {}
-        publishers[node] = None
+        for cell in old:
+            if cell not in home:
+                self._drop_publisher(node, cell)
+        self._homes[node] = home
+        publishers_in = self._publishers_in
+        for cell in home:
+            publishers = publishers_in.get(cell)
+            if publishers is None:
+                publishers = publishers_in[cell] = {}
+            publishers[node] = None
 
     def _drop_publisher(self, node: str, cell: Cell) -> None:
         publishers = self._publishers_in[cell]

@@ -219,9 +219,9 @@ class WebSocketMesh:
                 return self._enqueue(link, data)
             case Broadcast(data, _):
                 return sum(self._enqueue(link, data) for link in list(self._links.values()))
-            case Publish(cells, data, _):
+            case Publish(cells, data, _, home):
                 sent = 0
-                for peer in self._router.publish(self.node_id, cells):
+                for peer in self._router.publish(self.node_id, cells, home):
                     link = self._links.get(peer)
                     if link is not None:
                         sent += self._enqueue(link, data)

@@ -3,15 +3,16 @@
 Every key of a fleet starts with ``objectplaces/<fleet>``. Below it:
 
 - ``props/<cx>,<cy>/<node>``: a property update of ``node`` published in cell
-  ``(cx, cy)``; ``props/<cx>,<cy>/<node>/left`` carries the same update to the cell the
-  node just left. A cell's subscribers declare ``props/<cx>,<cy>/**`` and hear both;
-  full dissemination is the one wildcard ``props/*/*``, which hears each update once.
+  ``(cx, cy)``; ``props/<cx>,<cy>/<node>/left`` carries the same update to each other
+  cell it concerns (a cell the node just left, or another cell of its footprint). A
+  cell's subscribers declare ``props/<cx>,<cy>/**`` and hear both; full dissemination
+  is the one wildcard ``props/*/*``, which hears each update once.
 - ``all/<node>``: a broadcast of ``node`` (every node hears ``all/*``).
 - ``to/<target>/<source>``: a frame for one node (session channels, snapshots); each
   node hears ``to/<itself>/*``.
 - ``alive/<node>/<incarnation>``: a node's liveliness token.
 - ``who/<cx>,<cy>/<node>`` (or ``who/none/<node>`` before it has a cell): the node's
-  queryable, asked by a node that starts hearing that cell.
+  queryable in each cell it publishes in, asked by a node that starts hearing that cell.
 
 Node ids are escaped into one chunk (``%XX`` for any byte outside a safe set), so an id
 can never add chunks or wildcards to a key. Sans-I/O: strings in, strings out.

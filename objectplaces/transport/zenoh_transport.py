@@ -88,8 +88,8 @@ class ZenohTransport:
         self._full_sub: Any = None
         self._subscription: frozenset[Cell] | None = None
         self._subscribed = False
-        self._my_cell: Cell | None = None
-        self._queryable: Any = None
+        self._home: tuple[Cell, ...] = ()  # the cells we publish in (none before a position)
+        self._queryables: dict[Cell | None, Any] = {}  # one per home cell (None: no cell)
         self._changed = asyncio.Event()
         self._reconcile_timer: asyncio.TimerHandle | None = None
         self._liveliness_queries = 0
@@ -132,7 +132,7 @@ class ZenohTransport:
             session.declare_subscriber(keys.inbox(), on_data),
             session.declare_subscriber(keys.broadcasts(), on_data),
         ]
-        self._queryable = session.declare_queryable(keys.who(None), inbox.query_callback())
+        self._queryables[None] = session.declare_queryable(keys.who(None), inbox.query_callback())
         self._declared.append(
             session.liveliness().declare_subscriber(
                 keys.alive_all(), inbox.alive_callback(keys), history=True
@@ -213,8 +213,8 @@ class ZenohTransport:
                 return self._put(keys.to(target), data)
             case Broadcast(data, _):
                 return self._put(keys.broadcast(), data)
-            case Publish(cells, data, _):
-                self._publishing_in(cells[0] if cells else None)
+            case Publish(cells, data, _, home):
+                self._publishing_in(tuple(cells[:home]))
                 sent = 0
                 for n, cell in enumerate(cells):
                     sent += self._put(keys.props(cell, left=n > 0), data)
@@ -234,18 +234,20 @@ class ZenohTransport:
         self._count("bytes_out", len(data))
         return 1
 
-    def _publishing_in(self, cell: Cell | None) -> None:
-        """Move our queryable to the cell we publish in, so that askers there find us."""
-        if cell == self._my_cell or self._session is None:
+    def _publishing_in(self, home: tuple[Cell, ...]) -> None:
+        """Keep a queryable in every cell we publish in, so that askers there find us."""
+        if home == self._home or self._session is None:
             return
-        self._my_cell = cell
-        old = self._queryable
+        self._home = home
+        wanted: tuple[Cell | None, ...] = home or (None,)
         assert self._inbox is not None
-        self._queryable = self._session.declare_queryable(
-            self.keys.who(cell), self._inbox.query_callback()
-        )
-        if old is not None:
-            old.undeclare()
+        for cell in wanted:  # the new ones first: an asker never finds a gap
+            if cell not in self._queryables:
+                self._queryables[cell] = self._session.declare_queryable(
+                    self.keys.who(cell), self._inbox.query_callback()
+                )
+        for cell in [c for c in self._queryables if c not in wanted]:
+            self._queryables.pop(cell).undeclare()
 
     def _subscribe(self, cells: frozenset[Cell] | None) -> None:
         session, keys, inbox = self._session, self.keys, self._inbox
@@ -353,7 +355,7 @@ class ZenohTransport:
 
     def _should_answer(self, cells: frozenset[Cell] | None) -> bool:
         """Whether an asker hearing ``cells`` (None: everything) should hear us."""
-        return cells is None or self._my_cell is None or self._my_cell in cells
+        return cells is None or not self._home or not cells.isdisjoint(self._home)
 
 
 def _ignore_reply(_reply: zenoh.Reply) -> None:

@@ -65,7 +65,7 @@ def test_forgotten_nodes_leave_nothing_behind() -> None:
     router.forget("a")
     router.forget("p")
     assert len(router) == 0
-    assert router.last_cell("a") is None
+    assert router.home("a") == ()
     assert router._cell_subs == {}
     assert router._publishers_in == {}
 

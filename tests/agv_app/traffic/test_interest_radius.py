@@ -21,6 +21,7 @@ from agv_app.layout.demo import demo_warehouse
 from agv_app.layout.loop import long_loop
 from agv_app.traffic.deadlock import StopPlan, clearance_for, followable_segments
 from agv_app.traffic.reach import (
+    dissemination_margin,
     interest_radius,
     largest_hull_length,
     longest_no_rest_zone,
@@ -64,8 +65,10 @@ class ScopeWatch:
                 self.longest_hull = max(self.longest_hull, length)
 
 
-def _scoped_fleet(radius: float | None, seconds: float) -> tuple[Fleet, ScopeWatch]:
-    config = FleetConfig(agvs=12, seed=3, load=0.5, interest_radius=radius)
+def _scoped_fleet(
+    radius: float | None, seconds: float, *, footprints: bool = True
+) -> tuple[Fleet, ScopeWatch]:
+    config = FleetConfig(agvs=12, seed=3, load=0.5, interest_radius=radius, footprints=footprints)
     fleet = Fleet(config=config)
     watch = ScopeWatch(fleet)
     fleet.run(seconds)
@@ -92,15 +95,20 @@ def test_published_hull_lengths_stay_within_the_bound(
     fleet, watch = scoped_run
     bound = largest_hull_length(fleet.layout, fleet.spec, fleet.agv_config)
     assert 4.0 < watch.longest_hull <= bound
+    timing = {"delay_s": 0.007, "failure_timeout_s": 3.0}
     assert fleet.interest_radius == pytest.approx(
-        interest_radius(
-            fleet.layout, fleet.spec, fleet.agv_config, delay_s=0.007, failure_timeout_s=3.0
-        )
+        interest_radius(fleet.layout, fleet.spec, fleet.agv_config, footprints=True, **timing)
+    )
+    margin = dissemination_margin(fleet.spec, fleet.agv_config, **timing)
+    assert fleet.footprint_margin == pytest.approx(margin / 2)
+    # Without footprints each circle may be the largest: twice it, and the whole margin.
+    assert interest_radius(fleet.layout, fleet.spec, fleet.agv_config, **timing) == pytest.approx(
+        2 * bound + margin
     )
 
 
 def test_a_radius_too_small_is_caught() -> None:
-    fleet, watch = _scoped_fleet(6.0, 60.0)
+    fleet, watch = _scoped_fleet(6.0, 60.0, footprints=False)
     assert fleet.interest_radius == 6.0
     assert watch.missed, "a 6 m radius must leave colliders unheard"
     # And an unheard collider is a real danger: locks granted over each other.
@@ -228,27 +236,43 @@ def test_unheard_colliders_finds_overlapping_circles_only() -> None:
 # -- a floor longer than the radius: the scope really leaves nodes out ------------------
 
 
-def test_on_a_long_floor_agvs_hear_only_their_neighbourhood() -> None:
-    config = FleetConfig(agvs=12, seed=5, load=0.6)
+def _long_floor_run(footprints: bool) -> tuple[Fleet, ScopeWatch, float]:
+    """12 AGVs on the 300 m loop for 150 s; the mean number of AGVs each AGV hears."""
+    config = FleetConfig(agvs=12, seed=5, load=0.6, footprints=footprints)
     fleet = Fleet(long_loop(), config)
     watch = ScopeWatch(fleet)
-    heard_fewer = 0
-
-    def count_scoped() -> None:
-        nonlocal heard_fewer
-        for agv in fleet.agvs.values():
-            heard = set(agv.node.view()) & set(fleet.agvs)
-            heard_fewer += len(heard) < len(fleet.agvs) - 1
-
+    heard_counts: list[int] = []
     for _ in range(15):
         fleet.run(10.0)
-        count_scoped()
+        for agv in fleet.agvs.values():
+            heard_counts.append(len(set(agv.node.view()) & set(fleet.agvs)))
+    return fleet, watch, sum(heard_counts) / len(heard_counts)
+
+
+@pytest.fixture(scope="module")
+def long_floor_runs() -> dict[bool, tuple[Fleet, ScopeWatch, float]]:
+    return {footprints: _long_floor_run(footprints) for footprints in (False, True)}
+
+
+@pytest.mark.parametrize("footprints", [False, True])
+def test_on_a_long_floor_agvs_hear_only_their_neighbourhood(
+    long_floor_runs: dict[bool, tuple[Fleet, ScopeWatch, float]], footprints: bool
+) -> None:
+    fleet, watch, mean_heard = long_floor_runs[footprints]
     assert fleet.interest_radius is not None
     assert fleet.interest_radius < 100.0
-    assert heard_fewer > 0, "on a 300 m floor some AGVs must be out of each other's scope"
+    assert (fleet.footprint_margin is not None) == footprints
+    assert mean_heard < len(fleet.agvs) - 1, "on a 300 m floor some AGVs are out of scope"
     assert watch.missed == []
     assert fleet.monitor.collisions == fleet.monitor.lock_overlaps == 0
     assert fleet.summary()["tasks_completed"] >= 1
+
+
+def test_footprints_let_an_agv_hear_fewer_agvs(
+    long_floor_runs: dict[bool, tuple[Fleet, ScopeWatch, float]],
+) -> None:
+    own_cell, footprint = long_floor_runs[False][2], long_floor_runs[True][2]
+    assert footprint < 0.9 * own_cell, (footprint, own_cell)
 
 
 # -- the AGV process on the mesh --------------------------------------------------------
