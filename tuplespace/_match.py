@@ -15,6 +15,7 @@ that arity.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any, Final, final
 
 __all__ = ["ANY", "Template", "compile_template", "match_fields"]
@@ -69,7 +70,7 @@ class Template:
         checks: ``(index, kind, value)`` for every field that is not ``ANY``.
     """
 
-    __slots__ = ("arity", "checks", "exact", "fields", "key", "keyed")
+    __slots__ = ("arity", "checks", "exact", "fields", "key", "keyed", "rest")
 
     def __init__(self, fields: Fields) -> None:
         checks: list[tuple[int, int, Any]] = []
@@ -96,6 +97,26 @@ class Template:
                 keyed = False
         self.keyed: bool = keyed
         self.key: Any = fields[0] if keyed else None
+        #: For a keyed template, whether a tuple of its key's bucket matches: the first
+        #: field needs no check there (the bucket holds the tuples whose first field
+        #: equals the key), and the usual rest, one exact field or none, is one
+        #: comparison.
+        self.rest: Callable[[Fields], bool] = self.matches
+        if keyed:
+            rest = checks[1:]
+            if not rest:
+                self.rest = _always
+            elif len(rest) == 1 and rest[0][1] == _EXACT:
+                index, _, value = rest[0]
+                self.rest = lambda tup: tup[index] is value or tup[index] == value
+            else:
+                self.rest = Template._rest_of(rest)
+
+    @staticmethod
+    def _rest_of(checks: list[tuple[int, int, Any]]) -> Callable[[Fields], bool]:
+        probe = Template.__new__(Template)
+        probe.checks = tuple(checks)
+        return probe.matches
 
     def matches(self, tup: Fields) -> bool:
         """Tell whether ``tup`` (already known to have this arity) matches.
@@ -117,6 +138,10 @@ class Template:
 
     def __repr__(self) -> str:
         return f"Template({self.fields!r})"
+
+
+def _always(tup: Fields) -> bool:
+    return True
 
 
 def match_fields(template: Fields, tup: Fields) -> bool:

@@ -362,9 +362,10 @@ class TupleSpace:
         if t.keyed:
             q = a.by_first.get(t.key)
             if q is not None:
+                rest = t.rest
                 for e in q:
                     tup = e[0]
-                    if tup is not None and matches(tup):
+                    if tup is not None and rest(tup):
                         hit = e
                         break
             if a.unkeyed:
@@ -389,7 +390,8 @@ class TupleSpace:
         matches = t.matches
         if t.keyed:
             q = a.by_first.get(t.key)
-            found = [] if q is None else [e for e in q if e[0] is not None and matches(e[0])]
+            rest = t.rest
+            found = [] if q is None else [e for e in q if e[0] is not None and rest(e[0])]
             if a.unkeyed:
                 found += [e for e in a.unkeyed if e[0] is not None and matches(e[0])]
                 found.sort(key=lambda e: e[1])

@@ -76,3 +76,29 @@ def test_a_raising_predicate_propagates() -> None:
 
     with pytest.raises(ZeroDivisionError):
         match_fields((boom,), (1,))
+
+
+@pytest.mark.parametrize(
+    "template",
+    [
+        ("lock", ANY, ANY),
+        ("lock", 1, ANY),
+        ("lock", [1], ANY),
+        ("lock", int, ANY),
+        ("lock", 1, lambda v: v > 2),
+        ("lock", 1, 2),
+    ],
+)
+def test_the_rest_of_a_keyed_template_matches_as_the_whole_does_in_its_bucket(
+    template: tuple[object, ...],
+) -> None:
+    t = compile_template(template)
+    assert t.keyed
+    for tup in [
+        ("lock", 1, 3),
+        ("lock", 1.0, 2),
+        ("lock", [1], 3),
+        ("lock", "x", 0),
+        ("lock", 2, 5),
+    ]:
+        assert t.rest(tup) == t.matches(tup), tup
