@@ -37,13 +37,16 @@ class Area:
     more than the methods here; do not mutate it.
     """
 
-    __slots__ = ("geom",)
+    __slots__ = ("_extent", "geom")
 
     geom: Any
+    _extent: tuple[float, float, float, float] | tuple[()] | None
 
     def __init__(self, geom: Any) -> None:
         """Wrap a shapely geometry (use :meth:`empty` for nothing)."""
         object.__setattr__(self, "geom", geom)
+        # The bounding box, worked out on the first overlap test (see ``extent``).
+        object.__setattr__(self, "_extent", None)
 
     def __setattr__(self, name: str, value: object) -> None:
         raise AttributeError("Area is immutable")
@@ -79,6 +82,15 @@ class Area:
         """``(min_x, min_y, max_x, max_y)``; all NaN when empty."""
         b = self.geom.bounds
         return (float(b[0]), float(b[1]), float(b[2]), float(b[3]))
+
+    def extent(self) -> tuple[float, float, float, float] | tuple[()]:
+        """``bounds``, remembered (an area is tested for overlap again and again);
+        ``()`` when the area is empty."""
+        extent = self._extent
+        if extent is None:
+            extent = () if self.geom.is_empty else tuple(self.geom.bounds)
+            object.__setattr__(self, "_extent", extent)
+        return extent
 
     def union(self, other: Area) -> Area:
         """Return the union of the two areas."""
@@ -138,13 +150,14 @@ def overlaps(a: Area, b: Area, *, tolerance_m2: float = DEFAULT_OVERLAP_TOLERANC
     are safe, and the tolerance keeps floating-point slivers from raising false
     alarms. Any real encroachment (1 mm x 1 m is already 10x the default) counts.
     """
-    ga, gb = a.geom, b.geom
-    if ga.is_empty or gb.is_empty:
+    box_a, box_b = a.extent(), b.extent()
+    if not box_a or not box_b:
         return False
-    ax0, ay0, ax1, ay1 = ga.bounds
-    bx0, by0, bx1, by1 = gb.bounds
+    ax0, ay0, ax1, ay1 = box_a
+    bx0, by0, bx1, by1 = box_b
     if ax1 < bx0 or bx1 < ax0 or ay1 < by0 or by1 < ay0:
         return False
+    ga, gb = a.geom, b.geom
     if not shapely.intersects(ga, gb):
         return False
     return float(shapely.intersection(ga, gb).area) > tolerance_m2

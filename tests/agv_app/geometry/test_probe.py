@@ -45,3 +45,14 @@ def test_probe_remembers_per_object_not_per_id_alone() -> None:
     for _ in range(100):
         assert not probe.overlaps(box(5, 5, 6, 6))
     assert probe.overlaps(box(1, 1, 3, 3))
+
+
+def test_an_area_remembers_its_extent_and_overlaps_as_before() -> None:
+    a = box(0, 0, 2, 2)
+    assert a.extent() == a.bounds == (0.0, 0.0, 2.0, 2.0)
+    assert a.extent() is a.extent()
+    assert Area.empty().extent() == ()
+    assert not overlaps(Area.empty(), a)
+    assert not overlaps(a, Area.empty())
+    assert not overlaps(a, box(2, 0, 3, 2))  # touching edges
+    assert overlaps(a, box(1, 1, 3, 3))
