@@ -35,12 +35,19 @@ class Publish:
     it just left: their subscribers must learn that it is gone, or they keep a stale
     position forever. A subscriber of several of the cells hears the frame once where
     the transport can tell (a router); a receiver takes a repeated frame as a no-op.
+
+    ``snapshot``, when given, is the same publication as a snapshot (same sequence
+    number, every property): the home grew, and a node that did not hear the
+    publisher's last home may never have heard of it. Those nodes get ``snapshot``
+    instead of ``data`` (where the transport can tell; else a cell of the new home
+    gets ``snapshot`` and the others ``data``), the ones that did hear it the delta.
     """
 
     cells: tuple[tuple[int, int], ...]
     data: bytes
     kind: str
     home: int = 1
+    snapshot: bytes | None = None
 
 
 @dataclass(frozen=True, slots=True)

@@ -137,17 +137,19 @@ class OwnProperties:
     def take_update(self) -> Output | None:
         """The frame that publishes every pending change (None when nothing is pending).
 
-        It is a snapshot (every value, marked full) when it carries everything anyway,
-        and when it goes to a cell this node was not publishing in: that cell's
-        subscribers may never have heard of it, and must not hold half of it (§5).
+        It is a snapshot (every value, marked full) when it carries everything anyway.
+        When it goes to a cell this node was not publishing in, that cell's subscribers
+        may never have heard of it and must not hold half of it (§5): they get it as a
+        snapshot, the nodes that heard the last publication as a delta.
         """
         if not self._dirty:
             return None
         dirty, self._dirty = self._dirty, {}
         self.pending = False
-        if len(dirty) == len(self._values) or self._home_grows():
+        grows = self._home_grows()
+        if len(dirty) == len(self._values) or (grows and not self._published_home):
             return self._publication(self._values, full=True)
-        return self._publication(dirty, full=False)
+        return self._publication(dirty, full=False, fresh=grows)
 
     def _home_grows(self) -> bool:
         """Whether the next publication reaches a cell the last one did not."""
@@ -183,7 +185,10 @@ class OwnProperties:
         update = PropertyUpdate(self._seq, dict(self._values), full=True)
         return Send(peer, codec.encode(update), "property")
 
-    def _publication(self, values: Mapping[str, Any], *, full: bool) -> Output:
+    def _publication(
+        self, values: Mapping[str, Any], *, full: bool, fresh: bool = False
+    ) -> Output:
+        """One publication; ``fresh``: its home grew, so it carries a snapshot too."""
         self._seq += 1
         self._published_seq = self._seq
         data = codec.encode(PropertyUpdate(self._seq, dict(values), full))
@@ -196,7 +201,10 @@ class OwnProperties:
             kept = set(home)
             cells = home + tuple(c for c in old if c not in kept)
         self._published_home = home
-        return Publish(cells, data, "property", len(home))
+        snapshot = None
+        if fresh:
+            snapshot = codec.encode(PropertyUpdate(self._seq, dict(self._values), True))
+        return Publish(cells, data, "property", len(home), snapshot)
 
     def _position(self) -> tuple[float, float] | None:
         position = self._values.get(POSITION)

@@ -170,8 +170,13 @@ class MemoryNetwork:
                 return self._send(source, (target,), data, kind)
             case Broadcast(data, kind):
                 return self._send(source, [n for n in self._nodes if n != source], data, kind)
-            case Publish(cells, data, kind, home):
-                return self._send(source, self._router.publish(source, cells, home), data, kind)
+            case Publish(cells, data, kind, home, snapshot):
+                if snapshot is None:
+                    targets = self._router.publish(source, cells, home)
+                    return self._send(source, targets, data, kind)
+                heard, fresh = self._router.publish_split(source, cells, home)
+                sent = self._send(source, heard, data, kind)
+                return sent + self._send(source, fresh, snapshot, kind)
             case Subscribe(cells):
                 self._subscribe(source, cells)
                 return 0

@@ -105,6 +105,27 @@ class CellRouter:
         targets.pop(node, None)
         return targets
 
+    def publish_split(
+        self, node: str, cells: Sequence[Cell], home: int = 1
+    ) -> tuple[dict[str, None], dict[str, None]]:
+        """Route a publication whose home grew (``Publish.snapshot``), split in two.
+
+        Returns:
+            The subscribers that heard ``node``'s last home (full subscribers included)
+            and the others, each in a reproducible order, ``node`` excluded.
+        """
+        before = set(self._wildcard)
+        cell_subs = self._cell_subs
+        for cell in self._homes.get(node, ()):
+            subs = cell_subs.get(cell)
+            if subs:
+                before.update(subs)
+        heard: dict[str, None] = {}
+        fresh: dict[str, None] = {}
+        for target in self.publish(node, cells, home):
+            (heard if target in before else fresh)[target] = None
+        return heard, fresh
+
     def home(self, node: str) -> tuple[Cell, ...]:
         """The cells ``node`` last published in (empty: it has not published in one)."""
         return self._homes.get(node, ())

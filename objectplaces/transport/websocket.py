@@ -219,12 +219,17 @@ class WebSocketMesh:
                 return self._enqueue(link, data)
             case Broadcast(data, _):
                 return sum(self._enqueue(link, data) for link in list(self._links.values()))
-            case Publish(cells, data, _, home):
+            case Publish(cells, data, _, home, snapshot):
+                routed = [(self._router.publish(self.node_id, cells, home), data)]
+                if snapshot is not None:
+                    heard, fresh = self._router.publish_split(self.node_id, cells, home)
+                    routed = [(heard, data), (fresh, snapshot)]
                 sent = 0
-                for peer in self._router.publish(self.node_id, cells, home):
-                    link = self._links.get(peer)
-                    if link is not None:
-                        sent += self._enqueue(link, data)
+                for peers, frame in routed:
+                    for peer in peers:
+                        link = self._links.get(peer)
+                        if link is not None:
+                            sent += self._enqueue(link, frame)
                 return sent
             case Subscribe(cells):
                 self._own_subscription = cells

@@ -116,7 +116,11 @@ class ZenohTransport:
         """
         loop = asyncio.get_running_loop()
         self._inbox = ZenohInbox(
-            loop, self._on_items, self.counters, max_frame=self.options.max_frame
+            loop,
+            self._on_items,
+            self.counters,
+            max_frame=self.options.max_frame,
+            poll_interval=self.options.poll_interval,
         )
         self._file = CredentialsFile(self._credentials)
         config = zenoh_config(self.options, self._credentials, self._file.path)
@@ -127,10 +131,9 @@ class ZenohTransport:
             raise OSError(f"zenoh: {exc}") from exc
         session, keys, inbox = self._session, self.keys, self._inbox
         self._publishers = PublisherCache(session)
-        on_data = inbox.data_callback(keys)
         self._declared += [
-            session.declare_subscriber(keys.inbox(), on_data),
-            session.declare_subscriber(keys.broadcasts(), on_data),
+            inbox.declare_data(session, keys.inbox(), keys),
+            inbox.declare_data(session, keys.broadcasts(), keys),
         ]
         self._queryables[None] = session.declare_queryable(keys.who(None), inbox.query_callback())
         self._declared.append(
@@ -213,11 +216,16 @@ class ZenohTransport:
                 return self._put(keys.to(target), data)
             case Broadcast(data, _):
                 return self._put(keys.broadcast(), data)
-            case Publish(cells, data, _, home):
+            case Publish(cells, data, _, home, snapshot):
+                before = self._home
                 self._publishing_in(tuple(cells[:home]))
                 sent = 0
                 for n, cell in enumerate(cells):
-                    sent += self._put(keys.props(cell, left=n > 0), data)
+                    # A cell new to our home gets the snapshot; its subscribers that
+                    # heard us elsewhere too get both, the same publication twice.
+                    fresh = snapshot is not None and cell not in before
+                    payload = snapshot if fresh and snapshot is not None else data
+                    sent += self._put(keys.props(cell, left=n > 0), payload)
                 return sent
             case Subscribe(cells):
                 self._subscribe(cells)
@@ -257,14 +265,13 @@ class ZenohTransport:
         was_full = self._subscribed and self._subscription is None
         self._subscribed = True
         self._subscription = cells
-        on_data = inbox.data_callback(keys)
         asks: list[str] = []
         if cells is None:
             for sub in self._cell_subs.values():
                 sub.undeclare()
             self._cell_subs.clear()
             if self._full_sub is None:
-                self._full_sub = session.declare_subscriber(keys.all_props(), on_data)
+                self._full_sub = inbox.declare_data(session, keys.all_props(), keys)
             if not was_full:
                 asks.append(keys.who_all())
         else:
@@ -274,8 +281,8 @@ class ZenohTransport:
             for cell in [c for c in self._cell_subs if c not in cells]:
                 self._cell_subs.pop(cell).undeclare()
             for cell in sorted(cells - self._cell_subs.keys()):
-                self._cell_subs[cell] = session.declare_subscriber(
-                    keys.cell_subscription(cell), on_data
+                self._cell_subs[cell] = inbox.declare_data(
+                    session, keys.cell_subscription(cell), keys
                 )
                 asks.append(keys.who_in(cell))
             if first:

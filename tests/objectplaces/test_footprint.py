@@ -119,3 +119,42 @@ def test_the_router_syncs_a_new_subscriber_of_any_footprint_cell() -> None:
     assert router.subscribe("t", frozenset({(0, 1)})).publishers == ()
     router.forget("p")
     assert router._publishers_in == {}
+
+
+def test_a_grown_home_splits_its_listeners_into_those_that_heard_it_and_new_ones() -> None:
+    router = CellRouter()
+    router.subscribe("old", frozenset({(0, 0)}))
+    router.subscribe("new", frozenset({(0, 1)}))
+    router.subscribe("both", frozenset({(0, 0), (0, 1)}))
+    router.subscribe("all", None)
+    router.publish("p", [(0, 0)])
+    heard, fresh = router.publish_split("p", [(0, 0), (0, 1)], home=2)
+    assert list(heard) == ["all", "old", "both"]
+    assert list(fresh) == ["new"]
+    assert router.home("p") == ((0, 0), (0, 1))
+
+
+def test_listeners_that_heard_a_node_get_deltas_when_its_home_grows() -> None:
+    net = SimulatedNetwork(seed=6, delay=0.01, cell_size=10.0)
+    near = net.add_node("near", interest_radius=1.0, footprint_margin=1.0)
+    far = net.add_node("far", interest_radius=1.0, footprint_margin=1.0)
+    mover = net.add_node("mover", interest_radius=1.0, footprint_margin=1.0)
+    place(near, 5.0, 5.0)
+    place(far, 25.0, 5.0)
+    mover.update_node_property("colour", "red" * 30)  # a snapshot is much larger than a delta
+    place(mover, 8.0, 5.0, radius=0.5)
+    net.run_for(0.5)
+    assert "mover" in near.view()
+    assert "mover" not in far.view()
+
+    def received() -> tuple[int, int]:
+        near_bytes, far_bytes = (n.stats().received.get("property", (0, 0))[1] for n in (near, far))
+        return near_bytes, far_bytes
+
+    near_before, far_before = received()
+    mover.update_node_property("hull_length", 15.0)  # the footprint grows into far's cell
+    net.run_for(0.1)
+    assert far.view()["mover"]["colour"] == "red" * 30  # far got the snapshot
+    assert near.view()["mover"]["hull_length"] == 15.0  # near, the delta
+    near_after, far_after = received()
+    assert 0 < near_after - near_before < far_after - far_before

@@ -63,9 +63,12 @@ def test_a_move_to_another_cell_is_published_to_both_cells() -> None:
     moved = own.take_update()
     assert isinstance(moved, Publish)
     assert moved.cells == ((1, 0), (0, 0))  # the old cell's subscribers learn it left
-    # and the new cell's may never have heard of it: they get everything.
-    assert decoded(moved).full
-    assert dict(decoded(moved).values) == {"position": (15.0, 5.0), "status": "idle"}
+    # The old cell's subscribers heard it: a delta. The new cell's may never have heard
+    # of it: they get everything, the same publication as a snapshot.
+    assert decoded(moved) == PropertyUpdate(3, {"position": (15.0, 5.0)})
+    assert moved.snapshot is not None
+    snapshot = codec.decode(moved.snapshot)
+    assert snapshot == PropertyUpdate(3, {"position": (15.0, 5.0), "status": "idle"}, full=True)
     own.set("position", (16.0, 5.0))
     same = own.take_update()
     assert isinstance(same, Publish)
