@@ -2,9 +2,10 @@
 
 A voter evaluates one request many times (at once, on every release of its own AGV,
 and every recheck while it defers), against locks and a request that mostly stay the
-same objects in its tuplespace. :class:`Probe` keeps what those evaluations share: the
-request's vertices, and its overlap with each other area it met (areas are
-immutable, so an answer about the same object stays true).
+same objects in its tuplespace, and from a requester that mostly stands where it
+stood. :class:`Probe` keeps what those evaluations share: the request's vertices, its
+reach from each position asked, and its overlap with each other area it met (areas
+are immutable, so an answer about the same object stays true).
 """
 
 from __future__ import annotations
@@ -30,11 +31,12 @@ class Probe:
         area: the area to probe with (never changed: areas are immutable).
     """
 
-    __slots__ = ("_met", "_vertices", "area")
+    __slots__ = ("_met", "_reach", "_vertices", "area")
 
     def __init__(self, area: Area) -> None:
         self.area = area
         self._vertices: Any = None
+        self._reach: dict[XY, float] = {}  # position -> hull_length from there
         # id(other) -> (other, answer): the other is kept so that its id is not reused.
         self._met: dict[int, tuple[Area, bool]] = {}
 
@@ -51,6 +53,15 @@ class Probe:
 
     def hull_length(self, position: XY) -> float:
         """``hull_length(position, [self.area])``: the distance to its furthest vertex."""
+        reach = self._reach.get(position)
+        if reach is None:
+            reach = self._furthest(position)
+            if len(self._reach) >= _MEMO_LIMIT:
+                self._reach.clear()
+            self._reach[position] = reach
+        return reach
+
+    def _furthest(self, position: XY) -> float:
         xy = self._vertices
         if xy is None:
             geom = self.area.geom

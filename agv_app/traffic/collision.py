@@ -157,21 +157,22 @@ def _covers(circle: tuple[float, float, float] | None, probe: Probe) -> bool:
     return probe.hull_length((x, y)) <= r + _WIRE_GROWTH_M + 0.05
 
 
-_AREAS_KEPT = 256
-_areas_received: dict[Any, Area] = {}
+_REQUESTS_KEPT = 256
+_requests_received: dict[Any, Probe] = {}
 
 
-def _received_area(coords: Any) -> Area:
-    """``coords_to_polygon(coords)``, shared by the voters of one process: a request
-    goes to every member of the group, and on a simulated floor they all decode it."""
+def _received_request(coords: Any) -> Probe:
+    """A probe of ``coords_to_polygon(coords)``, shared by the voters of one process: a
+    request goes to every member of the group, and on a simulated floor they all
+    decode it and test it against their locks from the same requester's circle."""
     key = tuple(tuple(tuple(ring) for ring in polygon) for polygon in coords)
-    area = _areas_received.get(key)
-    if area is None:
-        area = coords_to_polygon(coords)
-        if len(_areas_received) >= _AREAS_KEPT:
-            del _areas_received[next(iter(_areas_received))]
-        _areas_received[key] = area
-    return area
+    probe = _requests_received.get(key)
+    if probe is None:
+        probe = Probe(coords_to_polygon(coords))
+        if len(_requests_received) >= _REQUESTS_KEPT:
+            del _requests_received[next(iter(_requests_received))]
+        _requests_received[key] = probe
+    return probe
 
 
 class LazyGroup:
@@ -440,8 +441,8 @@ class Voter(Participant):
         if not isinstance(message, dict) or message.get("t") != "req" or self._area is not None:
             return
         try:
-            self._area = _received_area(message["a"])
-            self._probe = Probe(self._area)
+            self._probe = _received_request(message["a"])
+            self._area = self._probe.area
             p = message["p"]
             self._priority = (float(p[0]), str(p[1]))
             self._claims = frozenset((str(seg), int(way)) for seg, way in message.get("c", ()))
