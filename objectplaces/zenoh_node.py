@@ -109,10 +109,12 @@ async def start_zenoh_node(
     lease: float = 10.0,
     interest_radius: float | None = None,
     property_interval: float | None = 1.0,
+    beat_interval: float | None = None,
     failure_timeout: float | None = None,
     cell_size: float = 25.0,
     retransmit_timeout: float = 0.2,
     max_frame: int | None = None,
+    poll_interval: float | None = None,
     space: TupleSpace | None = None,
 ) -> ZenohNode:
     """Start a node on Zenoh and return its ``RoleActivator``.
@@ -128,11 +130,18 @@ async def start_zenoh_node(
             group, if ``failure_timeout`` has not made it leave before).
         interest_radius: scoped dissemination radius (None: hear every node).
         property_interval: republish properties this often (None: never).
+        beat_interval: send a liveness beat (a few bytes) after this long without a
+            publication (None: no beats; ``property_interval`` is the heartbeat). With
+            beats, ``property_interval`` can be long (docs/protocol.md §2).
         failure_timeout: a node not heard this long leaves every group (None: three
-            property intervals); a node whose process dies leaves before, by liveliness.
+            liveness intervals, the shorter of beats and republications); a node whose
+            process dies leaves before, by liveliness.
         cell_size: grid cell side for scoped dissemination and the spatial index.
         retransmit_timeout: first retransmission delay of session channel frames.
         max_frame: largest frame accepted, in bytes.
+        poll_interval: hand received data on every this many seconds, together, instead
+            of each frame at once (None): fewer wake-ups for a busy process, frames
+            delayed up to this long (docs/zenoh.md, "Threads").
         space: the node's tuplespace (a new one by default).
 
     Raises:
@@ -152,10 +161,12 @@ async def start_zenoh_node(
         fleet=fleet,
         lease=lease,
         max_frame=codec.DEFAULT_MAX_FRAME if max_frame is None else max_frame,
+        poll_interval=poll_interval,
     )
     loop = asyncio.get_running_loop()
     config = NodeConfig(
         property_interval=property_interval,
+        beat_interval=beat_interval,
         failure_timeout=failure_timeout,
         interest_radius=interest_radius,
         cell_size=cell_size,

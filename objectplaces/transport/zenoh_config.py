@@ -66,6 +66,9 @@ class ZenohOptions:
             lapsed and came back for ever, and the fleet never formed). A frozen node
             leaves its groups sooner by the machine's ``failure_timeout``.
         max_frame: largest frame accepted, in bytes.
+        poll_interval: seconds between two polls of the data subscribers (None: data is
+            handed on by callback at once). Polling costs frames up to this much delay
+            and saves two thread wake-ups per frame (``zenoh_inbox``).
         extra: further Zenoh configuration (json5 paths and values), applied last.
     """
 
@@ -75,6 +78,7 @@ class ZenohOptions:
     fleet: str = "default"
     lease: float = 10.0
     max_frame: int = codec.DEFAULT_MAX_FRAME
+    poll_interval: float | None = None
     extra: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -90,6 +94,10 @@ class ZenohOptions:
             raise LocalProtocolError(f"lease must be >= 0.1 s, got {self.lease!r}")
         if self.max_frame < 64:
             raise LocalProtocolError(f"max_frame too small: {self.max_frame!r}")
+        if self.poll_interval is not None and not 0 < self.poll_interval <= 1.0:
+            raise LocalProtocolError(
+                f"poll_interval must be None or in (0, 1] s, got {self.poll_interval!r}"
+            )
 
 
 _FLEET_MESSAGES = [

@@ -1,0 +1,187 @@
+"""Polled reception (``poll_interval``): data subscribers keep their samples in Zenoh's
+rings, and the loop hands everything received meanwhile on at once, in one batch."""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import pytest
+
+from objectplaces import groups
+from objectplaces.core.errors import LocalProtocolError
+from objectplaces.core.roles import Initiator, Participant
+from objectplaces.roles import ParticipantRef
+from objectplaces.transport.zenoh_config import ZenohOptions
+from objectplaces.transport.zenoh_inbox import Item, ZenohInbox, _Polled
+from objectplaces.transport.zenoh_keys import FleetKeys
+from objectplaces.zenoh_node import start_zenoh_node
+
+SECRET = b"fleet"
+
+
+@dataclass
+class FakePayload:
+    data: bytes
+
+    def __len__(self) -> int:
+        return len(self.data)
+
+    def to_bytes(self) -> bytes:
+        return self.data
+
+
+@dataclass
+class FakeSample:
+    key_expr: str
+    payload: FakePayload
+
+
+class FakeSubscriber:
+    """Stands in for a Zenoh subscriber with a ring: ``try_recv`` until empty."""
+
+    def __init__(self) -> None:
+        self.ring: list[FakeSample] = []
+        self.undeclared = False
+
+    def try_recv(self) -> FakeSample | None:
+        return self.ring.pop(0) if self.ring else None
+
+    def undeclare(self) -> None:
+        self.undeclared = True
+
+
+class FakeSession:
+    def __init__(self) -> None:
+        self.subscribers: list[FakeSubscriber] = []
+
+    def declare_subscriber(self, key_expr: str, handler: Any) -> FakeSubscriber:
+        sub = FakeSubscriber()
+        self.subscribers.append(sub)
+        return sub
+
+
+def sample(keys: FleetKeys, source: str, data: bytes) -> FakeSample:
+    """A frame from ``source`` on our inbox key (fleet "f")."""
+    return FakeSample(FleetKeys("f", source).to(keys.node), FakePayload(data))
+
+
+async def polled_inbox(
+    batches: list[list[Item]], counters: dict[str, int]
+) -> tuple[ZenohInbox, FleetKeys, FakeSession]:
+    loop = asyncio.get_running_loop()
+    inbox = ZenohInbox(loop, batches.append, counters, max_frame=64, poll_interval=0.01)
+    return inbox, FleetKeys("f", "me"), FakeSession()
+
+
+async def test_everything_received_between_two_polls_is_handed_on_in_one_batch() -> None:
+    batches: list[list[Item]] = []
+    counters: dict[str, int] = {}
+    inbox, keys, session = await polled_inbox(batches, counters)
+    try:
+        first = inbox.declare_data(session, keys.inbox(), keys)  # type: ignore[arg-type]
+        inbox.declare_data(session, keys.broadcasts(), keys)  # type: ignore[arg-type]
+        assert isinstance(first, _Polled)
+        one, two = session.subscribers
+        one.ring += [sample(keys, "a", b"1"), sample(keys, "b", b"2")]
+        two.ring.append(sample(keys, "c", b"3"))
+        await asyncio.sleep(0.05)
+        assert batches == [[("frame", "a", b"1"), ("frame", "b", b"2"), ("frame", "c", b"3")]]
+    finally:
+        inbox.close()
+
+
+async def test_a_poll_counts_foreign_keys_and_oversize_frames_and_skips_our_own() -> None:
+    batches: list[list[Item]] = []
+    counters: dict[str, int] = {}
+    inbox, keys, session = await polled_inbox(batches, counters)
+    try:
+        inbox.declare_data(session, keys.inbox(), keys)  # type: ignore[arg-type]
+        (sub,) = session.subscribers
+        sub.ring += [
+            FakeSample("elsewhere/x", FakePayload(b"?")),
+            sample(keys, "big", b"x" * 65),
+            sample(keys, "me", b"echo"),
+            sample(keys, "ok", b"fine"),
+        ]
+        await asyncio.sleep(0.05)
+        assert batches == [[("frame", "ok", b"fine")]]
+        assert counters == {"dropped_foreign_key": 1, "dropped_oversize": 1}
+    finally:
+        inbox.close()
+
+
+async def test_an_undeclared_subscriber_is_polled_no_more() -> None:
+    batches: list[list[Item]] = []
+    inbox, keys, session = await polled_inbox(batches, {})
+    try:
+        handle = inbox.declare_data(session, keys.inbox(), keys)  # type: ignore[arg-type]
+        (sub,) = session.subscribers
+        handle.undeclare()
+        assert sub.undeclared
+        sub.ring.append(sample(keys, "a", b"late"))
+        await asyncio.sleep(0.05)
+        assert batches == []
+        assert sub.ring  # nobody read it
+    finally:
+        inbox.close()
+
+
+async def test_a_closed_inbox_polls_no_more() -> None:
+    batches: list[list[Item]] = []
+    inbox, keys, session = await polled_inbox(batches, {})
+    inbox.declare_data(session, keys.inbox(), keys)  # type: ignore[arg-type]
+    inbox.close()
+    session.subscribers[0].ring.append(sample(keys, "a", b"x"))
+    await asyncio.sleep(0.05)
+    assert batches == []
+
+
+@pytest.mark.parametrize("interval", [0.0, -1.0, 1.5])
+def test_a_poll_interval_outside_its_range_is_refused(interval: float) -> None:
+    with pytest.raises(LocalProtocolError, match="poll_interval"):
+        ZenohOptions(poll_interval=interval)
+
+
+async def until(predicate: Callable[[], bool], within: float = 10.0) -> None:
+    deadline = time.monotonic() + within
+    while not predicate():
+        assert time.monotonic() < deadline, f"not within {within}s"
+        await asyncio.sleep(0.01)
+
+
+class Counter(Initiator):
+    def __init__(self) -> None:
+        self.heard = 0
+
+    def receive(self, p: ParticipantRef, message: object) -> None:
+        self.heard += 1
+
+
+class Talker(Participant):
+    def in_group_of(self, initiator: object) -> None:
+        self.send("hi")
+
+
+async def test_polled_nodes_hear_properties_and_keep_sessions() -> None:
+    # Scoped, so the cell subscribers are polled too, not only the inbox and broadcasts.
+    a = await start_zenoh_node("a", secret=SECRET, interest_radius=5.0, poll_interval=0.02)
+    b = await start_zenoh_node(
+        "b", secret=SECRET, connect=[a.address], interest_radius=5.0, poll_interval=0.02
+    )
+    try:
+        a.update_node_property("position", (1.0, 1.0))
+        b.update_node_property("position", (2.0, 1.0))
+        await until(lambda: "b" in a.view() and "a" in b.view())
+        b.update_node_property("position", (3.0, 1.0))
+        await until(lambda: a.view()["b"]["position"] == (3.0, 1.0))
+        b.set_participant_factory("talk", Talker)
+        counter = Counter()
+        a.start_interaction(counter, groups.within(5.0), "talk")
+        await until(lambda: counter.heard == 1)
+    finally:
+        await b.close()
+        await a.close()
