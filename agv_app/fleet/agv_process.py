@@ -51,11 +51,30 @@ from objectplaces.core.errors import LocalProtocolError
 from objectplaces.mesh import MeshNode, start_node
 from objectplaces.zenoh_node import ZenohNode, start_zenoh_node
 
-__all__ = ["DisplayPublisher", "StepLag", "main", "parse_args", "run"]
+__all__ = ["DisplayPublisher", "StepLag", "beats", "main", "parse_args", "run"]
 
 _PARENT_CHECK_S = 1.0
 _MAX_LAG_S = 1.0
 _LAG_EVERY_S = 5.0
+REPUBLISH_BEATS = 10
+"""Beats between two republications of every property (the simulated fleet's default)."""
+POLL_INTERVAL_S = 0.025
+"""On Zenoh, received frames are handed to the node together every this many seconds
+(a quarter of the control step): one wake-up for several frames instead of two each."""
+PROFILE_ENV = "OBJECTPLACES_AGV_PROFILE"
+"""A directory: each AGV process profiles its event loop's thread (cProfile, in thread
+CPU time) and writes ``<id>.prof`` there when it stops. Off by default."""
+
+
+def beats(t_update: float, republish_beats: int = REPUBLISH_BEATS) -> dict[str, float | None]:
+    """Liveness by beats, as the simulated fleet runs it: a beat of a few bytes after
+    ``t_update`` without a publication, every property again only every
+    ``republish_beats`` beats (0: no beats, every property republished each
+    ``t_update``, which sends each AGV's whole display state to every other AGV once a
+    second)."""
+    if republish_beats <= 0:
+        return {"beat_interval": None, "property_interval": t_update}
+    return {"beat_interval": t_update, "property_interval": republish_beats * t_update}
 
 
 def _emit(event: str, **fields: Any) -> None:
@@ -166,6 +185,18 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "--mode", choices=["peer", "client"], default="peer", help="zenoh: peer or client"
     )
     parser.add_argument(
+        "--poll-interval",
+        type=float,
+        default=POLL_INTERVAL_S,
+        help="zenoh: hand received frames on every this many s (0: each at once)",
+    )
+    parser.add_argument(
+        "--republish-beats",
+        type=int,
+        default=REPUBLISH_BEATS,
+        help="zenoh: liveness beats between republications (0: republish every t-update)",
+    )
+    parser.add_argument(
         "--secret-file", type=Path, required=True, help="file holding the mesh secret"
     )
     parser.add_argument("--home", required=True, help="layout point of the AGV's parking spot")
@@ -198,6 +229,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
             args.interest_radius = -1.0
         if not (args.interest_radius > 0 and math.isfinite(args.interest_radius)):
             parser.error("--interest-radius must be 'auto', 'none' or a number > 0")
+    if not 0 <= args.poll_interval <= 1.0:
+        parser.error(f"--poll-interval must be in [0, 1], got {args.poll_interval!r}")
     for name in ("dt", "t_update", "publish_interval", "run_seconds"):
         if not getattr(args, name) > 0:
             parser.error(f"--{name.replace('_', '-')} must be > 0, got {getattr(args, name)!r}")
@@ -340,7 +373,12 @@ async def run(args: argparse.Namespace, secret: bytes) -> int:
     node: MeshNode | ZenohNode
     if args.transport == "zenoh":
         node = await start_zenoh_node(
-            args.id, secret=secret, connect=args.connect, mode=args.mode, **timing
+            args.id,
+            secret=secret,
+            connect=args.connect,
+            mode=args.mode,
+            poll_interval=args.poll_interval or None,
+            **{**timing, **beats(args.t_update, args.republish_beats)},
         )
     else:
         node = await start_node(
@@ -399,12 +437,23 @@ def main(argv: list[str] | None = None) -> int:
         The exit status.
     """
     args = parse_args(argv)
+    profile_dir = os.environ.get(PROFILE_ENV)
+    profiler = None
+    if profile_dir:
+        import cProfile
+
+        profiler = cProfile.Profile(time.thread_time)
+        profiler.enable()
     try:
         secret = Path(args.secret_file).read_bytes().rstrip(b"\r\n")
         return asyncio.run(run(args, secret))
     except (LocalProtocolError, OSError) as exc:
         print(f"agv_process {args.id}: {exc}", file=sys.stderr)
         return 1
+    finally:
+        if profiler is not None and profile_dir:
+            profiler.disable()
+            profiler.dump_stats(Path(profile_dir) / f"{args.id}.prof")
 
 
 if __name__ == "__main__":

@@ -32,6 +32,7 @@ import time
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from agv_app.fleet.agv_process import POLL_INTERVAL_S, REPUBLISH_BEATS, beats
 from agv_app.fleet.base import FleetSourceBase
 from agv_app.fleet.metrics import FleetMetrics
 from agv_app.fleet.observed import LastingOverlaps
@@ -91,6 +92,12 @@ class MeshFleet(FleetSourceBase):
         transport: ``websocket`` (the mesh) or ``zenoh``.
         zenoh_mode: on Zenoh, ``client`` (default: a router in this process, every node
             its client) or ``peer`` (every node a peer, found through the observer).
+        publish_interval: seconds between two pose publications of a moving AGV.
+        republish_beats: on Zenoh, liveness beats between two republications of every
+            property, by every node (0: no beats, everything republished each
+            ``t_update``).
+        poll_interval: on Zenoh, the AGV processes hand received frames on every this
+            many seconds (0: each at once; ``agv_app.fleet.agv_process``).
 
     Raises:
         ValueError: ``agvs`` < 1, ``start_tasks`` < 0, more AGVs than parking spots, or
@@ -115,6 +122,9 @@ class MeshFleet(FleetSourceBase):
         vda5050: str | None = None,
         transport: str = "websocket",
         zenoh_mode: str = "client",
+        publish_interval: float = 0.2,
+        republish_beats: int = REPUBLISH_BEATS,
+        poll_interval: float = POLL_INTERVAL_S,
     ) -> None:
         if agvs < 1:
             raise ValueError(f"agvs must be at least 1, got {agvs!r}")
@@ -134,6 +144,9 @@ class MeshFleet(FleetSourceBase):
         if zenoh_mode not in ("client", "peer"):
             raise ValueError(f"zenoh_mode must be 'client' or 'peer', got {zenoh_mode!r}")
         self.zenoh_mode = zenoh_mode
+        self.publish_interval = publish_interval
+        self.republish_beats = republish_beats
+        self.poll_interval = poll_interval
         self._router: ZenohRouter | None = None
         self.final_logs: dict[str, str] = {}
         """Every AGV process's output once ``stop`` has reaped them (its last line,
@@ -224,6 +237,9 @@ class MeshFleet(FleetSourceBase):
             "failure_timeout": 3 * self.t_update,
         }
         zenoh = self.transport == "zenoh"
+        if zenoh:
+            node_args.update(beats(self.t_update, self.republish_beats))
+            node_args["poll_interval"] = self.poll_interval or None
         link: dict[str, Any]
         if zenoh and self.zenoh_mode == "client":
             # One router and every node its client: a link per node, where peers would
@@ -246,6 +262,9 @@ class MeshFleet(FleetSourceBase):
             link = {"connect": [observer.address]} if zenoh else {"join": [observer.address]}
             link_args = ["--transport", "zenoh", "--connect"] if zenoh else ["--join"]
             link_args.append(observer.address)
+        if zenoh:
+            link_args += ["--poll-interval", str(self.poll_interval)]
+            link_args += ["--republish-beats", str(self.republish_beats)]
         for sid in pick_stations(self.layout):
             node = await start_node(f"st:{sid}", **link, **node_args)
             self._station_nodes[sid] = node
@@ -262,6 +281,7 @@ class MeshFleet(FleetSourceBase):
                     "--seed", str(self.seed * 1000 + i),
                     "--run-seconds", str(self.run_seconds),
                     "--t-update", str(self.t_update),
+                    "--publish-interval", str(self.publish_interval),
                     "--dwell", str(self.dwell),
                     "--expect-peers", str(peers),
                     *([] if self.vda5050 is None else ["--vda5050", self.vda5050]),

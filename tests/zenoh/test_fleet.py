@@ -10,7 +10,7 @@ import math
 import pytest
 
 from agv_app.fleet import OBSERVER_ID, MeshFleet
-from agv_app.fleet.agv_process import StepLag
+from agv_app.fleet.agv_process import REPUBLISH_BEATS, StepLag, beats, parse_args
 from objectplaces.cli import build_parser
 
 pytestmark = [pytest.mark.processes, pytest.mark.timeout(150)]
@@ -82,3 +82,15 @@ def test_step_lag_counts_the_late_steps() -> None:
     for seconds in (0.0, 0.05, 0.3, 0.01):
         lag.note(seconds, dt=0.1)
     assert lag.fields() == {"steps": 4, "late_steps": 1, "max_lag_s": 0.3}
+
+
+def test_agv_processes_live_by_beats_unless_told_otherwise() -> None:
+    assert beats(1.0) == {"beat_interval": 1.0, "property_interval": REPUBLISH_BEATS * 1.0}
+    assert beats(0.5, 0) == {"beat_interval": None, "property_interval": 0.5}
+
+
+def test_the_poll_interval_of_an_agv_process_is_bounded() -> None:
+    base = ["--id", "a", "--secret-file", "s", "--home", "P"]
+    assert parse_args([*base, "--poll-interval", "0"]).poll_interval == 0.0
+    with pytest.raises(SystemExit):
+        parse_args([*base, "--poll-interval", "2"])
