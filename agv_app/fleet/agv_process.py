@@ -89,6 +89,25 @@ def _area_coords(areas: list[Area]) -> list[list[list[float]]]:
     return polygon_to_coords(Area.union_of(areas), margin_m=0.0)
 
 
+class _AreaCoords:
+    """``_area_coords`` of the last areas asked for, worked out again only when they
+    change: the lock book hands out the same area objects until a lock or request moves,
+    and the union of their polygons is most of a publication's cost."""
+
+    __slots__ = ("_areas", "_coords")
+
+    def __init__(self) -> None:
+        self._areas: list[Area] = []
+        self._coords: list[list[list[float]]] = []
+
+    def __call__(self, areas: list[Area]) -> list[list[list[float]]]:
+        known = self._areas
+        if len(areas) != len(known) or any(a is not b for a, b in zip(areas, known, strict=True)):
+            self._areas = list(areas)  # held, so no other object can take their ids
+            self._coords = _area_coords(areas)
+        return self._coords
+
+
 def _route_ahead(agv: AgvController) -> list[list[float]]:
     """The vertices of the route still ahead (to centimetres), the last where it stops;
     empty at rest or failed. Changes only at a vertex or with a new route."""
@@ -106,7 +125,10 @@ class DisplayPublisher:
     Args:
         agv: the AGV component (its node publishes).
         min_move_m: re-publish the position when the vehicle moved at least this far.
-        traffic_interval_s: least time between two publications of the traffic.
+        traffic_interval_s: least time between two publications of the node's
+            introspection (sessions, roles, traffic). Sessions and roles change with
+            every request; each change is a frame to every AGV that hears this one, for
+            the dashboard's panel only.
     """
 
     def __init__(
@@ -118,6 +140,8 @@ class DisplayPublisher:
         self._next_traffic = -math.inf
         self._last: dict[str, Any] = {}
         self._pose: tuple[float, float, float] | None = None
+        self._locked = _AreaCoords()
+        self._requested = _AreaCoords()
         agv.node.update_node_property("size", [agv.spec.length_m, agv.spec.width_m])
 
     def _set(self, name: str, value: Any) -> None:
@@ -143,20 +167,20 @@ class DisplayPublisher:
             self._set("heading", heading)
         self._set("state", agv.display_status())
         locks, request = agv.areas()
-        self._set("locked", _area_coords(locks))
-        self._set("requested", _area_coords([] if request is None else [request]))
+        self._set("locked", self._locked(locks))
+        self._set("requested", self._requested([] if request is None else [request]))
         self._set("route", _route_ahead(agv))
         self.publish_introspection()
 
     def publish_introspection(self) -> None:
-        """Publish the sessions and roles of the node, on change, and its traffic, at
-        most every ``traffic_interval_s``: what the dashboard shows of a node."""
+        """Publish the sessions, roles and traffic of the node, each on change, at most
+        every ``traffic_interval_s``: what the dashboard shows of a node."""
         node = self.agv.node
-        self._set("sessions", sessions_wire(node.sessions()))
-        self._set("roles", roles_wire(node.participations()))
         now = node.now()
         if now >= self._next_traffic:
             self._next_traffic = now + self.traffic_interval_s
+            self._set("sessions", sessions_wire(node.sessions()))
+            self._set("roles", roles_wire(node.participations()))
             self._set("traffic", traffic_wire(node.stats()))
 
 

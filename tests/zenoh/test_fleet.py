@@ -94,3 +94,18 @@ def test_the_poll_interval_of_an_agv_process_is_bounded() -> None:
     assert parse_args([*base, "--poll-interval", "0"]).poll_interval == 0.0
     with pytest.raises(SystemExit):
         parse_args([*base, "--poll-interval", "2"])
+
+
+def test_the_areas_of_a_display_are_worked_out_again_only_when_they_change() -> None:
+    from shapely.geometry import box
+
+    from agv_app.fleet.agv_process import _AreaCoords
+    from agv_app.geometry import Area
+
+    coords = _AreaCoords()
+    lock = Area(box(0, 0, 1, 1))
+    first = coords([lock])
+    assert coords([lock]) is first  # the same area objects: the union is not redone
+    moved = coords([Area(box(0, 0, 2, 1))])
+    assert moved != first
+    assert coords([]) == []
