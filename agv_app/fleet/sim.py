@@ -42,7 +42,7 @@ from objectplaces.sim import SimulatedNetwork
 
 __all__ = ["TRAFFIC_MODES", "Fleet", "FleetConfig", "SafetyError"]
 
-_REPUBLISH_BEATS = 10
+_REPUBLISH_BEATS = 60
 """Heartbeats between two republications of every property, by default."""
 
 TRAFFIC_MODES = ("protocol", "central")
@@ -78,8 +78,9 @@ class FleetConfig:
         heartbeat: the liveness interval (None: ``t_update``): a node that has published
             nothing for this long sends a beat of a few bytes (``NodeConfig.beat_interval``);
             a node unheard for three heartbeats counts as failed.
-        republish: seconds between republications of every property, which repair lost
-            updates (None: ten heartbeats).
+        republish: seconds between republications of every property, the last resort
+            against lost updates (None: sixty heartbeats; a loss is found by the next
+            frame of the node, publications being numbered without gaps).
         beats: False: no beats; every node republishes every property each heartbeat
             instead (how the fleet ran before beats; ``republish`` is then ignored).
         load: target share of busy AGVs, in (0, 1]; the task rate follows from it and

@@ -5,16 +5,17 @@ A node updates only its own properties. Updates made in the same instant are
 when the driver next drains the machine (``take_update``). That is why a position and a
 hull length set together cost one ~14-byte compact frame (§1), not two.
 
-Every frame carries a fresh per-node sequence number, including a frame sent to one
-peer only (``full_update_for``): receivers keep per property the highest number seen,
-so numbers must never repeat within a run. A frame that carries every property is
+Publications are numbered 1, 2, 3 ... per node, without gaps; receivers keep per
+property the highest number seen. A snapshot sent to one peer (``full_update_for``)
+carries the number of the latest publication: its values are that publication's, plus
+at most the changes about to leave in the next one, which carries them again. So a
+receiver that holds publication n and then hears a delta numbered above n + 1 knows it
+missed one, and asks for a snapshot (§2). A frame that carries every property is
 marked a *snapshot*: a receiver holding a node from deltas only asks for one (§5).
 
 A node that has published nothing for a beat interval sends a *beat* instead (§2): the
-number of its latest publication to its scope, so a receiver that missed one (it holds
-an older number) asks for a snapshot. Unicast snapshots do not count: only the nodes
-that hear the publications compare numbers with the beat, and a unicast only ever
-raises what its one receiver holds.
+number of its latest publication, so a receiver that missed the last one (it holds an
+older number) asks for a snapshot.
 
 Where a frame goes depends on dissemination (§5). Without an interest radius it is
 broadcast. With one, it is published to the node's *home*: the cell it is in, or, with
@@ -65,7 +66,6 @@ class OwnProperties:
         "_config",
         "_dirty",
         "_published_home",
-        "_published_seq",
         "_readonly",
         "_seq",
         "_sizes",
@@ -79,9 +79,8 @@ class OwnProperties:
         self._sizes: dict[str, int] = {}  # encoded size of each generic property
         self._readonly: Mapping[str, Any] = MappingProxyType(self._values)
         self._dirty: dict[str, Any] = {}
-        self._seq = 0
+        self._seq = 0  # the number of the latest publication
         self._published_home: tuple[Cell, ...] = ()  # where the last publication went
-        self._published_seq = 0  # the seq of the latest publication to the scope
         self._bounds: tuple[int, int, int, int] | None = None
         #: Whether changes wait to be published (an attribute: the driver asks per drain).
         self.pending = False
@@ -171,7 +170,7 @@ class OwnProperties:
         so it has never been heard of by its properties either)."""
         if not self._values:
             return None
-        data = codec.encode(Beat(self._published_seq))
+        data = codec.encode(Beat(self._seq))
         home = self._published_home or self._home()
         if self._config.interest_radius is None or not home:
             return Broadcast(data, "beat")
@@ -181,16 +180,12 @@ class OwnProperties:
         """A snapshot for one peer (a newcomer, a new subscriber of our cell, an asker)."""
         if not self._values:
             return None
-        self._seq += 1
         update = PropertyUpdate(self._seq, dict(self._values), full=True)
         return Send(peer, codec.encode(update), "property")
 
-    def _publication(
-        self, values: Mapping[str, Any], *, full: bool, fresh: bool = False
-    ) -> Output:
+    def _publication(self, values: Mapping[str, Any], *, full: bool, fresh: bool = False) -> Output:
         """One publication; ``fresh``: its home grew, so it carries a snapshot too."""
         self._seq += 1
-        self._published_seq = self._seq
         data = codec.encode(PropertyUpdate(self._seq, dict(values), full))
         home = self._home()
         if self._config.interest_radius is None or not home:

@@ -75,6 +75,22 @@ def test_periodic_republication_repairs_a_lost_update() -> None:
     assert b.view()["a"] == {"status": "idle"}
 
 
+def test_a_lost_update_is_repaired_by_the_next_one_without_republication() -> None:
+    net = SimulatedNetwork(seed=4, delay=0.01)  # no republication, no beats
+    a, b = net.add_node("a"), net.add_node("b")
+    a.update_node_property("hull_length", 1.0)
+    a.update_node_property("position", (0.0, 0.0))
+    net.run_for(0.5)
+    net.set_link("a", "b", both_ways=False, loss=1.0)
+    a.update_node_property("hull_length", 9.0)  # lost: a grown circle b must not miss
+    net.run_for(0.5)
+    net.set_link("a", "b", both_ways=False, loss=0.0)
+    a.update_node_property("position", (1.0, 0.0))  # a delta without the hull length
+    net.run_for(0.1)
+    assert b.view()["a"] == {"hull_length": 9.0, "position": (1.0, 0.0)}
+    assert b.stats().counters["publications_missed"] == 1
+
+
 def test_a_new_node_learns_everyone_at_once() -> None:
     net = SimulatedNetwork(seed=5, delay=0.01)
     a = net.add_node("a")

@@ -265,8 +265,9 @@ def test_send_properties_to_a_newcomer_carries_everything() -> None:
     [sent] = a.messages_to_send()
     assert isinstance(sent, Send)
     assert sent.target == "late"
+    # The number of the latest publication: the newcomer's next one follows it.
     assert codec.decode(sent.data) == PropertyUpdate(
-        2, {"status": "idle", "position": (3.0, 4.0)}, full=True
+        1, {"status": "idle", "position": (3.0, 4.0)}, full=True
     )
 
 
@@ -281,9 +282,26 @@ def test_a_node_heard_only_in_deltas_is_asked_for_a_snapshot_once_per_retry() ->
     a.receive("b", codec.encode(PropertyUpdate(7, {"position": (3.0, 0.0)})), now=2.0)
     assert a.messages_to_send() == [ask]  # SNAPSHOT_RETRY (1 s) later: ask again
     a.receive("b", codec.encode(PropertyUpdate(4, {"hull_length": 2.0}, full=True)), now=2.1)
-    a.receive("b", codec.encode(PropertyUpdate(9, {"position": (4.0, 0.0)})), now=5.0)
+    a.receive("b", codec.encode(PropertyUpdate(8, {"position": (4.0, 0.0)})), now=5.0)
     assert a.messages_to_send() == []  # complete now: deltas are enough
     assert a.view()["b"] == {"position": (4.0, 0.0), "hull_length": 2.0}
+
+
+def test_a_delta_after_a_missed_publication_asks_for_a_snapshot() -> None:
+    a = NodeMachine("a")
+    a.messages_to_send()
+    a.receive("b", codec.encode(PropertyUpdate(3, {"hull_length": 1.0}, full=True)), now=1.0)
+    a.receive("b", codec.encode(PropertyUpdate(4, {"position": (1.0, 0.0)})), now=1.1)
+    a.receive("b", codec.encode(PropertyUpdate(4, {"position": (1.0, 0.0)})), now=1.2)
+    assert a.messages_to_send() == []  # one after the other, and a repeat: nothing lost
+    # 5 (a grown hull, say) was lost: 6 changes only the position.
+    a.receive("b", codec.encode(PropertyUpdate(6, {"position": (2.0, 0.0)})), now=1.3)
+    assert a.messages_to_send() == [Send("b", codec.encode(PropertyRequest()), "property")]
+    assert a.counters["publications_missed"] == 1
+    a.receive("b", codec.encode(PropertyUpdate(6, {"hull_length": 9.0}, full=True)), now=1.4)
+    assert a.view()["b"]["hull_length"] == 9.0
+    a.receive("b", codec.encode(PropertyUpdate(7, {"position": (3.0, 0.0)})), now=1.5)
+    assert a.messages_to_send() == []  # whole again
 
 
 def test_a_request_is_answered_with_a_snapshot_to_the_asker_alone() -> None:
@@ -296,7 +314,7 @@ def test_a_request_is_answered_with_a_snapshot_to_the_asker_alone() -> None:
     assert isinstance(answer, Send)
     assert answer.target == "a"
     assert codec.decode(answer.data) == PropertyUpdate(
-        2, {"status": "idle", "hull_length": 2.0}, full=True
+        1, {"status": "idle", "hull_length": 2.0}, full=True
     )
 
 
