@@ -1,7 +1,8 @@
 """The WebSocket mesh against Zenoh (peers, and clients of a router): one workload, one run.
 
 Run: ``.venv/bin/python bench/transports.py`` (``--sizes 10,20`` or ``--transports
-zenoh-peer`` for less; ``--fleet-agvs 0`` skips the fleet run).
+zenoh-peer`` for less; ``--fleet-agvs 0`` skips the fleet run; ``--fleet-only`` runs the
+fleet alone and rewrites only its part; ``--fleet-before`` runs it as before first).
 
 For each transport and size, every node a separate process on 127.0.0.1:
 
@@ -32,6 +33,7 @@ import contextlib
 import json
 import os
 import statistics
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -48,7 +50,7 @@ import zenoh  # noqa: E402
 from bench.mesh import Counter, Silent, measure_floor, percentile, position_frame, say  # noqa: E402
 from bench.mesh import Proc as _MeshProc  # noqa: E402
 from bench.mesh import Worker as MeshWorker  # noqa: E402
-from bench.report import markdown_table, publish  # noqa: E402
+from bench.report import machine_summary, markdown_table, publish  # noqa: E402
 from bench.transports_wire import zenoh_bytes_per_update  # noqa: E402
 from objectplaces import groups  # noqa: E402
 from objectplaces.activator import RoleActivator  # noqa: E402
@@ -369,14 +371,23 @@ def _cpu_seconds(pid: int) -> float:
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
-async def run_fleet(agvs: int, seconds: float) -> dict[str, Any]:
+FLEET_BEFORE = {"poll_interval": 0.0, "republish_beats": 0, "publish_interval": 0.2}
+"""The AGV processes' reception and publication settings before the real-time work
+(issue 12): each frame handed on at once, every property republished each second, a
+pose every 0.2 s. The display's once-a-second introspection is in both runs."""
+
+
+async def run_fleet(agvs: int, seconds: float, settings: dict[str, Any]) -> dict[str, Any]:
     """A fleet of AGV processes on Zenoh, as ``objectplaces demo --processes N
-    --transport zenoh`` runs it, for ``seconds`` after every AGV is heard."""
+    --transport zenoh`` runs it (with ``settings`` of ``MeshFleet`` changed), for
+    ``seconds`` after every AGV is heard."""
     from agv_app.fleet.demo import demo_source
     from agv_app.fleet.mesh import MeshFleet
 
     fleet = demo_source(processes=agvs, seed=1, transport="zenoh")
     assert isinstance(fleet, MeshFleet)
+    for name, value in settings.items():
+        setattr(fleet, name, value)
     await fleet.start()
     try:
         ready_at = time.monotonic()
@@ -384,6 +395,7 @@ async def run_fleet(agvs: int, seconds: float) -> dict[str, Any]:
             await fleet.wait_ready()
         ready = time.monotonic() - ready_at
         cpu0 = sum(_cpu_seconds(pid) for pid in fleet.pids())
+        own0 = time.process_time()
         lag0 = _step_lag(fleet.child_logs())
         start = time.monotonic()
         frame = 0.1
@@ -397,6 +409,7 @@ async def run_fleet(agvs: int, seconds: float) -> dict[str, Any]:
             await asyncio.sleep(max(0.0, next_at - time.monotonic()))
         wall = time.monotonic() - start
         cpu = sum(_cpu_seconds(pid) for pid in fleet.pids()) - cpu0
+        own = time.process_time() - own0
         lag1 = _step_lag(fleet.child_logs())
         fleet.check()
         metrics = fleet.metrics()
@@ -407,17 +420,171 @@ async def run_fleet(agvs: int, seconds: float) -> dict[str, Any]:
     life = _step_lag(fleet.final_logs)
     return {
         "agvs": agvs, "seconds": wall, "ready": ready, "metrics": metrics,
-        "cpu_cores": cpu / wall, "late": late,
+        "cpu_cores": cpu / wall, "own_cores": own / wall, "late": late,
         "steps": steps, "late_steps": late_steps, "life": life,
+        "publish_interval": fleet.publish_interval,
     }  # fmt: skip
+
+
+def fleet_table(runs: dict[str, dict[str, Any]]) -> str:
+    """The fleet runs side by side, one column each."""
+
+    def row(label: str, cell: Any) -> list[Any]:
+        return [label, *(cell(f) for f in runs.values())]
+
+    def share(late: int, steps: int) -> str:
+        return f"{late:,} / {steps:,} ({late / max(steps, 1):.2%})"
+
+    return markdown_table(
+        ["fleet on Zenoh", *runs],
+        [
+            row("AGV processes", lambda f: f"{f['agvs']}, clients of a router in this process"),
+            row("pose published every", lambda f: f"{f['publish_interval']:g} s"),
+            row("run (after every AGV was heard)", lambda f: f"{f['seconds']:.0f} s"),
+            row("time until every AGV was heard", lambda f: f"{f['ready']:.1f} s"),
+            row("CPU of the AGV processes", lambda f: f"{f['cpu_cores']:.2f} cores"),
+            row("CPU of this process (router, observer, stations)",
+                lambda f: f"{f['own_cores']:.2f} cores"),
+            row("AGVs failed", lambda f: int(f["metrics"]["agvs_failed"])),
+            row("tasks created / completed",
+                lambda f: f"{f['metrics']['tasks_created']:.0f} / "
+                f"{f['metrics']['tasks_completed']:.0f}"),
+            row("collisions / lock overlaps / deadlocks",
+                lambda f: f"{f['metrics']['collisions']:.0f} / "
+                f"{f['metrics']['lock_overlaps']:.0f} / {f['metrics']['deadlocks']:.0f}"),
+            row("stalls over 60 s", lambda f: f"{f['metrics']['stalls_60s']:.0f}"),
+            row("frames of this driver late by over 0.5 s", lambda f: f["late"]),
+            row("AGV control steps (0.1 s) late by over a step / all, in the run",
+                lambda f: share(f["late_steps"], f["steps"])),
+            row("the same over the processes' whole life (start-up included)",
+                lambda f: f"{share(f['life'][1], f['life'][0])}, longest lag "
+                f"{f['life'][2]:.2f} s"),
+        ],
+    )  # fmt: skip
+
+
+def fleet_verdict(fleet: dict[str, Any]) -> str:
+    """Issue 12's verdict on one fleet run."""
+    m = fleet["metrics"]
+    violations = int(m["collisions"] + m["lock_overlaps"] + m["deadlocks"])
+    late_share = fleet["late_steps"] / max(fleet["steps"], 1)
+    realtime = late_share < 0.01 and m["agvs_failed"] == 0
+    return f"- {fleet['agvs']} AGV processes on Zenoh at real time with 0 violations: " + verdict(
+        violations == 0 and realtime,
+        f"{violations} violations, {late_share:.2%} of the control steps late by "
+        f"over a step, {fleet['cpu_cores']:.2f} cores busy",
+        f"{violations} violations, {late_share:.2%} of the control steps late by over a "
+        f"step (goal < 1%), {int(m['agvs_failed'])} AGVs failed",
+    )
+
+
+async def measure_fleets(agvs: int, seconds: float, before: bool) -> tuple[str, list[str]]:
+    """The fleet phase: the fleet as it runs now (and first as before, with ``before``);
+    its markdown and what did not complete."""
+    runs: dict[str, dict[str, Any]] = {}
+    failed: list[str] = []
+    for label, settings in [*([("as before", FLEET_BEFORE)] if before else []), ("now", {})]:
+        print(f"running {agvs} AGV processes on Zenoh ({label}) ...", file=sys.stderr)
+        try:
+            runs[label] = await run_fleet(agvs, seconds, settings)
+            print(json.dumps(runs[label], default=repr), file=sys.stderr)
+        except TimeoutError:
+            failed.append(
+                f"the fleet of {agvs} AGV processes ({label}): not every AGV heard in 180 s"
+            )
+    lines = (
+        [fleet_verdict(runs["now"])]
+        if "now" in runs
+        else [
+            f"- {agvs} AGV processes on Zenoh at real time with 0 violations: missed "
+            "(the fleet did not form: not every AGV heard within 180 s)"
+        ]
+    )
+    if "now" in runs and "as before" in runs:
+        now, was = runs["now"], runs["as before"]
+        ratio = (was["late_steps"] / max(was["steps"], 1)) / max(
+            now["late_steps"] / max(now["steps"], 1), 1e-9
+        )
+        lines.append(
+            f"- what the real-time work bought, same run: the AGV processes' CPU "
+            f"{was['cpu_cores']:.2f} -> {now['cpu_cores']:.2f} cores "
+            f"({was['cpu_cores'] / max(now['cpu_cores'], 1e-9):.2f}x less), late control "
+            f"steps {was['late_steps'] / max(was['steps'], 1):.2%} -> "
+            f"{now['late_steps'] / max(now['steps'], 1):.2%}"
+            + (f" ({ratio:.1f}x fewer)" if now["late_steps"] else "")
+        )
+    parts = [fleet_table(runs) if runs else "", "\n".join(f"- {f}" for f in failed)]
+    parts.append("Goal (issue 12):\n" + "\n".join(lines))
+    return "\n\n".join(p for p in parts if p), failed
 
 
 def verdict(ok: bool, met: str, missed: str) -> str:
     return f"met ({met})" if ok else f"missed ({missed})"
 
 
+FLEET_SECTION = "transports-fleet"
+FLEET_TITLE = "Transports: AGV processes on Zenoh in real time (bench/transports.py)"
+
+
+def fleet_block(body: str, command: str) -> str:
+    """The fleet's part of the transports section, in markers of its own, so that
+    ``--fleet-only`` rewrites it alone (the same layout as ``bench.report.publish``)."""
+    stamp = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
+    return (
+        f"<!-- bench:{FLEET_SECTION} -->\n## {FLEET_TITLE}\n\n"
+        f"Measured {stamp} on {machine_summary()}, {_commit()}.  \n"
+        f"Reproduce: `{command}`\n\n{body.strip()}\n<!-- /bench:{FLEET_SECTION} -->"
+    )
+
+
+def _commit() -> str:
+    """The commit measured, and whether the tree differed from it."""
+    try:
+        head = subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True
+        ).stdout.strip()
+        dirty = subprocess.run(
+            ["git", "status", "--porcelain", "--untracked-files=no"],
+            cwd=ROOT, capture_output=True, text=True,
+        ).stdout.strip()  # fmt: skip
+    except OSError:
+        return "commit unknown"
+    return f"commit {head}" + (" (with uncommitted changes in the tree)" if dirty else "")
+
+
+async def fleet_only(agvs: int, seconds: float, before: bool) -> None:
+    """Run only the fleet phase and rewrite only its part of BENCHMARKS.md."""
+    body, _ = await measure_fleets(agvs, seconds, before)
+    load = os.getloadavg()[0]
+    body = (
+        f"At {_commit()}. Only this phase ran (`--fleet-only`); the rows above are from "
+        f"the run they name. {os.cpu_count()} CPUs shared with whatever else ran (load "
+        f"average {load:.0f} at the end). {FLEET_NOTE}\n\n{body}"
+    )
+    command = ".venv/bin/python bench/transports.py --fleet-only" + (
+        " --fleet-before" if before else ""
+    )
+    publish(FLEET_SECTION, FLEET_TITLE, body, command)
+
+
+FLEET_NOTE = (
+    "The demo fleet (`objectplaces demo --processes N --transport zenoh`): a router, the "
+    "observer and the stations in the bench's process, every AGV a process of its own, a "
+    "client of the router; tasks at the demo's load. Late steps are read from what each "
+    "AGV process reports every 5 s, over the measured run; `as before` runs the same "
+    "fleet first with the reception and publication settings before the real-time work "
+    "(each frame handed on at once, every property republished each second, a pose "
+    "every 0.2 s)."
+)
+
+
 async def coordinate(
-    sizes: list[int], transports: list[str], fleet_agvs: int, fleet_s: float, before_size: int
+    sizes: list[int],
+    transports: list[str],
+    fleet_agvs: int,
+    fleet_s: float,
+    before_size: int,
+    fleet_before: bool,
 ) -> None:
     payload = position_frame()
     load_before = os.getloadavg()[0]
@@ -440,13 +607,15 @@ async def coordinate(
                 # A network that did not form in time is a result too: say so, go on.
                 print(f"{transport} with {size} nodes failed: {exc!r}", file=sys.stderr)
                 failed.append(f"{transport} at {size} nodes: {type(exc).__name__} {exc}")
-    fleet = None
+    fleet_text = ""
     if fleet_agvs:
-        print(f"running {fleet_agvs} AGV processes on Zenoh ...", file=sys.stderr)
-        try:
-            fleet = await run_fleet(fleet_agvs, fleet_s)
-        except TimeoutError:
-            failed.append(f"the fleet of {fleet_agvs} AGV processes: not every AGV heard in 180 s")
+        fleet_body, fleet_failed = await measure_fleets(fleet_agvs, fleet_s, fleet_before)
+        failed += fleet_failed
+        fleet_text = fleet_block(
+            f"{FLEET_NOTE}\n\n{fleet_body}",
+            ".venv/bin/python bench/transports.py --fleet-only"
+            + (" --fleet-before" if fleet_before else ""),
+        )
 
     ms = 1000.0
     ws_wire = len(payload) + 2  # a WebSocket frame from the listening side: 2-byte header
@@ -503,50 +672,6 @@ async def coordinate(
                 f"- {transport}: fan-out p50 at 50 nodes <= 3x the plain round trip "
                 f"({floor * ms:.3f} ms): " + verdict(ratio <= 3, f"{ratio:.1f}x", f"{ratio:.1f}x")
             )
-    fleet_text = ""
-    if fleet is None and fleet_agvs:
-        verdicts.append(
-            f"- {fleet_agvs} AGV processes on Zenoh at real time with 0 violations: missed "
-            "(the fleet did not form: not every AGV heard within 180 s)"
-        )
-    if fleet is not None:
-        m = fleet["metrics"]
-        violations = int(m["collisions"] + m["lock_overlaps"] + m["deadlocks"])
-        late_share = fleet["late_steps"] / max(fleet["steps"], 1)
-        realtime = late_share < 0.01 and m["agvs_failed"] == 0
-        verdicts.append(
-            f"- {fleet['agvs']} AGV processes on Zenoh at real time with 0 violations: "
-            + verdict(
-                violations == 0 and realtime,
-                f"{violations} violations, {late_share:.2%} of the control steps late by "
-                f"over a step, {fleet['cpu_cores']:.2f} cores busy",
-                f"{violations} violations, {late_share:.2%} of the control steps late by over a "
-                f"step (goal < 1%), {int(m['agvs_failed'])} AGVs failed",
-            )
-        )
-        fleet_text = markdown_table(
-            ["fleet on Zenoh", "value"],
-            [
-                ["AGV processes", f"{fleet['agvs']}, clients of a router in this process"],
-                ["run (after every AGV was heard)", f"{fleet['seconds']:.0f} s"],
-                ["time until every AGV was heard", f"{fleet['ready']:.1f} s"],
-                ["CPU of the AGV processes", f"{fleet['cpu_cores']:.2f} cores"],
-                ["AGVs failed", int(m["agvs_failed"])],
-                ["tasks created / completed",
-                 f"{m['tasks_created']:.0f} / {m['tasks_completed']:.0f}"],
-                ["collisions / lock overlaps / deadlocks",
-                 f"{m['collisions']:.0f} / {m['lock_overlaps']:.0f} / {m['deadlocks']:.0f}"],
-                ["stalls over 60 s", f"{m['stalls_60s']:.0f}"],
-                ["frames of this driver late by over 0.5 s", fleet["late"]],
-                ["AGV control steps (0.1 s) late by over a step / all, in the run",
-                 f"{fleet['late_steps']:,} / {fleet['steps']:,} "
-                 f"({fleet['late_steps'] / max(fleet['steps'], 1):.2%}; reported every 5 s)"],
-                ["the same over the processes' whole life (start-up included)",
-                 f"{fleet['life'][1]:,} / {fleet['life'][0]:,} "
-                 f"({fleet['life'][1] / max(fleet['life'][0], 1):.2%}), "
-                 f"longest lag {fleet['life'][2]:.2f} s"],
-            ],
-        )  # fmt: skip
     body = "\n\n".join(
         part
         for part in [
@@ -566,12 +691,12 @@ async def coordinate(
             "2-byte header) or the bytes a Zenoh session writes per update, counted by a relay.",
             table,
             floors,
-            fleet_text,
             "Runs that did not complete (the network did not form, or a phase timed out):\n"
             + "\n".join(f"- {f}" for f in failed)
             if failed
             else "",
             "Goals (issue 12):\n" + "\n".join(verdicts),
+            fleet_text,
         ]
         if part
     )
@@ -589,6 +714,12 @@ def main() -> None:
     parser.add_argument("--transports", default=",".join(TRANSPORTS))
     parser.add_argument("--fleet-agvs", type=int, default=50)
     parser.add_argument("--fleet-seconds", type=float, default=60.0)
+    parser.add_argument(
+        "--fleet-only", action="store_true", help="run the fleet phase alone (its part only)"
+    )
+    parser.add_argument(
+        "--fleet-before", action="store_true", help="run the fleet as before first, same run"
+    )
     parser.add_argument("--before-size", type=int, default=20, help="0: no before row")
     parser.add_argument("--worker")
     parser.add_argument("--index", type=int, default=0)
@@ -600,6 +731,8 @@ def main() -> None:
         asyncio.run(run_worker(args.worker, args.index, args.transport, args.connect))
     elif args.zenoh_echo:
         asyncio.run(run_zenoh_echo(args.zenoh_echo))
+    elif args.fleet_only:
+        asyncio.run(fleet_only(args.fleet_agvs, args.fleet_seconds, args.fleet_before))
     else:
         asyncio.run(
             coordinate(
@@ -608,6 +741,7 @@ def main() -> None:
                 args.fleet_agvs,
                 args.fleet_seconds,
                 args.before_size,
+                args.fleet_before,
             )
         )
 
