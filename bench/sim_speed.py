@@ -166,8 +166,9 @@ def main(argv: list[str] | None = None) -> None:
         "each run a process of its own, its CPU time for the simulated time (the fleet's "
         "construction left out). The fleet's defaults: a node silent for 1 s sends a beat "
         "(a few bytes), every property is republished every 60 s; heartbeat 10 s: beats "
-        "every 10 s. Before: the tree compared with, where the heartbeat republished every "
-        "property (1 s and 10 s), so the metrics of the two trees differ by design.\n\n"
+        "every 10 s. Before: the tree given with --against, run side by side; same "
+        "metrics: whether both trees gave the same figures (a pure speedup must; a change "
+        "of what the fleet sends must not).\n\n"
         + markdown_table(header, rows)
         + "\n\n"
         + markdown_table(["goal", "measured", "met"], goal_rows)
