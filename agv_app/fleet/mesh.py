@@ -57,10 +57,26 @@ from objectplaces import RoleActivator
 from objectplaces.mesh import MeshNode, start_node
 from objectplaces.zenoh_router import ZenohRouter, start_router
 
-__all__ = ["MeshFleet"]
+__all__ = ["POSES_PER_SECOND", "MeshFleet", "pose_interval_for"]
 
 _HOST = "127.0.0.1"
 _CHECK_INTERVAL_S = 0.25
+
+
+POSES_PER_SECOND = 100.0
+"""About how many poses a whole fleet of AGV processes publishes a second when moving."""
+
+
+def pose_interval_for(agvs: int) -> float:
+    """Seconds between two pose publications of an AGV in a fleet of ``agvs``: 0.2 s up
+    to 20 AGVs, then longer, so that the fleet's poses stay about ``POSES_PER_SECOND``.
+
+    On the demo floor every AGV hears every other, so each pose costs a frame on each
+    of them: the poses alone cost ``agvs ** 2 / interval`` receipts a second. Safety
+    does not wait for them (an AGV publishes its position and hull length with every
+    request and release); the observer draws from them.
+    """
+    return max(0.2, agvs / POSES_PER_SECOND)
 
 
 class MeshFleet(FleetSourceBase):
@@ -92,7 +108,9 @@ class MeshFleet(FleetSourceBase):
         transport: ``websocket`` (the mesh) or ``zenoh``.
         zenoh_mode: on Zenoh, ``client`` (default: a router in this process, every node
             its client) or ``peer`` (every node a peer, found through the observer).
-        publish_interval: seconds between two pose publications of a moving AGV.
+        publish_interval: seconds between two pose publications of a moving AGV (None:
+            by the fleet's size, :func:`pose_interval_for`); the sessions, roles and
+            traffic each AGV shows the dashboard go out at most five times as seldom.
         republish_beats: on Zenoh, liveness beats between two republications of every
             property, by every node (0: no beats, everything republished each
             ``t_update``).
@@ -122,7 +140,7 @@ class MeshFleet(FleetSourceBase):
         vda5050: str | None = None,
         transport: str = "websocket",
         zenoh_mode: str = "client",
-        publish_interval: float = 0.2,
+        publish_interval: float | None = None,
         republish_beats: int = REPUBLISH_BEATS,
         poll_interval: float = POLL_INTERVAL_S,
     ) -> None:
@@ -144,7 +162,9 @@ class MeshFleet(FleetSourceBase):
         if zenoh_mode not in ("client", "peer"):
             raise ValueError(f"zenoh_mode must be 'client' or 'peer', got {zenoh_mode!r}")
         self.zenoh_mode = zenoh_mode
-        self.publish_interval = publish_interval
+        self.publish_interval = (
+            pose_interval_for(agvs) if publish_interval is None else publish_interval
+        )
         self.republish_beats = republish_beats
         self.poll_interval = poll_interval
         self._router: ZenohRouter | None = None
@@ -282,6 +302,7 @@ class MeshFleet(FleetSourceBase):
                     "--run-seconds", str(self.run_seconds),
                     "--t-update", str(self.t_update),
                     "--publish-interval", str(self.publish_interval),
+                    "--introspection-interval", str(5 * self.publish_interval),
                     "--dwell", str(self.dwell),
                     "--expect-peers", str(peers),
                     *([] if self.vda5050 is None else ["--vda5050", self.vda5050]),

@@ -109,3 +109,13 @@ def test_the_areas_of_a_display_are_worked_out_again_only_when_they_change() -> 
     moved = coords([Area(box(0, 0, 2, 1))])
     assert moved != first
     assert coords([]) == []
+
+
+def test_a_larger_fleet_publishes_its_poses_less_often() -> None:
+    from agv_app.fleet.mesh import POSES_PER_SECOND, pose_interval_for
+
+    assert pose_interval_for(6) == pose_interval_for(20) == 0.2
+    assert pose_interval_for(50) == pytest.approx(0.5)
+    assert 50 / pose_interval_for(50) == pytest.approx(POSES_PER_SECOND)
+    assert MeshFleet(agvs=50, transport="zenoh").publish_interval == pytest.approx(0.5)
+    assert MeshFleet(agvs=50, publish_interval=0.3).publish_interval == 0.3
