@@ -35,7 +35,8 @@ from objectplaces.transport.zenoh_keys import FleetKeys
 __all__ = ["RING_CAPACITY", "Item", "ZenohInbox", "batched", "direct"]
 
 Item = tuple[Any, ...]
-"""``("frame", source, data)``, ``("alive" | "gone", node, incarnation)``,
+"""``("frame", source, data, cell)`` (cell: where a property update was published, else
+None), ``("alive" | "gone", node, incarnation)``,
 ``("answer", node, incarnation, query)`` (a token up, answered to liveliness query
 number ``query``) or ``("query", asker, cells)`` (cells None: the asker hears everything)."""
 
@@ -121,7 +122,7 @@ class ZenohInbox:
                 if len(payload) > max_frame:
                     self._drop("dropped_oversize")
                 else:
-                    push(("frame", inbound.source, payload.to_bytes()))
+                    push(("frame", inbound.source, payload.to_bytes(), inbound.cell))
 
         return batched(on_sample)
 
@@ -145,7 +146,7 @@ class ZenohInbox:
                     if len(payload) > max_frame:
                         counters["dropped_oversize"] = counters.get("dropped_oversize", 0) + 1
                     else:
-                        items.append(("frame", inbound.source, payload.to_bytes()))
+                        items.append(("frame", inbound.source, payload.to_bytes(), inbound.cell))
         if items:
             self._on_items(items)
 

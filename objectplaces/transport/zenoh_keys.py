@@ -76,12 +76,24 @@ def _cell_chunk(cell: Cell | None) -> str:
     return _NO_CELL if cell is None else f"{cell[0]},{cell[1]}"
 
 
+def _parse_cell(chunk: str) -> Cell | None:
+    """The cell a ``props`` key names (``cx,cy``, as ``_cell_chunk`` writes it)."""
+    cx, sep, cy = chunk.partition(",")
+    try:
+        cell = (int(cx), int(cy))
+    except ValueError:
+        return None
+    return cell if sep and _cell_chunk(cell) == chunk else None
+
+
 @dataclass(frozen=True, slots=True)
 class Inbound:
-    """What a sample's key says: its kind (``props``, ``all``, ``to``) and its sender."""
+    """What a sample's key says: its kind (``props``, ``all``, ``to``), its sender, and
+    for a property update the cell it was published in."""
 
     kind: str
     source: str
+    cell: Cell | None = None
 
 
 class FleetKeys:
@@ -130,6 +142,10 @@ class FleetKeys:
     def cell_subscription(self, cell: Cell) -> str:
         """Every update published in (or leaving) ``cell``."""
         return f"{self.prefix}/props/{_cell_chunk(cell)}/**"
+
+    def row_subscription(self, row: int) -> str:
+        """Every update published in (or leaving) a cell of row ``row`` (any column)."""
+        return f"{self.prefix}/props/$*,{row}/**"
 
     def all_props(self) -> str:
         """Every property update, each once (full dissemination)."""
@@ -184,8 +200,12 @@ class FleetKeys:
             return None
         chunks = rest.split("/")
         kind = chunks[0]
+        cell = None
         if kind == "props" and len(chunks) in (3, 4) and chunks[3:] in ([], ["left"]):
             sender = chunks[2]
+            cell = _parse_cell(chunks[1])
+            if cell is None:
+                return None
         elif kind == "all" and len(chunks) == 2:
             sender = chunks[1]
         elif kind == "to" and len(chunks) == 3 and chunks[1] == self._me:
@@ -193,7 +213,7 @@ class FleetKeys:
         else:
             return None
         source = unescape_id(sender)
-        return None if source is None else Inbound(kind, source)
+        return None if source is None else Inbound(kind, source, cell)
 
     def parse_alive(self, key: str) -> tuple[str, int] | None:
         """Node and incarnation of a liveliness token's key; None if it is none of ours."""

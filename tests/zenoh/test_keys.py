@@ -48,10 +48,20 @@ def test_a_cell_subscription_hears_both_copies_full_dissemination_one() -> None:
     assert not cell.intersects(keys.props((1, 3)))
 
 
+def test_a_row_subscription_hears_every_cell_of_its_row_and_no_other() -> None:
+    keys = FleetKeys("f", "n")
+    row = zenoh.KeyExpr(keys.row_subscription(-3))
+    for cell in [(0, -3), (-12, -3), (405, -3)]:
+        assert row.intersects(keys.props(cell))
+        assert row.intersects(keys.props(cell, left=True))
+    for cell in [(0, 3), (1, -13), (-3, 0), (-3, -31)]:
+        assert not row.intersects(keys.props(cell))
+
+
 def test_parse_reads_kind_and_sender() -> None:
     me, other = FleetKeys("f", "me"), FleetKeys("f", "x y")
-    assert me.parse(other.props((1, 1))) == Inbound("props", "x y")
-    assert me.parse(other.props((1, 1), left=True)) == Inbound("props", "x y")
+    assert me.parse(other.props((1, 1))) == Inbound("props", "x y", (1, 1))
+    assert me.parse(other.props((-3, 1), left=True)) == Inbound("props", "x y", (-3, 1))
     assert me.parse(other.broadcast()) == Inbound("all", "x y")
     assert me.parse(other.to("me")) == Inbound("to", "x y")
     assert me.parse(other.alive(7)) is None
@@ -65,6 +75,9 @@ def test_parse_reads_kind_and_sender() -> None:
         "objectplaces/f/to/someone-else/x",
         "objectplaces/f/props/1,1/x/right",
         "objectplaces/f/props/1,1",
+        "objectplaces/f/props/1;1/x",  # not a cell
+        "objectplaces/f/props/1,/x",
+        "objectplaces/f/props/01,1/x",  # a cell written another way
         "objectplaces/f/all/x%ZZ",
         "objectplaces/f/unknown/x",
         "elsewhere",

@@ -87,9 +87,12 @@ async def test_everything_received_between_two_polls_is_handed_on_in_one_batch()
         assert isinstance(first, _Polled)
         one, two = session.subscribers
         one.ring += [sample(keys, "a", b"1"), sample(keys, "b", b"2")]
-        two.ring.append(sample(keys, "c", b"3"))
+        props = FakeSample(FleetKeys("f", "c").props((4, -1)), FakePayload(b"3"))
+        two.ring.append(props)
         await asyncio.sleep(0.05)
-        assert batches == [[("frame", "a", b"1"), ("frame", "b", b"2"), ("frame", "c", b"3")]]
+        assert batches == [
+            [("frame", "a", b"1", None), ("frame", "b", b"2", None), ("frame", "c", b"3", (4, -1))]
+        ]
     finally:
         inbox.close()
 
@@ -108,7 +111,7 @@ async def test_a_poll_counts_foreign_keys_and_oversize_frames_and_skips_our_own(
             sample(keys, "ok", b"fine"),
         ]
         await asyncio.sleep(0.05)
-        assert batches == [[("frame", "ok", b"fine")]]
+        assert batches == [[("frame", "ok", b"fine", None)]]
         assert counters == {"dropped_foreign_key": 1, "dropped_oversize": 1}
     finally:
         inbox.close()
@@ -185,3 +188,35 @@ async def test_polled_nodes_hear_properties_and_keep_sessions() -> None:
     finally:
         await b.close()
         await a.close()
+
+
+async def test_a_scoped_node_hears_its_cells_and_not_the_rest_of_their_rows() -> None:
+    # The scoped node hears the cells around (2, 2) through one subscriber per row;
+    # "far" publishes in (20, 0), a cell of row 0 it does not hear.
+    here = await start_zenoh_node("here", secret=SECRET, interest_radius=5.0, poll_interval=0.02)
+    far = await start_zenoh_node(
+        "far", secret=SECRET, connect=[here.address], interest_radius=5.0, poll_interval=0.02
+    )
+    scoped = await start_zenoh_node(
+        "scoped", secret=SECRET, connect=[here.address], interest_radius=5.0, poll_interval=0.02
+    )
+    try:
+        far.update_node_property("position", (501.0, 1.0))
+        scoped.update_node_property("position", (2.0, 2.0))
+        here.update_node_property("position", (1.0, 1.0))
+        await until(lambda: "here" in scoped.view())
+        n = 0
+
+        def heard_far_and_dropped_it() -> bool:
+            nonlocal n
+            n += 1  # "far" keeps publishing in row 0
+            far.update_node_property("position", (501.0 + n % 2, 1.0))
+            return scoped.transport_counters().get("frames_outside_cells", 0) > 0
+
+        await until(heard_far_and_dropped_it)
+        here.update_node_property("position", (1.0, 1.5))
+        await until(lambda: scoped.view()["here"]["position"] == (1.0, 1.5))
+        assert "far" not in scoped.view()
+    finally:
+        for node in (scoped, far, here):
+            await node.close()
