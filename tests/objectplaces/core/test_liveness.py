@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import msgpack
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from objectplaces.core import codec
 from objectplaces.core.config import NodeConfig
@@ -171,3 +173,35 @@ def test_malformed_beats_are_refused_and_counted() -> None:
     assert b.counters["dropped_malformed"] == 5
     assert b.dropped_by_peer == {"a": 5}
     assert b.view()["a"]["status"] == "idle"
+
+
+_FATES = st.sampled_from(["deliver", "deliver", "drop", "duplicate", "hold"])
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.lists(st.tuples(st.sampled_from("xyz"), st.integers(0, 3), _FATES), min_size=1, max_size=25)
+)
+def test_whatever_is_lost_repeated_or_reordered_a_beat_later_the_view_is_right(
+    updates: list[tuple[str, int, str]],
+) -> None:
+    """No republication: numbered publications and beats alone repair every loss."""
+    config = NodeConfig(beat_interval=1.0)
+    a, b = NodeMachine("a", config=config), NodeMachine("b", config=config)
+    wire = Wire(a, b)
+    wire.settle()  # their subscriptions
+    held: list[bytes] = []
+    for n, (name, value, fate) in enumerate(updates):
+        wire.now = now = 0.01 * (n + 1)
+        a.update_property(name, value, now)
+        for output in a.messages_to_send():
+            assert isinstance(output, Broadcast)
+            if fate == "hold":
+                held.append(output.data)
+            for _ in range({"deliver": 1, "duplicate": 2}.get(fate, 0)):
+                b.receive("a", output.data, now)
+        wire.settle()  # b's requests and a's answers
+    for data in reversed(held):  # late, and in the wrong order
+        b.receive("a", data, wire.now)
+    wire.run_until(wire.now + 2.5)  # a beat, and a snapshot if b asks
+    assert b.view()["a"] == a.properties
