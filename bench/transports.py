@@ -374,7 +374,8 @@ def _cpu_seconds(pid: int) -> float:
 FLEET_BEFORE = {"poll_interval": 0.0, "republish_beats": 0, "publish_interval": 0.2}
 """The AGV processes' reception and publication settings before the real-time work
 (issue 12): each frame handed on at once, every property republished each second, a
-pose every 0.2 s. The display's once-a-second introspection is in both runs."""
+pose every 0.2 s. What is code, not settings, is in both runs: a subscriber per row of
+cells instead of per cell, the display's introspection at most once a second."""
 
 
 async def run_fleet(agvs: int, seconds: float, settings: dict[str, Any]) -> dict[str, Any]:
@@ -574,7 +575,8 @@ FLEET_NOTE = (
     "AGV process reports every 5 s, over the measured run; `as before` runs the same "
     "fleet first with the reception and publication settings before the real-time work "
     "(each frame handed on at once, every property republished each second, a pose "
-    "every 0.2 s)."
+    "every 0.2 s); what is code, not settings (a subscriber per row of cells, not per "
+    "cell; the display's introspection at most once a second), is in both."
 )
 
 
