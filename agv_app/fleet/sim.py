@@ -33,7 +33,7 @@ from agv_app.tasks.load import (
 )
 from agv_app.traffic.central import CentralScheduler
 from agv_app.traffic.monitor import SafetyMonitor, SafetyViolation
-from agv_app.traffic.reach import footprint_margin, interest_radius
+from agv_app.traffic.reach import dissemination_margin, interest_radius
 from agv_app.traffic.stale_relay import StaleListener, StaleRelay
 from agv_app.vehicle.controller import AgvConfig, AgvController
 from agv_app.vehicle.kinematics import VehicleSpec
@@ -277,7 +277,8 @@ class Fleet(FleetSourceBase):
     def _footprint_margin(self) -> float | None:
         if self.interest_radius is None or not self.config.footprints:
             return None
-        return footprint_margin(self.spec, self.agv_config, **self._timing())
+        # Half the margin on each side: the interest radius carries the other half.
+        return dissemination_margin(self.spec, self.agv_config, **self._timing()) / 2
 
     def _timing(self) -> dict[str, float]:
         """The network delay and failure timeout the dissemination margin allows for."""

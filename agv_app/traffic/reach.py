@@ -10,9 +10,9 @@ property updates, for network delay and for detecting a crash.
 
 With footprints (``NodeConfig.footprint_margin``) a node publishes to the cells within
 its own hull length plus half the margin and listens over the largest hull length plus
-the other half, so it hears every AGV whose circle may meet any circle it may publish:
-:func:`interest_radius` and :func:`footprint_margin`. docs/traffic.md ("Why the
-interest radius keeps every collider in the group") gives the argument.
+the other half, so it hears every AGV whose circle may meet any circle it may publish
+(:func:`interest_radius`). docs/traffic.md ("Why the interest radius keeps every
+collider in the group") gives the argument.
 
 The bound follows the request rule of :class:`~agv_app.vehicle.controller.AgvController`:
 a request is made when the locked stretch ahead is at most ``need`` long (braking
@@ -38,7 +38,6 @@ from agv_app.vehicle.kinematics import VehicleSpec
 
 __all__ = [
     "dissemination_margin",
-    "footprint_margin",
     "interest_radius",
     "largest_hull_length",
     "longest_no_rest_zone",
@@ -172,21 +171,6 @@ def dissemination_margin(
     return movement + detection
 
 
-def footprint_margin(
-    spec: VehicleSpec,
-    config: AgvConfig,
-    *,
-    delay_s: float = 0.0,
-    failure_timeout_s: float = 0.0,
-) -> float:
-    """An AGV node's footprint margin (``NodeConfig.footprint_margin``): half the
-    dissemination margin (:func:`dissemination_margin`, same arguments); the interest
-    radius with footprints carries the other half."""
-    return (
-        dissemination_margin(spec, config, delay_s=delay_s, failure_timeout_s=failure_timeout_s) / 2
-    )
-
-
 def interest_radius(
     layout: Layout,
     spec: VehicleSpec,
@@ -203,7 +187,7 @@ def interest_radius(
     Without footprints (every node publishes in its own cell): twice the largest hull
     length (both circles at their largest) plus the dissemination margin. With
     footprints: the largest hull length plus half the margin; the other AGV's
-    footprint adds its own hull length and the other half (:func:`footprint_margin`).
+    footprint adds its own hull length and the other half (its footprint margin).
 
     Args:
         layout: the floor plan.

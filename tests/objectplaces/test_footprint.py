@@ -7,12 +7,11 @@ from __future__ import annotations
 import os
 import random
 
-from objectplaces import groups
 from objectplaces.core.spatial import home_cells
 from objectplaces.sim import SimulatedNetwork
 from objectplaces.transport.routing import CellRouter
 
-from .recording import Event, RecordingInitiator, RecordingParticipant, place
+from .recording import place, walk_with_sessions
 
 SEED = int(os.environ.get("OP_SEED", "11"))
 LARGEST = 12.0  # the largest radius any walker takes
@@ -30,8 +29,6 @@ def walk(mode: str, seed: int) -> tuple[dict[str, list[tuple[str, str]]], int]:
     rng = random.Random(seed)
     net = SimulatedNetwork(seed=seed, delay=0.01, cell_size=10.0)
     names = [f"n{i:02d}" for i in range(60)]
-    pos = {n: [rng.uniform(0, 200), rng.uniform(0, 200)] for n in names}
-    radius = {n: 1.0 for n in names}
     if mode == "full":
         nodes = {n: net.add_node(n) for n in names}
     elif mode == "cell":
@@ -41,24 +38,16 @@ def walk(mode: str, seed: int) -> tuple[dict[str, list[tuple[str, str]]], int]:
             n: net.add_node(n, interest_radius=LARGEST + MARGIN / 2, footprint_margin=MARGIN / 2)
             for n in names
         }
-    log: list[Event] = []
-    for n, node in nodes.items():
-        node.set_participant_factory("voter", lambda: RecordingParticipant(log))
-        place(node, pos[n][0], pos[n][1], radius[n])
-    net.run_for(0.5)
-    roles = {n: RecordingInitiator() for n in names[::5]}
-    for n, role in roles.items():
-        nodes[n].start_interaction(role, groups.circles_overlap(), "voter")
-    for _ in range(150):
-        for n in names:
-            pos[n][0] = min(200.0, max(0.0, pos[n][0] + rng.uniform(-1.5, 1.5)))
-            pos[n][1] = min(200.0, max(0.0, pos[n][1] + rng.uniform(-1.5, 1.5)))
-            nodes[n].update_node_property("position", tuple(pos[n]))
-            if rng.random() < 0.05:  # a request grows a circle, a release shrinks it
-                radius[n] = rng.choice([1.0, 1.0, 4.0, LARGEST])
-                nodes[n].update_node_property("hull_length", radius[n])
-        net.run_for(0.2)
-    return {n: role.membership() for n, role in roles.items()}, net.stats().by_kind["property"][0]
+    events = walk_with_sessions(
+        net,
+        nodes,
+        rng,
+        side=200.0,
+        radius=lambda: 1.0,
+        steps=150,
+        regrow=lambda: rng.choice([1.0, 1.0, 4.0, LARGEST]),  # requests and releases
+    )
+    return events, net.stats().by_kind["property"][0]
 
 
 def test_footprints_give_the_groups_of_full_dissemination_for_fewer_frames() -> None:

@@ -10,7 +10,7 @@ import pytest
 from objectplaces import groups
 from objectplaces.sim import SimulatedNetwork
 
-from .recording import Event, RecordingInitiator, RecordingParticipant, place
+from .recording import RecordingInitiator, RecordingParticipant, place, walk_with_sessions
 
 SEED = int(os.environ.get("OP_SEED", "7"))
 
@@ -21,25 +21,13 @@ def scenario(
     """Random walkers in a 240 m square; every fifth one runs a circles_overlap session."""
     rng = random.Random(seed)
     net = SimulatedNetwork(seed=seed, delay=0.01, cell_size=20.0)
-    log: list[Event] = []
-    names = [f"n{i:02d}" for i in range(60)]
-    pos = {n: [rng.uniform(0, 240), rng.uniform(0, 240)] for n in names}
-    radius = {n: rng.uniform(1.0, 5.0) for n in names}
-    nodes = {n: net.add_node(n, interest_radius=interest_radius) for n in names}
-    for n, node in nodes.items():
-        node.set_participant_factory("voter", lambda: RecordingParticipant(log))
-        place(node, pos[n][0], pos[n][1], radius[n])
-    net.run_for(0.5)
-    roles = {n: RecordingInitiator() for n in names[::5]}
-    for n, role in roles.items():
-        nodes[n].start_interaction(role, groups.circles_overlap(), "voter")
-    for _ in range(150):
-        for n in names:
-            pos[n][0] = min(240.0, max(0.0, pos[n][0] + rng.uniform(-1.5, 1.5)))
-            pos[n][1] = min(240.0, max(0.0, pos[n][1] + rng.uniform(-1.5, 1.5)))
-            nodes[n].update_node_property("position", tuple(pos[n]))
-        net.run_for(0.2)
-    return {n: role.membership() for n, role in roles.items()}, net.stats().by_kind["property"][0]
+    nodes = {
+        f"n{i:02d}": net.add_node(f"n{i:02d}", interest_radius=interest_radius) for i in range(60)
+    }
+    events = walk_with_sessions(
+        net, nodes, rng, side=240.0, radius=lambda: rng.uniform(1.0, 5.0), steps=150
+    )
+    return events, net.stats().by_kind["property"][0]
 
 
 def test_scoped_dissemination_gives_the_same_group_events_with_far_fewer_messages() -> None:
