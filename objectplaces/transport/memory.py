@@ -184,13 +184,8 @@ class MemoryNetwork:
     def _send(self, source: str, targets: Iterable[str], data: bytes, kind: str) -> int:
         message = _decoded(data)
         size = len(data)
-        traffic = self._traffic[source].sent
-        tally = traffic.get(kind)
-        if tally is None:
-            tally = traffic[kind] = [0, 0]
-        by_kind = self._by_kind.get(kind)
-        if by_kind is None:
-            by_kind = self._by_kind[kind] = [0, 0]
+        tally = self._traffic[source].sent.setdefault(kind, [0, 0])  # once per frame sent
+        by_kind = self._by_kind.setdefault(kind, [0, 0])
         rng = self.rng
         loop = self.loop
         now = loop.now
@@ -206,46 +201,31 @@ class MemoryNetwork:
         arrivals: list[tuple[float, tuple[str, int | None, str, int, Message | bytes, int, str]]]
         arrivals = []
         count = 0
-        if not (plain or links or self._component is not None or defaults.loss) and not (
-            defaults.duplicate or defaults.reorder
-        ):
-            # Links that only jitter (the simulated fleet's): the loop below without the
-            # checks that cannot hold there; the same draws in the same order.
-            base, jitter, draw, get = defaults.delay, defaults.jitter, rng.random, incarnations.get
-            for target in targets:
-                delay = base + jitter * (2.0 * draw() - 1.0)
-                if delay < 0.0:
-                    delay = 0.0
+        for target in targets:
+            count += 1
+            if self._component is not None and self._separated(source, target):
+                self._dropped["partition"] += 1
+                continue
+            link = links.get((source, target), defaults) if links else defaults
+            if plain and link is defaults:
+                together.append((target, incarnations.get(target, 0)))
+                continue
+            if link.loss and rng.random() < link.loss:
+                self._dropped["loss"] += 1
+                continue
+            copies = 2 if link.duplicate and rng.random() < link.duplicate else 1
+            incarnation = incarnations.get(target, 0)
+            for _ in range(copies):
+                delay = link.delay
+                if link.jitter:
+                    delay += link.jitter * (2.0 * rng.random() - 1.0)
+                    if delay < 0.0:
+                        delay = 0.0
+                if link.reorder and rng.random() < link.reorder:
+                    delay += rng.random() * 4.0 * (link.delay + link.jitter)
                 arrivals.append(
-                    (now + delay, (source, run, target, get(target, 0), message, size, kind))
+                    (now + delay, (source, run, target, incarnation, message, size, kind))
                 )
-            count = len(arrivals)
-        else:
-            for target in targets:
-                count += 1
-                if self._component is not None and self._separated(source, target):
-                    self._dropped["partition"] += 1
-                    continue
-                link = links.get((source, target), defaults) if links else defaults
-                if plain and link is defaults:
-                    together.append((target, incarnations.get(target, 0)))
-                    continue
-                if link.loss and rng.random() < link.loss:
-                    self._dropped["loss"] += 1
-                    continue
-                copies = 2 if link.duplicate and rng.random() < link.duplicate else 1
-                incarnation = incarnations.get(target, 0)
-                for _ in range(copies):
-                    delay = link.delay
-                    if link.jitter:
-                        delay += link.jitter * (2.0 * rng.random() - 1.0)
-                        if delay < 0.0:
-                            delay = 0.0
-                    if link.reorder and rng.random() < link.reorder:
-                        delay += rng.random() * 4.0 * (link.delay + link.jitter)
-                    arrivals.append(
-                        (now + delay, (source, run, target, incarnation, message, size, kind))
-                    )
         if arrivals:
             self._schedule(self._arrive, arrivals)
         if together:

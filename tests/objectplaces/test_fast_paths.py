@@ -143,26 +143,6 @@ def test_network_schedules_the_same_arrivals_with_or_without_call_each() -> None
     assert with_each == without
 
 
-def _jittered_arrivals(general_path: bool) -> list[tuple[str, str, float]]:
-    log: list[tuple[str, str, float]] = []
-    loop = EventLoop()
-    net = MemoryNetwork(loop, random.Random(5), LinkParams(0.005, jitter=0.006))
-    if general_path:  # an override on a link nobody uses: every frame takes the long loop
-        net.set_link("x", "y", delay=0.005)
-    for name in "abcdef":
-        net.attach(name, _Driver(name, log, lambda: loop.now))
-    for sender in "abcab":
-        net.transmit(sender, Broadcast(codec.encode(PropertyUpdate(1, {"x": 1})), "property"))
-    loop.run_until(1.0)
-    return log
-
-
-def test_links_that_only_jitter_draw_and_deliver_as_the_general_path_does() -> None:
-    short, general = _jittered_arrivals(False), _jittered_arrivals(True)
-    assert len(short) == 25  # five frames, five listeners each
-    assert short == general
-
-
 def test_a_batch_waits_as_one_heap_entry_and_keeps_its_place_among_single_calls() -> None:
     loop = EventLoop()
     ran: list[str] = []
