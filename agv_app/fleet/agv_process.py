@@ -43,6 +43,7 @@ from agv_app.fleet.parking import home_heading
 from agv_app.fleet.remote import roles_wire, sessions_wire, traffic_wire
 from agv_app.geometry import Area, polygon_to_coords
 from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
+from agv_app.layout.graph import Layout
 from agv_app.traffic.reach import interest_radius
 from agv_app.vda5050.process import bridge_for, vehicle_class
 from agv_app.vehicle.controller import AgvConfig, AgvController
@@ -51,7 +52,15 @@ from objectplaces.core.errors import LocalProtocolError
 from objectplaces.mesh import MeshNode, start_node
 from objectplaces.zenoh_node import ZenohNode, start_zenoh_node
 
-__all__ = ["DisplayPublisher", "StepLag", "beats", "main", "parse_args", "run"]
+__all__ = [
+    "DisplayPublisher",
+    "StepLag",
+    "beats",
+    "dissemination_radius",
+    "main",
+    "parse_args",
+    "run",
+]
 
 _PARENT_CHECK_S = 1.0
 _MAX_LAG_S = 1.0
@@ -109,6 +118,33 @@ class _AreaCoords:
             self._areas = list(areas)  # held, so no other object can take their ids
             self._coords = _area_coords(areas)
         return self._coords
+
+
+def dissemination_radius(
+    choice: str | float, layout: Layout, spec: VehicleSpec, config: AgvConfig
+) -> float | None:
+    """The interest radius of an AGV node for ``--interest-radius`` (None: hear every
+    node). ``auto``: from the layout's largest hull projection, or None when that spans
+    the whole layout."""
+    if choice == "none":
+        return None
+    if choice != "auto":
+        return float(choice)
+    # A loaded machine delays frames by up to the largest step lag. The demo floor
+    # lies within this radius, so no failure needs relaying (traffic/stale_relay.py).
+    radius = interest_radius(
+        layout, spec, config, delay_s=_MAX_LAG_S, failure_timeout_s=3 * config.t_update
+    )
+    # Every node on such a floor lies within the radius of every other: scoping would
+    # leave nobody out, and one subscription to everything costs a receiver less than a
+    # subscriber per row of cells (docs/zenoh.md, "Keys").
+    return None if radius >= _diagonal(layout) else radius
+
+
+def _diagonal(layout: Layout) -> float:
+    """The diagonal of the layout's bounds: no two nodes on it are farther apart."""
+    min_x, min_y, max_x, max_y = layout.bounds()
+    return math.hypot(max_x - min_x, max_y - min_y)
 
 
 def _route_ahead(agv: AgvController) -> list[list[float]]:
@@ -249,7 +285,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "--interest-radius",
         default="auto",
         help="scoped dissemination radius, m; 'auto' (default): from the layout's largest "
-        "hull projection (agv_app.traffic.reach); 'none': hear every node",
+        "hull projection (agv_app.traffic.reach), or 'none' when that spans the whole "
+        "layout; 'none': hear every node",
     )
     parser.add_argument(
         "--vda5050", default=None, metavar="mqtt://HOST:PORT", help="speak VDA 5050 over MQTT"
@@ -390,17 +427,10 @@ async def run(args: argparse.Namespace, secret: bytes) -> int:
         loop.add_signal_handler(signum, stop.set)
     spec = VehicleSpec(DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M)
     config = AgvConfig(t_update=args.t_update, dwell=args.dwell)
-    radius = args.interest_radius
-    if radius == "auto":
-        # A loaded machine delays frames by up to the largest step lag. The demo floor
-        # lies within this radius, so no failure needs relaying (traffic/stale_relay.py).
-        radius = interest_radius(
-            layout, spec, config, delay_s=_MAX_LAG_S, failure_timeout_s=3 * args.t_update
-        )
     timing: dict[str, Any] = {
         "property_interval": args.t_update,
         "failure_timeout": 3 * args.t_update,
-        "interest_radius": None if radius == "none" else radius,
+        "interest_radius": dissemination_radius(args.interest_radius, layout, spec, config),
     }
     lag = StepLag()
     node: MeshNode | ZenohNode

@@ -119,3 +119,21 @@ def test_a_larger_fleet_publishes_its_poses_less_often() -> None:
     assert 50 / pose_interval_for(50) == pytest.approx(POSES_PER_SECOND)
     assert MeshFleet(agvs=50, transport="zenoh").publish_interval == pytest.approx(0.5)
     assert MeshFleet(agvs=50, publish_interval=0.3).publish_interval == 0.3
+
+
+def test_an_agv_hears_everyone_when_its_radius_spans_the_floor() -> None:
+    from agv_app.fleet.agv_process import dissemination_radius
+    from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
+    from agv_app.layout.loop import long_loop
+    from agv_app.vehicle.controller import AgvConfig
+    from agv_app.vehicle.kinematics import VehicleSpec
+
+    spec, config = VehicleSpec(DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M), AgvConfig()
+    demo = demo_warehouse()  # 58 m by 38 m: every radius from "auto" spans it
+    assert dissemination_radius("auto", demo, spec, config) is None
+    assert dissemination_radius(40.0, demo, spec, config) == 40.0
+    assert dissemination_radius("none", demo, spec, config) is None
+    wide = long_loop(300.0)
+    radius = dissemination_radius("auto", wide, spec, config)
+    assert radius is not None
+    assert radius < 300.0
