@@ -129,7 +129,7 @@ def test_an_agv_hears_everyone_when_its_radius_spans_the_floor() -> None:
     from agv_app.vehicle.kinematics import VehicleSpec
 
     spec, config = VehicleSpec(DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M), AgvConfig()
-    demo = demo_warehouse()  # 58 m by 38 m: every radius from "auto" spans it
+    demo = demo_warehouse()  # 56 m by 37.5 m: the radius from "auto" spans it
     assert dissemination_radius("auto", demo, spec, config) is None
     assert dissemination_radius(40.0, demo, spec, config) == 40.0
     assert dissemination_radius("none", demo, spec, config) is None
