@@ -545,12 +545,16 @@ def _commit() -> str:
             ["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True
         ).stdout.strip()
         dirty = subprocess.run(
-            ["git", "status", "--porcelain", "--untracked-files=no"],
+            ["git", "status", "--porcelain", "--untracked-files=no", "--", *_CODE],
             cwd=ROOT, capture_output=True, text=True,
         ).stdout.strip()  # fmt: skip
     except OSError:
         return "commit unknown"
-    return f"commit {head}" + (" (with uncommitted changes in the tree)" if dirty else "")
+    return f"commit {head}" + (" (with uncommitted changes to the code)" if dirty else "")
+
+
+_CODE = ("objectplaces", "agv_app", "tuplespace", "bench")
+"""The code a fleet run executes: changes elsewhere (docs) do not make it another run."""
 
 
 async def fleet_only(agvs: int, seconds: float, before: bool) -> None:
