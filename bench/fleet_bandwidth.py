@@ -175,7 +175,9 @@ def main(argv: list[str] | None = None) -> None:
         "overlaps of the scoped and broadcast runs together. Heartbeat: a node that has "
         "published nothing for that long sends a beat (a few bytes); every property is "
         "republished every sixty heartbeats; a node unheard for three heartbeats counts as "
-        "failed. Property bytes include the beats.\n\n"
+        "failed. Property bytes include the beats. Interest radius: how far a scoped AGV "
+        "listens; it publishes to the cells within its own hull length plus half the "
+        "dissemination margin (footprints, docs/traffic.md).\n\n"
         + markdown_table(header, rows)
         + "\n\n"
         + _verdict(results, floors, sizes, heartbeats)
