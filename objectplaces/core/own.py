@@ -36,10 +36,10 @@ from typing import Any
 
 from objectplaces.core import codec
 from objectplaces.core.config import NodeConfig
-from objectplaces.core.errors import InvalidValueError
+from objectplaces.core.errors import InvalidValueError, LocalProtocolError
 from objectplaces.core.events import Broadcast, Output, Publish, Send
 from objectplaces.core.messages import Beat, PropertyUpdate
-from objectplaces.core.spatial import home_cells
+from objectplaces.core.spatial import MAX_HOME_CELLS, footprint_cells, home_cells
 from objectplaces.core.values import (
     MAX_VALUE_SIZE,
     POSITION,
@@ -58,7 +58,12 @@ class OwnProperties:
     """The node's own property values, the pending changes, and their routing.
 
     Args:
-        config: the node's tunables (interest radius and cell size matter here).
+        config: the node's tunables (interest radius, footprint margin and cell size
+            matter here).
+
+    Raises:
+        LocalProtocolError: a footprint margin that is not a number >= 0, or whose
+            footprint alone would cover more than ``MAX_HOME_CELLS`` cells.
     """
 
     __slots__ = (
@@ -74,6 +79,16 @@ class OwnProperties:
     )
 
     def __init__(self, config: NodeConfig) -> None:
+        margin = config.footprint_margin
+        if margin is not None and not (
+            isinstance(margin, int | float)
+            and 0 <= margin < math.inf
+            and footprint_cells(0.0, margin, config.cell_size) <= MAX_HOME_CELLS
+        ):
+            raise LocalProtocolError(
+                f"footprint_margin must be a number >= 0 whose footprint fits "
+                f"{MAX_HOME_CELLS} cells of {config.cell_size:g} m, got {margin!r}"
+            )
         self._config = config
         self._values: dict[str, Any] = {}
         self._sizes: dict[str, int] = {}  # encoded size of each generic property
@@ -103,7 +118,8 @@ class OwnProperties:
 
         Raises:
             InvalidValueError: a name that is not a non-empty string; a position that is
-                not two finite numbers; a hull length that is not a finite number >= 0;
+                not two finite numbers; a hull length that is not a finite number >= 0,
+                or whose footprint would cover too many cells (``MAX_HOME_CELLS``);
                 a value nested too deep; a value (or all values together) too large.
             NotPlainDataError: a value that is not plain data.
         """
@@ -113,6 +129,7 @@ class OwnProperties:
             value = codec.normalise_property(name, checked_position(value))
         elif name == RADIUS:
             value = codec.normalise_property(name, checked_radius(value))
+            self._check_footprint(value)
         else:
             check_plain(value, f"property {name!r}")
             size = len(codec.encode_value(value))
@@ -132,6 +149,19 @@ class OwnProperties:
         self._dirty[name] = value
         self.pending = True
         return value
+
+    def _check_footprint(self, radius: float) -> None:
+        """Refuse a radius whose footprint would cover more than ``MAX_HOME_CELLS``."""
+        config = self._config
+        margin = config.footprint_margin
+        if margin is None or config.interest_radius is None:
+            return
+        cells = footprint_cells(radius, margin, config.cell_size)
+        if cells > MAX_HOME_CELLS:
+            raise InvalidValueError(
+                f"{RADIUS!r} {radius:g} m would publish to {cells} cells of "
+                f"{config.cell_size:g} m, over the limit of {MAX_HOME_CELLS}"
+            )
 
     def take_update(self) -> Output | None:
         """The frame that publishes every pending change (None when nothing is pending).

@@ -13,7 +13,14 @@ import math
 from collections.abc import Iterator
 from typing import Any
 
-__all__ = ["GridIndex", "RunningMax", "footprint_bounds", "home_cells"]
+__all__ = [
+    "MAX_HOME_CELLS",
+    "GridIndex",
+    "RunningMax",
+    "footprint_bounds",
+    "footprint_cells",
+    "home_cells",
+]
 
 Cell = tuple[int, int]
 
@@ -129,6 +136,16 @@ def home_cells(
         return ((math.floor(x / cell_size), math.floor(y / cell_size)),)
     x0, y0, x1, y1 = footprint_bounds(position, radius, margin, cell_size)
     return tuple((cx, cy) for cx in range(x0, x1 + 1) for cy in range(y0, y1 + 1))
+
+
+MAX_HOME_CELLS = 4096
+"""The most cells a footprint may cover: a node's own radius is refused beyond it."""
+
+
+def footprint_cells(radius: float, margin: float, cell_size: float) -> int:
+    """How many cells a footprint of ``radius`` plus ``margin`` covers at most."""
+    side = math.floor(2 * (radius + margin) / cell_size) + 2
+    return side * side
 
 
 def footprint_bounds(

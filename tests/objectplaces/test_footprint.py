@@ -7,6 +7,11 @@ from __future__ import annotations
 import os
 import random
 
+import pytest
+
+from objectplaces.core.config import NodeConfig
+from objectplaces.core.errors import InvalidValueError, LocalProtocolError
+from objectplaces.core.node import NodeMachine
 from objectplaces.core.spatial import home_cells
 from objectplaces.sim import SimulatedNetwork
 from objectplaces.transport.routing import CellRouter
@@ -147,3 +152,18 @@ def test_listeners_that_heard_a_node_get_deltas_when_its_home_grows() -> None:
     assert near.view()["mover"]["hull_length"] == 15.0  # near, the delta
     near_after, far_after = received()
     assert 0 < near_after - near_before < far_after - far_before
+
+
+def test_a_radius_whose_footprint_is_too_large_is_refused_and_nothing_changes() -> None:
+    net = SimulatedNetwork(seed=8, cell_size=1.0)
+    node = net.add_node("n", interest_radius=5.0, footprint_margin=1.0)
+    place(node, 0.0, 0.0, radius=2.0)
+    with pytest.raises(InvalidValueError, match="cells"):
+        node.update_node_property("hull_length", 1e6)  # a billion cells to publish to
+    assert node.properties["hull_length"] == 2.0
+
+
+@pytest.mark.parametrize("margin", [-1.0, float("nan"), float("inf"), 1e6])
+def test_a_bad_footprint_margin_is_refused(margin: float) -> None:
+    with pytest.raises(LocalProtocolError, match="footprint_margin"):
+        NodeMachine("n", config=NodeConfig(interest_radius=5.0, footprint_margin=margin))
