@@ -39,7 +39,7 @@ from objectplaces.core.config import NodeConfig
 from objectplaces.core.errors import InvalidValueError, LocalProtocolError
 from objectplaces.core.events import Broadcast, Output, Publish, Send
 from objectplaces.core.messages import Beat, PropertyUpdate
-from objectplaces.core.spatial import MAX_HOME_CELLS, footprint_cells, home_cells
+from objectplaces.core.spatial import MAX_HOME_CELLS, MAX_SCOPE_CELLS, footprint_cells, home_cells
 from objectplaces.core.values import (
     MAX_VALUE_SIZE,
     POSITION,
@@ -63,7 +63,8 @@ class OwnProperties:
 
     Raises:
         LocalProtocolError: a footprint margin that is not a number >= 0, or whose
-            footprint alone would cover more than ``MAX_HOME_CELLS`` cells.
+            footprint alone would cover more than ``MAX_HOME_CELLS`` cells; an interest
+            radius whose square would cover more than ``MAX_SCOPE_CELLS``.
     """
 
     __slots__ = (
@@ -88,6 +89,12 @@ class OwnProperties:
             raise LocalProtocolError(
                 f"footprint_margin must be a number >= 0 whose footprint fits "
                 f"{MAX_HOME_CELLS} cells of {config.cell_size:g} m, got {margin!r}"
+            )
+        radius = config.interest_radius
+        if radius is not None and footprint_cells(radius, 0.0, config.cell_size) > MAX_SCOPE_CELLS:
+            raise LocalProtocolError(
+                f"interest_radius {radius:g} m would subscribe to more than {MAX_SCOPE_CELLS} "
+                f"cells of {config.cell_size:g} m: a larger cell_size, or no radius"
             )
         self._config = config
         self._values: dict[str, Any] = {}

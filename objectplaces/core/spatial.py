@@ -15,6 +15,7 @@ from typing import Any
 
 __all__ = [
     "MAX_HOME_CELLS",
+    "MAX_SCOPE_CELLS",
     "GridIndex",
     "RunningMax",
     "footprint_bounds",
@@ -140,6 +141,9 @@ def home_cells(
 
 MAX_HOME_CELLS = 4096
 """The most cells a footprint may cover: a node's own radius is refused beyond it."""
+
+MAX_SCOPE_CELLS = 65536
+"""The most cells an interest square may cover (a node with a larger one is refused)."""
 
 
 def footprint_cells(radius: float, margin: float, cell_size: float) -> int:

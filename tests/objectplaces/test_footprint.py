@@ -167,3 +167,8 @@ def test_a_radius_whose_footprint_is_too_large_is_refused_and_nothing_changes() 
 def test_a_bad_footprint_margin_is_refused(margin: float) -> None:
     with pytest.raises(LocalProtocolError, match="footprint_margin"):
         NodeMachine("n", config=NodeConfig(interest_radius=5.0, footprint_margin=margin))
+
+
+def test_an_interest_square_of_too_many_cells_is_refused() -> None:
+    with pytest.raises(LocalProtocolError, match="interest_radius"):
+        NodeMachine("n", config=NodeConfig(interest_radius=1e9, cell_size=1.0))
