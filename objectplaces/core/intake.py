@@ -80,22 +80,17 @@ class Intake:
     def admit(self, source: str, message: Message, size: int) -> bool:
         """Tally a decoded frame of ``size`` bytes; whether the machine should act on it
         (not when it claims to come from this node: a transport loop, or a spoofer)."""
-        kind = KIND_NAMES[type(message)]
-        tally = self.received_by_kind.get(kind)
-        if tally is None:  # not setdefault: its default list would be made for every frame
-            tally = self.received_by_kind[kind] = [0, 0]
-        tally[0] += 1
-        tally[1] += size
-        if source == self._node_id:
-            self._outbox.count("dropped_own")
-            return False
-        return True
+        return self._admit(KIND_NAMES[type(message)], source, size)
 
     def admit_beat(self, source: str, size: int) -> bool:
         """``admit`` for a ``Beat`` (whose kind is known without a lookup)."""
-        tally = self.received_by_kind.get("beat")
-        if tally is None:
-            tally = self.received_by_kind["beat"] = [0, 0]
+        return self._admit("beat", source, size)
+
+    def _admit(self, kind: str, source: str, size: int) -> bool:
+        """``admit`` for a frame whose kind name is known."""
+        tally = self.received_by_kind.get(kind)
+        if tally is None:  # not setdefault: its default list would be made for every frame
+            tally = self.received_by_kind[kind] = [0, 0]
         tally[0] += 1
         tally[1] += size
         if source == self._node_id:
