@@ -5,8 +5,6 @@ from __future__ import annotations
 
 import asyncio
 import logging
-import time
-from collections.abc import Callable
 from typing import Any
 
 import pytest
@@ -16,15 +14,9 @@ from objectplaces.core.messages import PropertyUpdate
 from objectplaces.mesh import MeshNode, MeshOptions, start_mesh_node
 from objectplaces.roles import ParticipantRef
 from tests.mesh.rawpeer import authenticate, open_raw
+from tests.waiting import until
 
 SECRET = b"links"
-
-
-async def until(predicate: Callable[[], bool], within: float = 10.0) -> None:
-    deadline = time.monotonic() + within
-    while not predicate():
-        assert time.monotonic() < deadline, f"not within {within}s"
-        await asyncio.sleep(0.005)
 
 
 class Recorder(Initiator):

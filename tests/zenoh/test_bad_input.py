@@ -6,34 +6,18 @@ from __future__ import annotations
 
 import asyncio
 import os
-import time
-from collections.abc import Callable
 
 import msgpack
 
 from objectplaces import groups
-from objectplaces.core.roles import Initiator, Participant
-from objectplaces.roles import ParticipantRef
+from objectplaces.core.roles import Participant
 from objectplaces.zenoh_node import start_zenoh_node
+from tests.waiting import until
+from tests.zenoh.counting import Counter
 from tests.zenoh.intruder import open_fleet_session
 
 SECRET = b"fleet"
 PREFIX = "objectplaces/default"
-
-
-async def until(predicate: Callable[[], bool], within: float = 10.0) -> None:
-    deadline = time.monotonic() + within
-    while not predicate():
-        assert time.monotonic() < deadline, f"not within {within}s"
-        await asyncio.sleep(0.01)
-
-
-class Counter(Initiator):
-    def __init__(self) -> None:
-        self.heard = 0
-
-    def receive(self, p: ParticipantRef, message: object) -> None:
-        self.heard += 1
 
 
 class Talker(Participant):

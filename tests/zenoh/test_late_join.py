@@ -4,9 +4,6 @@ sees a new token. ``start_node`` dispatches on ``transport``."""
 
 from __future__ import annotations
 
-import asyncio
-import time
-from collections.abc import Callable
 from typing import Any
 
 import pytest
@@ -14,6 +11,7 @@ import pytest
 from objectplaces.core.errors import LocalProtocolError
 from objectplaces.mesh import start_node
 from objectplaces.zenoh_node import ZenohNode, start_zenoh_node
+from tests.waiting import until
 
 SECRET = b"fleet"
 
@@ -21,13 +19,6 @@ SECRET = b"fleet"
 async def quiet(node_id: str, **kwargs: Any) -> ZenohNode:
     """A node that never republishes its properties (no heartbeat at all)."""
     return await start_zenoh_node(node_id, secret=SECRET, property_interval=None, **kwargs)
-
-
-async def until(predicate: Callable[[], bool], within: float = 10.0) -> None:
-    deadline = time.monotonic() + within
-    while not predicate():
-        assert time.monotonic() < deadline, f"not within {within}s"
-        await asyncio.sleep(0.01)
 
 
 async def test_a_newcomer_hears_the_fleet_at_once() -> None:

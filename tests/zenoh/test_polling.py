@@ -4,8 +4,6 @@ rings, and the loop hands everything received meanwhile on at once, in one batch
 from __future__ import annotations
 
 import asyncio
-import time
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -13,12 +11,13 @@ import pytest
 
 from objectplaces import groups
 from objectplaces.core.errors import LocalProtocolError
-from objectplaces.core.roles import Initiator, Participant
-from objectplaces.roles import ParticipantRef
+from objectplaces.core.roles import Participant
 from objectplaces.transport.zenoh_config import ZenohOptions
 from objectplaces.transport.zenoh_inbox import Item, ZenohInbox, _Polled
 from objectplaces.transport.zenoh_keys import FleetKeys
 from objectplaces.zenoh_node import start_zenoh_node
+from tests.waiting import until
+from tests.zenoh.counting import Counter
 
 SECRET = b"fleet"
 
@@ -147,21 +146,6 @@ async def test_a_closed_inbox_polls_no_more() -> None:
 def test_a_poll_interval_outside_its_range_is_refused(interval: float) -> None:
     with pytest.raises(LocalProtocolError, match="poll_interval"):
         ZenohOptions(poll_interval=interval)
-
-
-async def until(predicate: Callable[[], bool], within: float = 10.0) -> None:
-    deadline = time.monotonic() + within
-    while not predicate():
-        assert time.monotonic() < deadline, f"not within {within}s"
-        await asyncio.sleep(0.01)
-
-
-class Counter(Initiator):
-    def __init__(self) -> None:
-        self.heard = 0
-
-    def receive(self, p: ParticipantRef, message: object) -> None:
-        self.heard += 1
 
 
 class Talker(Participant):

@@ -5,8 +5,6 @@ from __future__ import annotations
 
 import asyncio
 import stat
-import time
-from collections.abc import Callable
 
 import msgpack
 import pytest
@@ -21,16 +19,10 @@ from objectplaces.transport.zenoh_config import (
 from objectplaces.transport.zenoh_inbox import direct
 from objectplaces.zenoh_node import ZenohNode, start_zenoh_node
 from objectplaces.zenoh_router import start_router
+from tests.waiting import until
 from tests.zenoh.intruder import open_fleet_session
 
 SECRET = b"the fleet secret"
-
-
-async def until(predicate: Callable[[], bool], within: float = 10.0) -> None:
-    deadline = time.monotonic() + within
-    while not predicate():
-        assert time.monotonic() < deadline, f"not within {within}s"
-        await asyncio.sleep(0.01)
 
 
 def dropped(node: ZenohNode) -> int:
