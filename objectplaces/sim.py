@@ -193,8 +193,6 @@ class SimulatedNetwork:
             raise LocalProtocolError(f"node {node_id!r} is already on the network")
         if interest_radius is not None and not interest_radius > 0:
             raise LocalProtocolError(f"interest_radius must be > 0, got {interest_radius!r}")
-        if footprint_margin is not None and not footprint_margin >= 0:
-            raise LocalProtocolError(f"footprint_margin must be >= 0, got {footprint_margin!r}")
         defaults = self._defaults
         config = NodeConfig(
             property_interval=(

@@ -182,16 +182,16 @@ class OwnProperties:
             return None
         dirty, self._dirty = self._dirty, {}
         self.pending = False
-        grows = self._home_grows()
+        home = self._home()
+        grows = self._home_grows(home)
         if len(dirty) == len(self._values) or (grows and not self._published_home):
-            return self._publication(self._values, full=True)
-        return self._publication(dirty, full=False, fresh=grows)
+            return self._publication(self._values, home, full=True)
+        return self._publication(dirty, home, full=False, fresh=grows)
 
-    def _home_grows(self) -> bool:
-        """Whether the next publication reaches a cell the last one did not."""
+    def _home_grows(self, home: tuple[Cell, ...]) -> bool:
+        """Whether a publication to ``home`` reaches a cell the last one did not."""
         if self._config.interest_radius is None:
             return False
-        home = self._home()
         published = self._published_home
         return home != published and not set(home).issubset(published)
 
@@ -199,7 +199,7 @@ class OwnProperties:
         """The heartbeat: a snapshot of every value (pending changes included)."""
         self._dirty = {}
         self.pending = False
-        return self._publication(self._values, full=True) if self._values else None
+        return self._publication(self._values, self._home(), full=True) if self._values else None
 
     def beat(self) -> Output | None:
         """The liveness beat: the number of the latest publication, to where the
@@ -220,11 +220,13 @@ class OwnProperties:
         update = PropertyUpdate(self._seq, dict(self._values), full=True)
         return Send(peer, codec.encode(update), "property")
 
-    def _publication(self, values: Mapping[str, Any], *, full: bool, fresh: bool = False) -> Output:
-        """One publication; ``fresh``: its home grew, so it carries a snapshot too."""
+    def _publication(
+        self, values: Mapping[str, Any], home: tuple[Cell, ...], *, full: bool, fresh: bool = False
+    ) -> Output:
+        """One publication to ``home`` (``_home()``); ``fresh``: the home grew, so it
+        carries a snapshot too."""
         self._seq += 1
         data = codec.encode(PropertyUpdate(self._seq, dict(values), full))
-        home = self._home()
         if self._config.interest_radius is None or not home:
             return Broadcast(data, "property")
         old = self._published_home

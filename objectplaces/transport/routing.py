@@ -43,7 +43,7 @@ class Subscribed:
 
 
 class CellRouter:
-    """Subscriptions per node and the cell each node last published in."""
+    """Subscriptions per node and the home (cells) each node last published in."""
 
     __slots__ = ("_cell_subs", "_homes", "_publishers_in", "_subscriptions", "_wildcard")
 

@@ -220,8 +220,9 @@ class WebSocketMesh:
             case Broadcast(data, _):
                 return sum(self._enqueue(link, data) for link in list(self._links.values()))
             case Publish(cells, data, _, home, snapshot):
-                routed = [(self._router.publish(self.node_id, cells, home), data)]
-                if snapshot is not None:
+                if snapshot is None:
+                    routed = [(self._router.publish(self.node_id, cells, home), data)]
+                else:  # split before the router records the new home: who heard the last
                     heard, fresh = self._router.publish_split(self.node_id, cells, home)
                     routed = [(heard, data), (fresh, snapshot)]
                 sent = 0

@@ -224,8 +224,7 @@ class ZenohTransport:
                 for n, cell in enumerate(cells):
                     # A cell new to our home gets the snapshot; its subscribers that
                     # heard us elsewhere too get both, the same publication twice.
-                    fresh = snapshot is not None and cell not in before
-                    payload = snapshot if fresh and snapshot is not None else data
+                    payload = snapshot if snapshot is not None and cell not in before else data
                     sent += self._put(keys.props(cell, left=n > 0), payload)
                 return sent
             case Subscribe(cells):
