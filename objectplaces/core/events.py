@@ -1,4 +1,10 @@
-"""What the node machine asks its driver to do: transmit frames and run callbacks."""
+"""What the node machine asks its driver to do: transmit frames and run callbacks.
+
+The outputs and callbacks are values, immutable by convention: nobody assigns to their
+fields. They are not frozen dataclasses because a node makes several for every frame,
+and a frozen one sets each field through ``object.__setattr__``, three times the cost of
+a plain slotted one; they keep a frozen value's equality and hash.
+"""
 
 from __future__ import annotations
 
@@ -9,7 +15,7 @@ from typing import Any, TypeAlias
 __all__ = ["Broadcast", "Callback", "Output", "Publish", "Send", "Subscribe", "TimerHandle"]
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True, unsafe_hash=True)
 class Send:
     """Deliver ``data`` to one node."""
 
@@ -18,7 +24,7 @@ class Send:
     kind: str
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True, unsafe_hash=True)
 class Broadcast:
     """Deliver ``data`` to every node the transport knows."""
 
@@ -26,7 +32,7 @@ class Broadcast:
     kind: str
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True, unsafe_hash=True)
 class Publish:
     """Deliver ``data`` to every node subscribed to any of ``cells`` (scoped dissemination).
 
@@ -50,7 +56,7 @@ class Publish:
     snapshot: bytes | None = None
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True, unsafe_hash=True)
 class Subscribe:
     """From now on deliver to this node what is published in ``cells`` (None: everything)."""
 
@@ -60,7 +66,7 @@ class Subscribe:
 Output: TypeAlias = Send | Broadcast | Publish | Subscribe
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True, unsafe_hash=True)
 class Callback:
     """Run application code: a role method, a timer, or an observer.
 
