@@ -110,6 +110,9 @@ class SimulatedNetwork:
         seed: seeds every random choice (delay jitter, loss, duplication, reordering).
         delay: one-way delay of every link, seconds.
         jitter: delays vary uniformly within +-jitter.
+        jitter_per_frame: draw a frame's jitter once for all its receivers over links
+            that only delay and jitter (a shared medium: they hear it at one instant, in
+            one event) instead of once per receiver (``MemoryNetwork``).
         loss: probability that a frame is lost.
         duplicate: probability that a frame arrives twice.
         reorder: probability that a frame is held back by up to 4x (delay + jitter).
@@ -127,6 +130,7 @@ class SimulatedNetwork:
         *,
         delay: float = 0.005,
         jitter: float = 0.0,
+        jitter_per_frame: bool = False,
         loss: float = 0.0,
         duplicate: float = 0.0,
         reorder: float = 0.0,
@@ -139,7 +143,10 @@ class SimulatedNetwork:
         self.seed = seed
         self._loop = EventLoop()
         self._network = MemoryNetwork(
-            self._loop, random.Random(seed), LinkParams(delay, jitter, loss, duplicate, reorder)
+            self._loop,
+            random.Random(seed),
+            LinkParams(delay, jitter, loss, duplicate, reorder),
+            jitter_per_frame=jitter_per_frame,
         )
         self._defaults = NodeConfig(
             property_interval=property_interval,

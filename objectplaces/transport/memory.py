@@ -64,12 +64,24 @@ class MemoryNetwork:
         loop: the clock and timer queue every delivery is scheduled on.
         rng: draws every random choice (jitter, loss, duplication, reordering).
         defaults: how every link behaves unless ``set_link`` says otherwise.
+        jitter_per_frame: over links that only delay and jitter (the defaults, not
+            changed by ``set_link``), draw a frame's jitter once for all its receivers,
+            so that it reaches them all at one instant, as a frame on a shared medium
+            does, in one event; otherwise each receiver's arrival is drawn on its own.
     """
 
-    def __init__(self, loop: Scheduler, rng: random.Random, defaults: LinkParams) -> None:
+    def __init__(
+        self,
+        loop: Scheduler,
+        rng: random.Random,
+        defaults: LinkParams,
+        *,
+        jitter_per_frame: bool = False,
+    ) -> None:
         self.loop = loop
         self.rng = rng
         self.defaults = defaults
+        self.jitter_per_frame = jitter_per_frame
         self._links: dict[tuple[str, str], LinkParams] = {}
         self._nodes: dict[str, tuple[int, RawNodeDriver]] = {}
         self._incarnations: dict[str, int] = {}
@@ -194,12 +206,13 @@ class MemoryNetwork:
         incarnations = self._incarnations
         run = incarnations[source]
         # Frames over plain default links all arrive together: one event carries them all.
-        plain = not (defaults.jitter or defaults.loss or defaults.duplicate or defaults.reorder)
+        plain = not (defaults.loss or defaults.duplicate or defaults.reorder) and (
+            self.jitter_per_frame or not defaults.jitter
+        )
         together: list[tuple[str, int]] = []
         # Arrivals one by one (links with jitter, loss ...): scheduled together at the end,
         # in the order drawn, so the event queue sees the same calls in the same order.
-        arrivals: list[tuple[float, tuple[str, int | None, str, int, Message | bytes, int, str]]]
-        arrivals = []
+        arrivals: list[tuple[float, tuple[Any, ...]]] = []
         count = 0
         for target in targets:
             count += 1
@@ -223,14 +236,15 @@ class MemoryNetwork:
                         delay = 0.0
                 if link.reorder and rng.random() < link.reorder:
                     delay += rng.random() * 4.0 * (link.delay + link.jitter)
-                arrivals.append(
-                    (now + delay, (source, run, target, incarnation, message, size, kind))
-                )
+                receiver = ((target, incarnation),)
+                arrivals.append((now + delay, (source, run, receiver, message, size, kind)))
         if arrivals:
             self._schedule(self._arrive, arrivals)
         if together:
-            arrive = self._arrive_together
-            loop.call_at(now + defaults.delay, arrive, source, run, together, message, size, kind)
+            delay = defaults.delay
+            if defaults.jitter:  # jitter_per_frame: one draw for every receiver
+                delay = max(0.0, delay + defaults.jitter * (2.0 * rng.random() - 1.0))
+            loop.call_at(now + delay, self._arrive, source, run, together, message, size, kind)
         tally[0] += count
         tally[1] += count * size
         by_kind[0] += count
@@ -251,53 +265,40 @@ class MemoryNetwork:
             for when, args in calls:
                 self.loop.call_at(when, fn, *args)
 
-    def _arrive_together(
-        self,
-        source: str,
-        run: int | None,
-        targets: list[tuple[str, int]],
-        message: Message | bytes,
-        size: int,
-        kind: str,
-    ) -> None:
-        arrive = self._arrive
-        for target, incarnation in targets:
-            arrive(source, run, target, incarnation, message, size, kind)
-
     def _arrive(
         self,
         source: str,
         run: int | None,
-        target: str,
-        incarnation: int,
+        targets: Iterable[tuple[str, int]],
         message: Message | bytes,
         size: int,
         kind: str,
     ) -> None:
+        """Hand one frame to each ``(target, its run when sent)``, in that order."""
         # ``run``: the sender's run when it sent the frame (None: injected, never lost).
-        entry = self._nodes.get(target)
-        voided = self._voided
-        void = bool(voided) and run is not None and run <= voided.get(source, 0)
-        if entry is None or entry[0] != incarnation or void:
-            self._dropped["dead"] += 1
-            return
-        driver = entry[1]
-        received = self._traffic[target].received
-        tally = received.get(kind)
-        if tally is None:
-            tally = received[kind] = [0, 0]
-        tally[0] += 1
-        tally[1] += size
-        self._delivered += 1
-        try:
-            if isinstance(message, bytes):
-                driver.deliver_raw(source, message)
-            else:
-                driver.deliver(source, message, size)
-        except Exception:
-            # A transport outlives any one frame: the node keeps running.
-            self._dropped["failed"] += 1
-            log.exception("node %s: handling a %s frame from %s failed", target, kind, source)
+        nodes, voided, traffic, dropped = self._nodes, self._voided, self._traffic, self._dropped
+        for target, incarnation in targets:
+            entry = nodes.get(target)
+            void = bool(voided) and run is not None and run <= voided.get(source, 0)
+            if entry is None or entry[0] != incarnation or void:
+                dropped["dead"] += 1
+                continue
+            received = traffic[target].received
+            tally = received.get(kind)
+            if tally is None:
+                tally = received[kind] = [0, 0]
+            tally[0] += 1
+            tally[1] += size
+            self._delivered += 1
+            try:
+                if isinstance(message, bytes):
+                    entry[1].deliver_raw(source, message)
+                else:
+                    entry[1].deliver(source, message, size)
+            except Exception:
+                # A transport outlives any one frame: the node keeps running.
+                dropped["failed"] += 1
+                log.exception("node %s: handling a %s frame from %s failed", target, kind, source)
 
     def _handle(self, call: Callable[[str], None], peer: str, *, target: str) -> None:
         """Tell ``target``'s driver about ``peer``; a failure there stays there."""
@@ -341,8 +342,7 @@ class MemoryNetwork:
             self._arrive,
             source,
             None,
-            target,
-            self._incarnations[target],
+            ((target, self._incarnations[target]),),
             _decoded(data),
             size,
             kind,
