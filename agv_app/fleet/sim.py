@@ -61,6 +61,9 @@ class FleetConfig:
             heartbeat too, unless ``heartbeat`` is given.
         delay: one-way network delay.
         jitter: delay variation.
+        jitter_per_frame: a frame reaches all its receivers at one instant (its jitter
+            drawn once, as on a shared radio medium; docs/sim-speed.md), unless loss,
+            duplication or reordering is asked for; False: each receiver's on its own.
         loss: frame loss probability.
         reorder: probability a frame is held back (reordering).
         duplicate: probability a frame is duplicated.
@@ -101,6 +104,7 @@ class FleetConfig:
     t_update: float = 1.0
     delay: float = 0.005
     jitter: float = 0.002
+    jitter_per_frame: bool = True
     loss: float = 0.0
     reorder: float = 0.0
     duplicate: float = 0.0
@@ -176,6 +180,7 @@ class Fleet(FleetSourceBase):
             cfg.seed,
             delay=cfg.delay,
             jitter=cfg.jitter,
+            jitter_per_frame=cfg.jitter_per_frame,
             loss=cfg.loss,
             reorder=cfg.reorder,
             duplicate=cfg.duplicate,
