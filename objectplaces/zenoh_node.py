@@ -18,6 +18,7 @@ membership by liveliness, security, and how to run a router for client-mode node
 from __future__ import annotations
 
 import asyncio
+import logging
 import time
 from collections.abc import Sequence
 
@@ -33,6 +34,8 @@ from tuplespace import TupleSpace
 
 __all__ = ["ZenohNode", "ZenohRunner", "start_zenoh_node"]
 
+log = logging.getLogger("objectplaces.zenoh")
+
 
 class ZenohRunner(AsyncioRunner):
     """The asyncio runner, also taking raw frames: the machine's intake decodes them."""
@@ -43,6 +46,26 @@ class ZenohRunner(AsyncioRunner):
             return
         self.machine.receive(source, data, self.now())
         self.wake()
+
+    def deliver_frames(self, frames: list[tuple[str, bytes]]) -> int:
+        """Hand the machine frames that arrived together: one clock reading and one
+        wake for all (per frame, those were a tenth of the loop's receiving work).
+
+        Returns:
+            How many frames failed (each logged; the others are handed on all the same).
+        """
+        if self.closed:
+            return 0
+        receive, now, failed = self.machine.receive, self.now(), 0
+        for source, data in frames:
+            try:
+                receive(source, data, now)
+            except Exception:
+                # One frame's failure costs that frame, never the node.
+                log.exception("node %s: a frame from %s failed", self.machine.node_id, source)
+                failed += 1
+        self.wake()
+        return failed
 
 
 class ZenohNode(NetworkNode):

@@ -2,8 +2,8 @@
 
 Outputs of the node machine become puts on the fleet's keys (``zenoh_keys``): ``Publish``
 on the cell keys, ``Broadcast`` on the node's broadcast key, ``Send`` on the target's
-inbox key. ``Subscribe`` declares one subscriber per interest cell, or the one wildcard
-of full dissemination: Zenoh routes each update only to the nodes that hear its cell.
+inbox key. ``Subscribe`` declares one subscriber per row of interest cells, or the one
+wildcard of full dissemination: Zenoh routes each update only to the nodes that hear it.
 
 Membership is Zenoh's liveliness: every node holds a token while its session lives; a
 node whose token goes (it left, its process died, its links lapsed past the lease) is
@@ -14,17 +14,16 @@ node that sees a new token asks that node; an asked node whose properties the as
 should hear sends it a snapshot on its inbox key. The asker's subscription travels in
 the query, so nobody answers out of scope.
 
-Zenoh calls back on its own threads; the callbacks only parse keys and queue the
-sample for the event loop (``ZenohInbox``), where the driver sees it. Frames are
-decoded and checked by the node machine's own intake: a malformed payload on our keys
-is counted and dropped there, and never stops the node.
+Zenoh calls back on its own threads, which only queue each sample (``ZenohInbox``); on
+the event loop the frames that came together go to the driver in one call. The node
+machine's own intake decodes them: a malformed payload is counted, never stops the node.
 """
 
 from __future__ import annotations
 
 import asyncio
 import logging
-from typing import Any
+from typing import Any, Protocol
 
 import msgpack
 import zenoh
@@ -44,7 +43,7 @@ from objectplaces.transport.zenoh_inbox import Item, ZenohInbox, direct
 from objectplaces.transport.zenoh_keys import FleetKeys
 from objectplaces.transport.zenoh_publishers import PublisherCache
 
-__all__ = ["ZenohTransport"]
+__all__ = ["FrameDriver", "ZenohTransport"]
 
 log = logging.getLogger("objectplaces.zenoh")
 
@@ -56,6 +55,14 @@ _ASK_AGAIN_AFTER = (0.3, 1.5)
 """Seconds after which an ask is repeated: an asked node's queryable, just moved to the
 cell we ask, may not have reached us yet (nor our subscription it), and a node without
 a heartbeat would otherwise stay unheard. Repeated answers are harmless snapshots."""
+
+
+class FrameDriver(RawNodeDriver, Protocol):
+    """A driver that also takes the frames that arrived together, in one call."""
+
+    def deliver_frames(self, frames: list[tuple[str, bytes]]) -> int:
+        """Hand the node these frames in order; returns how many failed."""
+        ...
 
 
 class ZenohTransport:
@@ -77,7 +84,7 @@ class ZenohTransport:
         self.keys = FleetKeys(options.fleet, node_id)
         self.counters: dict[str, int] = {}
         self._credentials: Credentials = derive_credentials(secret, options.fleet)
-        self._driver: RawNodeDriver | None = None
+        self._driver: FrameDriver | None = None
         self._session: zenoh.Session | None = None
         self._publishers: PublisherCache | None = None
         self._file: CredentialsFile | None = None
@@ -99,7 +106,7 @@ class ZenohTransport:
 
     # ------------------------------------------------------------------ lifecycle
 
-    def attach(self, driver: RawNodeDriver) -> None:
+    def attach(self, driver: FrameDriver) -> None:
         """Connect whoever drives the node machine this transport carries."""
         self._driver = driver
 
@@ -322,31 +329,40 @@ class ZenohTransport:
         driver = self._driver
         if driver is None or self.closed:
             return
-        deliver = driver.deliver_raw
         cells = self._cells  # empty: we hear every cell (or no cell yet)
-        frames = size = outside = 0
+        frames: list[tuple[str, bytes]] = []
+        size = outside = 0
         for item in items:
+            if item[0] == "frame":  # nearly every item: the short way
+                if cells and item[3] is not None and item[3] not in cells:
+                    outside += 1  # another cell of a row we hear
+                    continue
+                frames.append((item[1], item[2]))
+                size += len(item[2])
+                continue
+            if frames:  # in arrival order: the frames before this item first
+                self._deliver(driver, frames)
+                frames = []
             try:
-                if item[0] == "frame":  # nearly every item: the short way
-                    if cells and item[3] is not None and item[3] not in cells:
-                        outside += 1  # another cell of a row we hear
-                        continue
-                    frames += 1
-                    size += len(item[2])
-                    deliver(item[1], item[2])
-                else:
-                    self._handle(driver, item)
+                self._handle(driver, item)
             except Exception:
                 # One input's failure costs that input, never the node.
                 log.exception("node %s: handling %s failed", self.node_id, item[0])
                 self._count("driver_errors")
         if frames:
-            self._count("frames_in", frames)
+            self._deliver(driver, frames)
+        if size:
             self._count("bytes_in", size)
         if outside:
             self._count("frames_outside_cells", outside)
 
-    def _handle(self, driver: RawNodeDriver, item: Item) -> None:
+    def _deliver(self, driver: FrameDriver, frames: list[tuple[str, bytes]]) -> None:
+        self._count("frames_in", len(frames))
+        failed = driver.deliver_frames(frames)
+        if failed:
+            self._count("driver_errors", failed)
+
+    def _handle(self, driver: FrameDriver, item: Item) -> None:
         match item:
             case ("alive", node, incarnation):
                 change = self._alive.token_up(node, incarnation)
