@@ -46,7 +46,7 @@ from agv_app.geometry import XY
 from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
 from agv_app.layout.graph import Layout
 from agv_app.protocol import AGV_KIND
-from agv_app.tasks.desk import TaskDesk, pick_stations
+from agv_app.tasks.desk import TaskDesk, pick_stations, require_task_stations
 from agv_app.tasks.free_flow import FreeFlowBound, FreeFlowTimer
 from agv_app.tasks.load import TaskArrivals
 from agv_app.traffic.monitor import SafetyMonitor
@@ -174,6 +174,7 @@ class MeshFleet(FleetSourceBase):
         self.python = python
         self.capture_output = capture_output
         spec = VehicleSpec(DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M)
+        require_task_stations(self.layout)
         self.homes = ParkingPlan(self.layout, spec, agvs, rest_elsewhere=False).homes
         self.free_flow = FreeFlowBound(
             FreeFlowTimer(self.layout, spec.max_speed_m_s, dwell), self.homes

@@ -22,7 +22,7 @@ from agv_app.fleet.view import OBSERVER_ID, VehicleState, area_rings
 from agv_app.geometry import XY
 from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
 from agv_app.layout.graph import Layout
-from agv_app.tasks.desk import TaskDesk, pick_stations
+from agv_app.tasks.desk import TaskDesk, pick_stations, require_task_stations
 from agv_app.tasks.free_flow import FreeFlowBound, FreeFlowTimer
 from agv_app.tasks.load import (
     DEFAULT_LOAD,
@@ -195,6 +195,7 @@ class Fleet(FleetSourceBase):
         self.step_count = 0
         self._speed = 1.0
         self._carry = 0.0
+        require_task_stations(self.layout)
         self.parking = ParkingPlan(self.layout, self.spec, cfg.agvs, homes=homes)
         self.free_flow = FreeFlowBound(
             FreeFlowTimer(self.layout, self.spec.max_speed_m_s, cfg.dwell), self.parking.homes

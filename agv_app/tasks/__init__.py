@@ -22,6 +22,7 @@ from agv_app.tasks.desk import (
     TaskDesk,
     drop_stations,
     pick_stations,
+    require_task_stations,
 )
 from agv_app.tasks.free_flow import (
     FreeFlowBound,
@@ -61,5 +62,6 @@ __all__ = [
     "initial_tasks",
     "mean_task_seconds",
     "pick_stations",
+    "require_task_stations",
     "task_interval_for_load",
 ]

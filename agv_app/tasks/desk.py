@@ -10,7 +10,7 @@ fleet reports starts and deliveries, which it learns from its vehicles.
 from __future__ import annotations
 
 import random
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 
 from agv_app.layout.graph import Layout
 from agv_app.protocol import MessageTally
@@ -19,7 +19,7 @@ from agv_app.tasks.book import DEFAULT_HISTORY, TaskBook
 from agv_app.tasks.station import Station
 from objectplaces import RoleActivator
 
-__all__ = ["TaskDesk", "drop_stations", "pick_stations"]
+__all__ = ["TaskDesk", "drop_stations", "pick_stations", "require_task_stations"]
 
 
 def pick_stations(layout: Layout) -> list[str]:
@@ -30,6 +30,30 @@ def pick_stations(layout: Layout) -> list[str]:
 def drop_stations(layout: Layout) -> list[str]:
     """Ids of the usable stations where loads are dropped (``drop``, ``pickdrop``)."""
     return [s for s in layout.usable_stations() if layout.station(s).kind in ("drop", "pickdrop")]
+
+
+def require_task_stations(layout: Layout) -> None:
+    """Check that tasks can be made on ``layout``: a pick station and a drop station
+    apart from it, both among the stations that reach each other.
+
+    Raises:
+        ValueError: there are none; the message names the usable stations and the ones
+            that cannot reach them.
+    """
+    picks, drops = pick_stations(layout), drop_stations(layout)
+    if any(d != p for p in picks for d in drops):
+        return
+
+    def named(ids: Iterable[str]) -> str:
+        return ", ".join(f"{s!r} ({layout.station(s).kind})" for s in ids) or "none"
+
+    cut_off = layout.unreachable_stations()
+    raise ValueError(
+        f"layout {layout.name!r} cannot host a fleet: a task needs a pick station and "
+        "another drop station that reach each other; the largest group of stations that "
+        f"reach each other is {named(layout.usable_stations())}"
+        + (f", cut off from it: {named(cut_off)}" if cut_off else "")
+    )
 
 
 class TaskDesk:

@@ -68,6 +68,19 @@ def test_more_agvs_than_parking_places_is_refused_clearly(
     assert "5 parking places, too few for 20 AGVs" in capsys.readouterr().err
 
 
+def test_a_plant_without_two_stations_that_reach_each_other_is_refused_with_why(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # The openTCS V7 sample: its one location lies behind a locked path, its paths join
+    # no two stations, and its park position has no path at all.
+    sample = DEMO_01.with_name("PlantModelV7.sample.xml")
+    assert main(["sim", "--layout", str(sample), "--agvs", "1", "--minutes", "1", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "layout 'PlantModelV7' cannot host a fleet" in err
+    assert "a pick station and another drop station that reach each other" in err
+    assert "'Location-0001' (pickdrop), cut off from it: 'Point-0015' (parking)" in err
+
+
 def test_broadcast_and_an_opentcs_layout(tmp_path: Path) -> None:
     layout = DEMO_01
     code = main(["sim", "--agvs", "4", "--minutes", "1", "--layout", str(layout), "--quiet"])

@@ -5,7 +5,10 @@ from __future__ import annotations
 import pytest
 
 from agv_app.fleet import Fleet, FleetConfig
+from agv_app.layout import Layout, Point, Segment, Station
 from agv_app.layout.demo import demo_warehouse
+from agv_app.layout.elements import StationKind
+from agv_app.tasks import require_task_stations
 
 PICK = "dock-in-1"
 
@@ -64,3 +67,28 @@ def test_a_held_or_unknown_task_cannot_be_cancelled() -> None:
         fleet.cancel_task(task_id)
     with pytest.raises(KeyError, match="task-99"):
         fleet.cancel_task("task-99")
+
+
+def _lane(*stations: tuple[str, str, StationKind]) -> Layout:
+    """A two-way lane a - b - c with the given stations (id, point, kind)."""
+    points = [Point(p, float(x), 0.0) for p, x in (("a", 0), ("b", 10), ("c", 20))]
+    segments = [
+        Segment("a-b", "a", "b", bidirectional=True),
+        Segment("b-c", "b", "c", bidirectional=True),
+    ]
+    return Layout(points, segments, [Station(*s) for s in stations], name="lane")
+
+
+def test_tasks_need_a_pick_and_another_drop_station_that_reach_each_other() -> None:
+    require_task_stations(_lane(("in", "a", "pick"), ("out", "c", "drop")))
+    require_task_stations(_lane(("x", "a", "pickdrop"), ("y", "c", "pickdrop")))
+    cases: tuple[list[tuple[str, str, StationKind]], ...] = (
+        [("x", "a", "pickdrop"), ("park", "c", "parking")],
+        [("in", "a", "pick"), ("in2", "c", "pick")],
+    )
+    for stations in cases:
+        with pytest.raises(ValueError, match="layout 'lane' cannot host a fleet"):
+            require_task_stations(_lane(*stations))
+    reason = r"group of stations that reach each other is 'park' \(parking\), 'x' \(pickdrop\)$"
+    with pytest.raises(ValueError, match=reason):
+        Fleet(_lane(("x", "a", "pickdrop"), ("park", "c", "parking")), FleetConfig(agvs=1))
