@@ -38,6 +38,7 @@ from agv_app.traffic.stale_relay import StaleListener, StaleRelay
 from agv_app.vehicle.controller import AgvConfig, AgvController
 from agv_app.vehicle.kinematics import VehicleSpec
 from objectplaces import RoleActivator
+from objectplaces.runtime.sim import collections_spaced
 from objectplaces.sim import SimulatedNetwork
 
 __all__ = ["TRAFFIC_MODES", "Fleet", "FleetConfig", "SafetyError"]
@@ -380,10 +381,11 @@ class Fleet(FleetSourceBase):
     def run(self, seconds: float, progress: Callable[[float], None] | None = None) -> None:
         """Run for ``seconds`` of simulated time (whole steps), reporting progress."""
         steps = round(seconds / self.config.dt)
-        for k in range(steps):
-            self.step()
-            if progress is not None and k % 50 == 0:
-                progress(self.net.now)
+        with collections_spaced():  # across steps, not only while the network runs
+            for k in range(steps):
+                self.step()
+                if progress is not None and k % 50 == 0:
+                    progress(self.net.now)
         if progress is not None:
             progress(self.net.now)
 

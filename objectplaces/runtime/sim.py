@@ -20,7 +20,7 @@ import itertools
 from collections.abc import Callable, Iterable, Iterator
 from typing import Any
 
-__all__ = ["EventLoop"]
+__all__ = ["GC_ALLOCATIONS", "EventLoop", "collections_spaced"]
 
 
 def _run_marker() -> None:
@@ -40,8 +40,13 @@ alive; at the default, the collector's passes over that state cost a third of a
 
 
 @contextlib.contextmanager
-def _collections_spaced() -> Iterator[None]:
-    """Space the collector's passes to ``GC_ALLOCATIONS`` for the block, then restore."""
+def collections_spaced() -> Iterator[None]:
+    """Space the collector's passes to ``GC_ALLOCATIONS`` for the block, then restore.
+
+    ``run_until`` does it for the events it runs; a driver that calls it in steps, with
+    work of its own between them, puts its whole run in the block: else each step's
+    end restores the default, and the next allocation collects what the step made.
+    """
     young, *older = gc.get_threshold()
     if not young or young >= GC_ALLOCATIONS:  # off, or set higher by the application
         yield
@@ -128,7 +133,7 @@ class EventLoop:
         Returns:
             True when ``stop`` ended the run early.
         """
-        with _collections_spaced():
+        with collections_spaced():
             return self._run_until(end, stop)
 
     def _run_until(self, end: float, stop: Callable[[], bool] | None) -> bool:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gc
 import os
 
 import pytest
@@ -10,6 +11,8 @@ from hypothesis import strategies as st
 
 from agv_app.fleet import Fleet, FleetConfig, demo_source
 from agv_app.layout.demo import demo_warehouse
+from agv_app.traffic import SafetyViolation
+from objectplaces.runtime.sim import GC_ALLOCATIONS
 
 SEED = int(os.environ.get("OP_SEED", "1"))
 
@@ -90,3 +93,21 @@ def test_the_dashboard_protocol_is_satisfied() -> None:
     from dashboard.source import FleetSource
 
     assert isinstance(demo_source(agvs=2, seed=1), FleetSource)
+
+
+def test_a_run_spaces_the_collector_across_its_steps_and_restores_it(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    fleet = Fleet(config=FleetConfig(agvs=2, start_tasks=0))
+    before = gc.get_threshold()
+    seen: list[int] = []
+    step = fleet.step
+
+    def noting_step() -> list[SafetyViolation]:
+        seen.append(gc.get_threshold()[0])  # also between the network's runs
+        return step()
+
+    monkeypatch.setattr(fleet, "step", noting_step)
+    fleet.run(0.3)
+    assert seen == [max(before[0], GC_ALLOCATIONS)] * 3
+    assert gc.get_threshold() == before
