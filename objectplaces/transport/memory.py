@@ -83,8 +83,10 @@ class MemoryNetwork:
         self.defaults = defaults
         self.jitter_per_frame = jitter_per_frame
         self._links: dict[tuple[str, str], LinkParams] = {}
-        self._nodes: dict[str, tuple[int, RawNodeDriver]] = {}
+        # node -> (its run, its driver, the number of attaches up to and with its own)
+        self._nodes: dict[str, tuple[int, RawNodeDriver, int]] = {}
         self._incarnations: dict[str, int] = {}
+        self._attaches = 0  # a frame sent after attach n reaches only runs attached by then
         # node -> its latest run whose frames still in flight are lost (crashed or replaced)
         self._voided: dict[str, int] = {}
         self._component: dict[str, int] | None = None
@@ -113,10 +115,11 @@ class MemoryNetwork:
         self._incarnations[node] = previous + 1
         if previous:
             self._voided[node] = previous  # the old run's frames must not reach anyone now
-        self._nodes[node] = (previous + 1, driver)
+        self._attaches += 1
+        self._nodes[node] = (previous + 1, driver, self._attaches)
         self._traffic.setdefault(node, NodeTraffic())
         if previous:
-            for other, (_, other_driver) in list(self._nodes.items()):
+            for other, (_, other_driver, _) in list(self._nodes.items()):
                 if other != node:
                     self._handle(other_driver.peer_restarted, node, target=other)
 
@@ -203,17 +206,19 @@ class MemoryNetwork:
         now = loop.now
         links = self._links
         defaults = self.defaults
-        incarnations = self._incarnations
-        run = incarnations[source]
+        run, mark = self._incarnations[source], self._attaches
         # Frames over plain default links all arrive together: one event carries them all.
         plain = not (defaults.loss or defaults.duplicate or defaults.reorder) and (
             self.jitter_per_frame or not defaults.jitter
         )
-        together: list[tuple[str, int]] = []
+        together: list[str] = []
         # Arrivals one by one (links with jitter, loss ...): scheduled together at the end,
         # in the order drawn, so the event queue sees the same calls in the same order.
         arrivals: list[tuple[float, tuple[Any, ...]]] = []
         count = 0
+        if plain and not links and self._component is None:
+            together = list(targets)  # every link is a default one: nothing to check
+            count, targets = len(together), ()
         for target in targets:
             count += 1
             if self._component is not None and self._separated(source, target):
@@ -221,13 +226,12 @@ class MemoryNetwork:
                 continue
             link = links.get((source, target), defaults) if links else defaults
             if plain and link is defaults:
-                together.append((target, incarnations.get(target, 0)))
+                together.append(target)
                 continue
             if link.loss and rng.random() < link.loss:
                 self._dropped["loss"] += 1
                 continue
             copies = 2 if link.duplicate and rng.random() < link.duplicate else 1
-            incarnation = incarnations.get(target, 0)
             for _ in range(copies):
                 delay = link.delay
                 if link.jitter:
@@ -236,15 +240,15 @@ class MemoryNetwork:
                         delay = 0.0
                 if link.reorder and rng.random() < link.reorder:
                     delay += rng.random() * 4.0 * (link.delay + link.jitter)
-                receiver = ((target, incarnation),)
-                arrivals.append((now + delay, (source, run, receiver, message, size, kind)))
+                arrivals.append((now + delay, (source, run, mark, (target,), message, size, kind)))
         if arrivals:
             self._schedule(self._arrive, arrivals)
         if together:
             delay = defaults.delay
             if defaults.jitter:  # jitter_per_frame: one draw for every receiver
                 delay = max(0.0, delay + defaults.jitter * (2.0 * rng.random() - 1.0))
-            loop.call_at(now + delay, self._arrive, source, run, together, message, size, kind)
+            arrive = self._arrive
+            loop.call_at(now + delay, arrive, source, run, mark, together, message, size, kind)
         tally[0] += count
         tally[1] += count * size
         by_kind[0] += count
@@ -269,18 +273,21 @@ class MemoryNetwork:
         self,
         source: str,
         run: int | None,
-        targets: Iterable[tuple[str, int]],
+        mark: int,
+        targets: Iterable[str],
         message: Message | bytes,
         size: int,
         kind: str,
     ) -> None:
-        """Hand one frame to each ``(target, its run when sent)``, in that order."""
+        """Hand one frame to each of ``targets`` in order: to the runs they had when it
+        was sent (``mark``: the attaches then), so a target that attached again since
+        (a new run) or is gone loses it."""
         # ``run``: the sender's run when it sent the frame (None: injected, never lost).
         nodes, voided, traffic, dropped = self._nodes, self._voided, self._traffic, self._dropped
-        for target, incarnation in targets:
+        for target in targets:
             entry = nodes.get(target)
             void = bool(voided) and run is not None and run <= voided.get(source, 0)
-            if entry is None or entry[0] != incarnation or void:
+            if entry is None or entry[2] > mark or void:
                 dropped["dead"] += 1
                 continue
             received = traffic[target].received
@@ -337,16 +344,8 @@ class MemoryNetwork:
             tally[1] += size
         self._messages += 1
         self._bytes += size
-        self.loop.call_at(
-            self.loop.now + delay,
-            self._arrive,
-            source,
-            None,
-            ((target, self._incarnations[target]),),
-            _decoded(data),
-            size,
-            kind,
-        )
+        args = (source, None, self._attaches, (target,), _decoded(data), size, kind)
+        self.loop.call_at(self.loop.now + delay, self._arrive, *args)
 
     # -- cell subscriptions -------------------------------------------------------------
 

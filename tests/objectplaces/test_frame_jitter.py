@@ -117,3 +117,21 @@ def test_nodes_agree_on_each_others_properties_with_one_draw_per_frame() -> None
         assert {peer: props["n"] for peer, props in node.view().items()} == {
             peer: number for number, peer in enumerate(nodes) if peer != name
         }
+
+
+def test_a_receiver_that_restarts_while_a_frame_is_in_flight_loses_it() -> None:
+    for per_frame in (True, False):
+        loop = EventLoop()
+        log: list[Arrival] = []
+        net = MemoryNetwork(
+            loop, random.Random(5), LinkParams(0.005, jitter=0.004), jitter_per_frame=per_frame
+        )
+        for name in "abc":
+            net.attach(name, _Driver(name, log, loop))
+        net.transmit("a", Broadcast(_FRAME, "property"))
+        net.detach("b")
+        net.attach("b", _Driver("b", log, loop))  # a new run of b: the old run's frame is lost
+        net.transmit("c", Send("b", _FRAME, "property"))  # sent to the new run: it arrives
+        loop.run_until(1.0)
+        assert sorted((s, r) for s, r, _ in log) == [("a", "c"), ("c", "b")]
+        assert net.stats().dropped["dead"] == 1
