@@ -37,7 +37,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 HERE = Path(__file__).resolve()
 ROOT = HERE.parent.parent
@@ -47,6 +47,7 @@ if str(ROOT) not in sys.path:
 
 import zenoh  # noqa: E402
 
+from bench import report as bench_report  # noqa: E402
 from bench.mesh import Counter, Silent, measure_floor, percentile, position_frame, say  # noqa: E402
 from bench.mesh import Proc as _MeshProc  # noqa: E402
 from bench.mesh import Worker as MeshWorker  # noqa: E402
@@ -56,12 +57,16 @@ from objectplaces import groups  # noqa: E402
 from objectplaces.activator import RoleActivator  # noqa: E402
 from objectplaces.mesh import MeshOptions, start_mesh_node  # noqa: E402
 from objectplaces.transport import zenoh_inbox  # noqa: E402
+from objectplaces.transport.zenoh_config import derive_credentials  # noqa: E402
 from objectplaces.transport.zenoh_inbox import direct  # noqa: E402
 from objectplaces.transport.zenoh_keys import FleetKeys  # noqa: E402
 from objectplaces.zenoh_node import start_zenoh_node  # noqa: E402
 
 SECRET = b"bench-secret"
-TRANSPORTS = ["mesh", "zenoh-peer", "zenoh-client"]
+TRANSPORTS = ["mesh", "zenoh-peer", "zenoh-client", "zenoh-peer-polled", "zenoh-client-polled"]
+POLL_INTERVAL = 0.05
+"""``-polled``: Zenoh nodes with polled reception (``poll_interval``, the AGV processes'
+setting): received frames handed on together every this many seconds."""
 BEFORE = "zenoh-peer-before"
 """Zenoh peers receiving as before the receive-path work (``receive_path_as_before``),
 measured in the same run at ``--before-size`` nodes: what that work bought."""
@@ -122,15 +127,23 @@ def receive_path_as_before() -> None:
 
 async def start_worker_node(node_id: str, transport: str, connect: list[str]) -> RoleActivator:
     timing: dict[str, Any] = {"secret": SECRET, "property_interval": 1.0, "failure_timeout": 60.0}
-    if transport.endswith("-before"):  # BEFORE, or zenoh-client-before by hand
+    base, polled, before = split_transport(transport)
+    if before:  # BEFORE, or zenoh-client-before by hand
         receive_path_as_before()
-        transport = transport.removesuffix("-before")
-    if transport == "mesh":
+    if base == "mesh":
         options = MeshOptions(queue_size=65_536, flood_rate=1e7, flood_burst=1e6)
         return await start_mesh_node(node_id, join=connect, options=options, **timing)
-    if transport == "zenoh-client":
-        return await start_zenoh_node(node_id, connect=connect, mode="client", **timing)
-    return await start_zenoh_node(node_id, connect=connect, mode="peer", **timing)
+    mode: Literal["client", "peer"] = "client" if base == "zenoh-client" else "peer"
+    poll = POLL_INTERVAL if polled else None
+    return await start_zenoh_node(node_id, connect=connect, mode=mode, poll_interval=poll, **timing)
+
+
+def split_transport(transport: str) -> tuple[str, bool, bool]:
+    """``zenoh-peer-polled`` -> (``zenoh-peer``, polled, not before)."""
+    before = transport.endswith("-before")
+    transport = transport.removesuffix("-before")
+    polled = transport.endswith("-polled")
+    return transport.removesuffix("-polled"), polled, before
 
 
 async def run_worker(node_id: str, index: int, transport: str, connect: list[str]) -> None:
@@ -192,6 +205,89 @@ async def run_zenoh_echo(key: str) -> None:
     say(ready=f"tcp/127.0.0.1:{port}")
     await asyncio.get_running_loop().run_in_executor(None, sys.stdin.read)
     session.close()  # type: ignore[no-untyped-call]
+
+
+async def run_zenoh_listener(endpoint: str, mode: str) -> None:
+    """A bare Zenoh session (no node) that notes when each numbered sample of
+    ``FLOOR_KEY`` arrives, in the callback on Zenoh's thread; tells them at ``quit``."""
+    config = bare_config("client" if mode == "client" else "peer", [endpoint])
+    if mode != "client":
+        config.insert_json5("scouting/gossip/enabled", "false")  # the publisher's link only
+    session = zenoh.open(config)
+    heard: dict[int, float] = {}
+
+    def note(sample: zenoh.Sample) -> None:
+        heard[int.from_bytes(sample.payload.to_bytes()[:4], "little")] = time.monotonic()
+
+    session.declare_subscriber(FLOOR_KEY, direct(note))
+    say(ready=True)
+    await asyncio.get_running_loop().run_in_executor(None, sys.stdin.readline)
+    say(heard=heard)
+    session.close()  # type: ignore[no-untyped-call]
+
+
+FLOOR_KEY = "objectplaces/default/bench/fan"
+
+
+def bare_config(mode: str, connect: list[str], listen: list[str] | None = None) -> zenoh.Config:
+    """A bare Zenoh session's configuration (no authentication), on 127.0.0.1 only;
+    with the fleet's credentials when ``connect`` is our router (it accepts no other)."""
+    config = zenoh.Config()
+    config.insert_json5("mode", json.dumps(mode))
+    config.insert_json5("listen/endpoints", json.dumps(listen or []))
+    config.insert_json5("connect/endpoints", json.dumps(connect))
+    config.insert_json5("scouting/multicast/enabled", "false")
+    if mode == "client":
+        credentials = derive_credentials(SECRET, "default")
+        auth = {"user": credentials.user, "password": credentials.password}
+        config.insert_json5("transport/auth/usrpwd", json.dumps(auth))
+    return config
+
+
+async def zenoh_fanout_floor(listeners: int, mode: str) -> dict[str, float]:
+    """The fan-out phase's workload with bare Zenoh sessions: one publisher puts
+    ``FANOUT_COUNT`` 8-byte samples ``FANOUT_GAP`` apart to ``listeners`` bare
+    subscriber processes (peers linked to the publisher, or clients of our router
+    process); the p50 and p99 from put to each subscriber's callback, and the share
+    delivered. What no node code costs: the floor of this machine for that fan-out."""
+    router: Proc | None = None
+    procs: list[Proc] = []
+    session: zenoh.Session | None = None
+    try:
+        if mode == "client":
+            router, endpoint = await start_router_proc()
+            config = bare_config("client", [endpoint])
+        else:
+            endpoint = f"tcp/127.0.0.1:{_free_port()}"
+            config = bare_config("peer", [], [endpoint])
+            config.insert_json5("scouting/gossip/enabled", "false")
+        session = await asyncio.to_thread(zenoh.open, config)
+        for _ in range(listeners):
+            procs.append(await Proc.start_script(HERE, "--zenoh-listen", endpoint, "--mode", mode))
+        for proc in procs:
+            await proc.recv()
+        await asyncio.sleep(2.0)  # every subscription known to the publisher (or router)
+        sent = []
+        for i in range(FANOUT_COUNT):
+            sent.append(time.monotonic())
+            session.put(FLOOR_KEY, i.to_bytes(4, "little") + bytes(4))
+            await asyncio.sleep(FANOUT_GAP)
+        await asyncio.sleep(0.5)
+        latencies = []
+        for proc in procs:
+            heard = (await proc.ask(cmd="quit"))["heard"]
+            latencies += [t - sent[int(i)] for i, t in heard.items()]
+        return {
+            "p50": percentile(latencies, 50),
+            "p99": percentile(latencies, 99),
+            "delivered": len(latencies) / (FANOUT_COUNT * listeners),
+        }
+    finally:
+        if session is not None:
+            await asyncio.to_thread(session.close)
+        await asyncio.gather(*(p.stop() for p in procs))
+        if router is not None:
+            await router.stop()
 
 
 def _free_port() -> int:
@@ -277,7 +373,8 @@ async def measure(transport: str, size: int) -> dict[str, Any]:
     router: Proc | None = None
     try:
         connect: list[str] = []
-        client = transport.removesuffix("-before") == "zenoh-client"
+        started = time.monotonic()
+        client = split_transport(transport)[0] == "zenoh-client"
         if client:
             router, endpoint = await start_router_proc()
             connect = [endpoint]
@@ -306,6 +403,7 @@ async def measure(transport: str, size: int) -> dict[str, Any]:
                 f"not formed within {PEERS_TIMEOUT:g} s: each node saw {min(seen)} to "
                 f"{max(seen)} others (median {statistics.median(seen):g}) of {size - 1}"
             )
+        formed = time.monotonic() - started
         await asyncio.sleep(1.0)
 
         await asyncio.gather(*(p.ask(cmd="cpu_mark") for p in procs[1:]))
@@ -338,6 +436,7 @@ async def measure(transport: str, size: int) -> dict[str, Any]:
             "recv_min": min(received),
             "drops": sum(r["drops"] for r in results),
             "payload": wire["property_bytes"] / max(1, wire["property_frames"]),
+            "formed": formed,
         }
     finally:
         await asyncio.gather(*(p.stop() for p in procs))
@@ -519,6 +618,28 @@ async def measure_fleets(agvs: int, seconds: float, before: bool) -> tuple[str, 
     return "\n\n".join(p for p in parts if p), failed
 
 
+FLOOR_SIZE = 50
+"""The fan-out goal's size; the bare Zenoh floor is measured at it."""
+FLOOR_LINKS = {"peer": "peers linked to the publisher", "client": "clients of a router process"}
+
+
+def reception(transport: str) -> str:
+    """How a row's Zenoh nodes hand received frames on, in words."""
+    if split_transport(transport)[1]:
+        return f"polled every {POLL_INTERVAL * 1000:g} ms"
+    return "each frame as it arrives"
+
+
+def standing_fleet_block() -> str:
+    """The fleet's part as BENCHMARKS.md has it now (kept by a run without the fleet)."""
+    path = bench_report.BENCHMARKS_PATH
+    text = path.read_text() if path.exists() else ""
+    start, end = f"<!-- bench:{FLEET_SECTION} -->", f"<!-- /bench:{FLEET_SECTION} -->"
+    if start not in text or end not in text:
+        return ""
+    return text[text.index(start) : text.index(end) + len(end)]
+
+
 def verdict(ok: bool, met: str, missed: str) -> str:
     return f"met ({met})" if ok else f"missed ({missed})"
 
@@ -601,6 +722,12 @@ async def coordinate(
         await echo.stop()
     z_floor = await zenoh_floor(payload)
     z_wire = await zenoh_bytes_per_update(SECRET)
+    fan_floors = {}
+    if FLOOR_SIZE in sizes:
+        for mode in ("peer", "client"):
+            print(f"measuring the bare Zenoh fan-out floor ({mode}) ...", file=sys.stderr)
+            fan_floors[mode] = await zenoh_fanout_floor(FLOOR_SIZE - 1, mode)
+            print(json.dumps(fan_floors[mode]), file=sys.stderr)
     rows = []
     failed: list[str] = []
     for size in sizes:
@@ -613,7 +740,7 @@ async def coordinate(
                 # A network that did not form in time is a result too: say so, go on.
                 print(f"{transport} with {size} nodes failed: {exc!r}", file=sys.stderr)
                 failed.append(f"{transport} at {size} nodes: {type(exc).__name__} {exc}")
-    fleet_text = ""
+    fleet_text = standing_fleet_block()
     if fleet_agvs:
         fleet_body, fleet_failed = await measure_fleets(fleet_agvs, fleet_s, fleet_before)
         failed += fleet_failed
@@ -629,7 +756,7 @@ async def coordinate(
         [
             "transport", "nodes", "fan-out p50 ms", "fan-out p99 ms", "delivered",
             "updates recv/s per node (min)", "CPU per node, fan-out", "CPU per node, blast",
-            "setup p50 ms", "drops", "bytes per update",
+            "setup p50 ms", "drops", "bytes per update", "formed in s",
         ],
         [
             [
@@ -638,7 +765,7 @@ async def coordinate(
                 f"{r['cpu_fanout']:.0%}", f"{r['cpu_blast']:.0%}", f"{r['setup_p50'] * ms:.2f}",
                 r["drops"],
                 f"{ws_wire if r['transport'] == 'mesh' else z_wire:.0f} "
-                f"({r['payload']:.0f} payload)",
+                f"({r['payload']:.0f} payload)", f"{r['formed']:.1f}",
             ]
             for r in rows
         ],
@@ -648,20 +775,32 @@ async def coordinate(
         [
             ["plain websockets echo round trip p50", f"{ws_floor['rtt_p50'] * ms:.3f} ms"],
             ["plain Zenoh put/subscribe round trip p50", f"{z_floor * ms:.3f} ms"],
+            *[
+                [
+                    f"plain Zenoh fan-out to {FLOOR_SIZE - 1} bare subscriber processes "
+                    f"({FLOOR_LINKS[mode]}), "
+                    "p50 / p99 (delivered)",
+                    f"{f['p50'] * ms:.3f} / {f['p99'] * ms:.3f} ms ({f['delivered']:.1%})",
+                ]
+                for mode, f in fan_floors.items()
+            ],
         ],
     )
     by = {(r["transport"], r["size"]): r for r in rows}
     verdicts = []
-    mesh20, zen20 = by.get(("mesh", 20)), by.get(("zenoh-peer", 20))
-    if mesh20 and zen20:
-        ratio = zen20["recv"] / max(mesh20["recv"], 1e-9)
-        verdicts.append(
-            "- Zenoh peers >= 5x the mesh's received updates per node at 20 nodes: "
-            + verdict(ratio >= 5, f"{ratio:.1f}x", f"{ratio:.1f}x")
-            + f" (CPU per node in the blast: mesh {mesh20['cpu_blast']:.0%}, Zenoh peers "
-            f"{zen20['cpu_blast']:.0%}; {(os.cpu_count() or 1) / 20:.0%} per node is every "
-            "core full)"
-        )
+    mesh20 = by.get(("mesh", 20))
+    for transport in [t for t in transports if t != "mesh"]:
+        zen20 = by.get((transport, 20))
+        if mesh20 and zen20:
+            ratio = zen20["recv"] / max(mesh20["recv"], 1e-9)
+            verdicts.append(
+                f"- {transport} ({reception(transport)}) >= 5x the mesh's received updates "
+                "per node at 20 nodes: "
+                + verdict(ratio >= 5, f"{ratio:.1f}x", f"{ratio:.1f}x")
+                + f" (CPU per node in the blast: mesh {mesh20['cpu_blast']:.0%}, "
+                f"{transport} {zen20['cpu_blast']:.0%}; {(os.cpu_count() or 1) / 20:.0%} per "
+                "node is every core full)"
+            )
     now, before = by.get(("zenoh-peer", before_size)), by.get((BEFORE, before_size))
     if now and before:
         verdicts.append(
@@ -671,13 +810,33 @@ async def coordinate(
         )
     floor = min(ws_floor["rtt_p50"], z_floor)
     for transport in transports:
-        r = by.get((transport, 50))
+        r = by.get((transport, FLOOR_SIZE))
         if r and transport != "mesh":
             ratio = r["fan_p50"] / floor
+            bare = fan_floors.get(split_transport(transport)[0].removeprefix("zenoh-"))
             verdicts.append(
-                f"- {transport}: fan-out p50 at 50 nodes <= 3x the plain round trip "
-                f"({floor * ms:.3f} ms): " + verdict(ratio <= 3, f"{ratio:.1f}x", f"{ratio:.1f}x")
+                f"- {transport} ({reception(transport)}): fan-out p50 at {FLOOR_SIZE} nodes "
+                f"<= 3x the plain round trip ({floor * ms:.3f} ms): "
+                + verdict(ratio <= 3, f"{ratio:.1f}x", f"{ratio:.1f}x")
+                + (
+                    f"; bare Zenoh sessions, same links, no node: {bare['p50'] * ms:.2f} ms "
+                    f"({bare['p50'] / floor:.1f}x)"
+                    if bare
+                    else ""
+                )
             )
+    for transport in transports:
+        r = by.get((transport, FLOOR_SIZE))
+        if transport.startswith("zenoh-peer") and (r or any(transport in f for f in failed)):
+            verdicts.append(
+                f"- {transport}: {FLOOR_SIZE} peers form: "
+                + (
+                    verdict(True, f"every peer saw every other {r['formed']:.1f} s after the "
+                            "first started, processes started one after another", "")
+                    if r
+                    else verdict(False, "", "did not form, above")
+                )
+            )  # fmt: skip
     body = "\n\n".join(
         part
         for part in [
@@ -691,10 +850,17 @@ async def coordinate(
             f"as it can for {BLAST_SECONDS:g} s; setup = {SESSIONS} sessions in a row, "
             "`start_interaction` until `in_group` from every other node. Zenoh peers connect "
             "to the first node and find the others by gossip; Zenoh clients connect to an "
-            "`objectplaces router` process; `zenoh-peer-before` = Zenoh peers receiving as "
+            "`objectplaces router` process; `-polled` = Zenoh nodes with polled reception "
+            f"(`poll_interval` {POLL_INTERVAL * ms:g} ms, the AGV processes' setting: received "
+            "frames handed on together once per interval), the others hand each frame on "
+            "as it arrives; `zenoh-peer-before` = Zenoh peers receiving as "
             "before the receive-path work (each sample's callback on Zenoh's own thread, "
             "each key parsed afresh). Bytes per update: WebSocket frame (payload + "
-            "2-byte header) or the bytes a Zenoh session writes per update, counted by a relay.",
+            "2-byte header) or the bytes a Zenoh session writes per update, counted by a relay. "
+            "Formed in: from the first process's start (one after another) until every node "
+            "saw every other. Bare fan-out floor: the fan-out phase's puts from a bare Zenoh "
+            "session to bare subscriber processes (a callback on Zenoh's thread notes the "
+            "time), the same links as the nodes', no node code.",
             table,
             floors,
             "Runs that did not complete (the network did not form, or a phase timed out):\n"
@@ -732,11 +898,15 @@ def main() -> None:
     parser.add_argument("--transport", default="mesh")
     parser.add_argument("--connect", action="append", default=[])
     parser.add_argument("--zenoh-echo")
+    parser.add_argument("--zenoh-listen")
+    parser.add_argument("--mode", default="peer")
     args = parser.parse_args()
     if args.worker:
         asyncio.run(run_worker(args.worker, args.index, args.transport, args.connect))
     elif args.zenoh_echo:
         asyncio.run(run_zenoh_echo(args.zenoh_echo))
+    elif args.zenoh_listen:
+        asyncio.run(run_zenoh_listener(args.zenoh_listen, args.mode))
     elif args.fleet_only:
         asyncio.run(fleet_only(args.fleet_agvs, args.fleet_seconds, args.fleet_before))
     else:
