@@ -1,7 +1,8 @@
 """The WebSocket mesh against Zenoh (peers, and clients of a router): one workload, one run.
 
 Run: ``.venv/bin/python bench/transports.py`` (``--sizes 10,20`` or ``--transports
-zenoh-peer`` for less; ``--fleet-agvs 0`` skips the fleet run; ``--fleet-only`` runs the
+zenoh-peer`` for less, ``zenoh-client-polled5`` for clients polling every 5 ms;
+``--fleet-agvs 0`` skips the fleet run; ``--fleet-only`` runs the
 fleet alone and rewrites only its part; ``--fleet-before`` runs it as before first).
 
 For each transport and size, every node a separate process on 127.0.0.1:
@@ -32,6 +33,7 @@ import asyncio
 import contextlib
 import json
 import os
+import re
 import statistics
 import subprocess
 import sys
@@ -127,23 +129,24 @@ def receive_path_as_before() -> None:
 
 async def start_worker_node(node_id: str, transport: str, connect: list[str]) -> RoleActivator:
     timing: dict[str, Any] = {"secret": SECRET, "property_interval": 1.0, "failure_timeout": 60.0}
-    base, polled, before = split_transport(transport)
+    base, poll, before = split_transport(transport)
     if before:  # BEFORE, or zenoh-client-before by hand
         receive_path_as_before()
     if base == "mesh":
         options = MeshOptions(queue_size=65_536, flood_rate=1e7, flood_burst=1e6)
         return await start_mesh_node(node_id, join=connect, options=options, **timing)
     mode: Literal["client", "peer"] = "client" if base == "zenoh-client" else "peer"
-    poll = POLL_INTERVAL if polled else None
     return await start_zenoh_node(node_id, connect=connect, mode=mode, poll_interval=poll, **timing)
 
 
-def split_transport(transport: str) -> tuple[str, bool, bool]:
-    """``zenoh-peer-polled`` -> (``zenoh-peer``, polled, not before)."""
+def split_transport(transport: str) -> tuple[str, float | None, bool]:
+    """``zenoh-peer-polled`` -> (``zenoh-peer``, ``POLL_INTERVAL``, not before);
+    ``zenoh-client-polled5`` polls every 5 ms; None: by callback."""
     before = transport.endswith("-before")
     transport = transport.removesuffix("-before")
-    polled = transport.endswith("-polled")
-    return transport.removesuffix("-polled"), polled, before
+    base, polled, ms = re.fullmatch(r"(.*?)(-polled(\d*))?", transport).groups()  # type: ignore[union-attr]
+    poll = None if polled is None else int(ms) / 1000 if ms else POLL_INTERVAL
+    return base, poll, before
 
 
 async def run_worker(node_id: str, index: int, transport: str, connect: list[str]) -> None:
@@ -625,8 +628,9 @@ FLOOR_LINKS = {"peer": "peers linked to the publisher", "client": "clients of a 
 
 def reception(transport: str) -> str:
     """How a row's Zenoh nodes hand received frames on, in words."""
-    if split_transport(transport)[1]:
-        return f"polled every {POLL_INTERVAL * 1000:g} ms"
+    poll = split_transport(transport)[1]
+    if poll is not None:
+        return f"polled every {poll * 1000:g} ms"
     return "each frame as it arrives"
 
 
