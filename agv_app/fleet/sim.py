@@ -196,7 +196,8 @@ class Fleet(FleetSourceBase):
         self.step_count = 0
         self._speed = 1.0
         self._carry = 0.0
-        require_task_stations(self.layout)
+        if pick_stations(self.layout):
+            require_task_stations(self.layout)  # tasks can be asked for: can they be made?
         self.parking = ParkingPlan(self.layout, self.spec, cfg.agvs, homes=homes)
         self.free_flow = FreeFlowBound(
             FreeFlowTimer(self.layout, self.spec.max_speed_m_s, cfg.dwell), self.parking.homes
