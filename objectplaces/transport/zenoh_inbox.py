@@ -91,14 +91,25 @@ class ZenohInbox:
             self._poll_timer.cancel()
             self._poll_timer = None
 
-    def declare_data(self, session: zenoh.Session, key_expr: str, keys: FleetKeys) -> Any:
+    def declare_data(
+        self, session: zenoh.Session, key_expr: str, keys: FleetKeys, *, directed: bool = False
+    ) -> Any:
         """Declare a data subscriber of ``keys``' fleet on ``key_expr``, by callback or
-        polled (``poll_interval``); ``undeclare()`` on what it returns ends it."""
+        polled (``poll_interval``); ``undeclare()`` on what it returns ends it.
+
+        A poll hands on the samples of ``directed`` subscribers (the inbox: snapshots
+        answering our questions) after every other's: a snapshot read first made the
+        updates sent before it, in the same poll, stale, and they were never seen (up
+        to 20 positions in a row of a node publishing every 2 ms); read last, an older
+        snapshot is the stale one.
+        """
         if self._poll_interval is None:
             return session.declare_subscriber(key_expr, self.data_callback(keys))
         ring: zenoh.handlers.RingChannel[zenoh.Sample] = zenoh.handlers.RingChannel(RING_CAPACITY)
         polled = _Polled(self, session.declare_subscriber(key_expr, ring), keys)
-        self._polled.append(polled)
+        polled.directed = directed
+        undirected = sum(not p.directed for p in self._polled)
+        self._polled.insert(len(self._polled) if directed else undirected, polled)
         if self._poll_timer is None and not self._closed:
             self._poll_timer = self._loop.call_later(self._poll_interval, self._poll)
         return polled
@@ -232,9 +243,10 @@ class ZenohInbox:
 class _Polled:
     """A data subscriber whose samples wait in a ring until the inbox polls it."""
 
-    __slots__ = ("inbox", "me", "parse", "subscriber")
+    __slots__ = ("directed", "inbox", "me", "parse", "subscriber")
 
     def __init__(self, inbox: ZenohInbox, subscriber: Any, keys: FleetKeys) -> None:
+        self.directed = False
         self.inbox = inbox
         self.subscriber = subscriber
         self.parse = keys.parse

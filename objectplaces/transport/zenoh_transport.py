@@ -140,7 +140,7 @@ class ZenohTransport:
         session, keys, inbox = self._session, self.keys, self._inbox
         self._publishers = PublisherCache(session)
         self._declared += [
-            inbox.declare_data(session, keys.inbox(), keys),
+            inbox.declare_data(session, keys.inbox(), keys, directed=True),
             inbox.declare_data(session, keys.broadcasts(), keys),
         ]
         self._queryables[None] = session.declare_queryable(keys.who(None), inbox.query_callback())

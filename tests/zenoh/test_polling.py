@@ -204,3 +204,20 @@ async def test_a_scoped_node_hears_its_cells_and_not_the_rest_of_their_rows() ->
     finally:
         for node in (scoped, far, here):
             await node.close()
+
+
+async def test_a_poll_hands_on_the_inbox_after_the_updates() -> None:
+    batches: list[list[Item]] = []
+    inbox, keys, session = await polled_inbox(batches, {})
+    try:
+        inbox.declare_data(session, keys.inbox(), keys, directed=True)  # type: ignore[arg-type]
+        inbox.declare_data(session, keys.broadcasts(), keys)  # type: ignore[arg-type]
+        inbox.declare_data(session, keys.all_props(), keys)  # type: ignore[arg-type]
+        directed, broadcasts, props = session.subscribers
+        directed.ring.append(sample(keys, "a", b"snapshot"))
+        broadcasts.ring.append(FakeSample(FleetKeys("f", "a").broadcast(), FakePayload(b"1")))
+        props.ring.append(FakeSample(FleetKeys("f", "a").props((0, 0)), FakePayload(b"2")))
+        await asyncio.sleep(0.05)
+        assert [item[2] for item in batches[0]] == [b"1", b"2", b"snapshot"]
+    finally:
+        inbox.close()
