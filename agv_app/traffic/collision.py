@@ -2,9 +2,10 @@
 
 Roles on ObjectPlaces (DESIGN.md, "The AGV application"):
 
-* :class:`Requester` (initiator) asks every member of its collision group
-  (``circles_overlap``) to allow a hull projection with a totally ordered priority
-  ``(request start time, node id)``; members that join late get the request too;
+* :class:`Requester` (initiator) asks every member of its request's collision group
+  (``request_group``: the AGVs whose circles meet the box around the requested area;
+  the paper's ``circles_overlap`` asks more) to allow a hull projection with a totally
+  ordered priority ``(request start time, node id)``; members that join late get the request too;
   members that leave no longer count. It locks only when every current member
   allowed, every node its own view puts in the group is such a member (an activation
   still on its way counts as a missing vote), and the safe time ``2 * t_update`` has
@@ -42,7 +43,7 @@ The bookkeeping all of them share lives in the node's tuplespace
 
 from __future__ import annotations
 
-from collections.abc import Callable, Container, Mapping
+from collections.abc import Callable, Container, Iterable, Mapping
 from typing import Any
 
 import shapely
@@ -64,6 +65,7 @@ __all__ = [
     "collision_group",
     "decide_vote",
     "request_coords",
+    "request_group",
 ]
 
 
@@ -74,6 +76,30 @@ def collision_group() -> GroupDefinition:
     no voter role) are not invited to decline every session.
     """
     return groups.circles_overlap() & groups.property_equals("kind", AGV_KIND)
+
+
+def request_group(area: Area, claimed: Iterable[tuple[float, float]] = ()) -> GroupDefinition:
+    """The collision group of one request: the AGVs whose circles meet the box around
+    the requested area (grown as the wire grows it) and the claimed segments' vertices.
+
+    Every AGV whose locked or requested areas, or claimed segments, the request may
+    conflict with has them inside its circle, so its circle meets that box; an AGV
+    whose circle only meets the requester's circle elsewhere (``collision_group``)
+    cannot conflict with this request and need not vote (docs/traffic.md, "The
+    collision group of a request").
+
+    Args:
+        area: the requested hull projection.
+        claimed: the vertices of the segments the request claims a direction on.
+    """
+    extent = area.extent()
+    if not extent:
+        raise ValueError("a request's area is never empty")
+    xs = [*extent[0::2], *(x for x, _ in claimed)]
+    ys = [*extent[1::2], *(y for _, y in claimed)]
+    grow = _WIRE_GROWTH_M + 0.05
+    box = (min(xs) - grow, min(ys) - grow, max(xs) + grow, max(ys) + grow)
+    return groups.circle_meets_box(box) & groups.property_equals("kind", AGV_KIND)
 
 
 def broadcast_group() -> GroupDefinition:

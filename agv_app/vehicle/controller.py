@@ -31,7 +31,13 @@ from agv_app.layout.graph import Layout
 from agv_app.protocol import AGV_KIND, MessageTally
 from agv_app.tasks.auction import Bidder, TaskSpec
 from agv_app.traffic.central import CentralRequest, CentralScheduler
-from agv_app.traffic.collision import Requester, Voter, broadcast_group, collision_group
+from agv_app.traffic.collision import (
+    Requester,
+    Voter,
+    broadcast_group,
+    collision_group,
+    request_group,
+)
 from agv_app.traffic.deadlock import Claim, StopPlan, clearance_for, followable_segments
 from agv_app.traffic.lockbook import LockBook, LockEntry, RequestEntry, StaleRecord
 from agv_app.vehicle.kinematics import Vehicle, VehicleSpec
@@ -581,18 +587,27 @@ class AgvController:
             self._requester = request
             request.check()
             return
+        definition = self._group_of(area, claims)
         requester = Requester(
             entry,
             safe_time=safe_time,
             patience=self.config.patience,
             queue_patience=self.config.queue_patience,
-            group_view=self._group_view,
+            group_view=lambda: self.node.view_group(definition),
             on_done=lambda outcome: self._request_done(requester, outcome),
             tally=self.tally,
             announced_at=announced_at,
         )
         self._requester = requester
-        self.node.start_interaction(requester, self.definition, "voter")
+        self.node.start_interaction(requester, definition, "voter")
+
+    def _group_of(self, area: Area, claims: frozenset[Claim]) -> GroupDefinition:
+        """The group a request asks: every AGV in broadcast mode, else the AGVs whose
+        circles meet the area or the claimed segments (``request_group``)."""
+        if self.config.broadcast:
+            return self.definition
+        claimed = [xy for seg, _ in claims for xy in self.layout.segment_coords(seg)]
+        return request_group(area, claimed)
 
     def _request_done(self, requester: Requester | CentralRequest, outcome: str) -> None:
         if self._requester is not requester:

@@ -21,6 +21,7 @@ from objectplaces.core.errors import LocalProtocolError
 __all__ = [
     "AllOf",
     "AnyOf",
+    "CircleMeetsBox",
     "CirclesOverlap",
     "DefinitionLike",
     "GroupDefinition",
@@ -28,6 +29,7 @@ __all__ = [
     "PropertyEquals",
     "Reach",
     "Within",
+    "circle_meets_box",
     "circles_overlap",
     "definition_from_json",
     "describe",
@@ -132,6 +134,68 @@ class CirclesOverlap(GroupDefinition):
         return Reach(self.position, self._radius(initiator) + max_of(self.radius))
 
 
+class CircleMeetsBox(GroupDefinition):
+    """Members: nodes whose circle (centre ``position``, radius ``radius``) meets the
+    axis-aligned box ``(x0, y0, x1, y1)``, whatever the initiator's properties.
+
+    The box belongs to the definition, not to a node: one initiator's sessions may each
+    name their own (e.g. around the area a session is about). A node without a position
+    never matches; a missing radius counts as 0. The reach is taken around the
+    initiator's ``position``, which an initiator without one lacks: then no node matches.
+    """
+
+    def __init__(
+        self,
+        box: tuple[float, float, float, float],
+        position: str = "position",
+        radius: str = "hull_length",
+    ) -> None:
+        if (
+            not isinstance(box, tuple | list)
+            or len(box) != 4
+            or not all(isinstance(v, int | float) and math.isfinite(v) for v in box)
+            or box[0] > box[2]
+            or box[1] > box[3]
+        ):
+            raise LocalProtocolError(
+                f"circle_meets_box: box must be four finite numbers x0 <= x1, y0 <= y1 "
+                f"as (x0, y0, x1, y1), got {box!r}"
+            )
+        x0, y0, x1, y1 = (float(v) for v in box)
+        self.box = (x0, y0, x1, y1)
+        self.position = position
+        self.radius = radius
+
+    def __call__(self, initiator: Props, participant: Props) -> bool:
+        p = _point(participant, self.position)
+        if p is None:
+            return False
+        value = participant.get(self.radius, 0.0)
+        r = float(value) if isinstance(value, int | float) else 0.0
+        x0, y0, x1, y1 = self.box
+        dx = max(x0 - p[0], 0.0, p[0] - x1)
+        dy = max(y0 - p[1], 0.0, p[1] - y1)
+        return dx * dx + dy * dy <= r * r
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "type": "circle_meets_box",
+            "box": list(self.box),
+            "position": self.position,
+            "radius": self.radius,
+        }
+
+    def reach(self, initiator: Props, max_of: MaxOf) -> Reach | None:
+        # Every member's centre lies within the largest radius of the box, and the box
+        # within its farthest corner of the initiator.
+        own = _point(initiator, self.position)
+        if own is None:
+            return Reach(self.position, 0.0)
+        x0, y0, x1, y1 = self.box
+        corner = max(abs(own[0] - x0), abs(own[0] - x1)), max(abs(own[1] - y0), abs(own[1] - y1))
+        return Reach(self.position, math.hypot(*corner) + max_of(self.radius))
+
+
 class Within(GroupDefinition):
     """Members: nodes within ``distance`` of the initiator."""
 
@@ -219,6 +283,16 @@ def circles_overlap(position: str = "position", radius: str = "hull_length") -> 
     return CirclesOverlap(position, radius)
 
 
+def circle_meets_box(
+    box: tuple[float, float, float, float],
+    position: str = "position",
+    radius: str = "hull_length",
+) -> CircleMeetsBox:
+    """Nodes whose circles (centre ``position``, radius ``radius``) meet ``box``,
+    ``(x0, y0, x1, y1)``."""
+    return CircleMeetsBox(box, position, radius)
+
+
 def within(distance: float, position: str = "position") -> Within:
     """Nodes within ``distance`` of the initiator's ``position``."""
     return Within(distance, position)
@@ -252,6 +326,12 @@ def definition_from_json(obj: Any) -> GroupDefinition:
             return CirclesOverlap(
                 _string(obj, "position", "position"), _string(obj, "radius", "hull_length")
             )
+        case "circle_meets_box":
+            return CircleMeetsBox(
+                obj.get("box"),  # type: ignore[arg-type]  # checked there
+                _string(obj, "position", "position"),
+                _string(obj, "radius", "hull_length"),
+            )
         case "within":
             if "distance" not in obj:
                 raise LocalProtocolError("group definition 'within' needs a 'distance'")
@@ -267,5 +347,5 @@ def definition_from_json(obj: Any) -> GroupDefinition:
             built = [definition_from_json(part) for part in parts]
             return AllOf(*built) if kind == "and" else AnyOf(*built)
         case _:
-            known = "circles_overlap, within, property_equals, and, or"
+            known = "circles_overlap, circle_meets_box, within, property_equals, and, or"
             raise LocalProtocolError(f"unknown group definition type {kind!r} (known: {known})")

@@ -24,6 +24,17 @@ def test_circles_overlap_is_the_papers_collision_range() -> None:
     assert defn(props(0, 0, 2), {"position": (1, 0)})  # a missing radius counts as 0
 
 
+def test_circle_meets_box_asks_only_the_candidates_circle() -> None:
+    defn = groups.circle_meets_box((0, 0, 10, 2))
+    anyone = props(100, 100, 0)  # the initiator's own circle plays no part
+    assert defn(anyone, props(5, 3, 1))  # above the box, touching it
+    assert not defn(anyone, props(5, 3.01, 1))
+    assert defn(anyone, props(13, 6, 5))  # beyond a corner: 3-4-5
+    assert not defn(anyone, props(13, 6, 4.99))
+    assert defn(anyone, props(4, 1, 0))  # inside, radius 0
+    assert not defn(anyone, {"hull_length": 50})  # no position
+
+
 def test_within_and_property_equals_and_combinations() -> None:
     near_idle = groups.within(5.0) & groups.property_equals("status", "idle")
     assert near_idle(props(0, 0), props(3, 4, status="idle"))
@@ -43,6 +54,9 @@ def test_within_and_property_equals_and_combinations() -> None:
         groups.property_equals("status", "idle"),
         groups.within(3) & groups.property_equals("status", "idle"),
         groups.within(3) | groups.circles_overlap(),
+        groups.circle_meets_box((0.0, -1.5, 12.0, 2.0)),
+        groups.circle_meets_box((1, 2, 3, 4), position="pos", radius="r")
+        & groups.property_equals("kind", "agv"),
     ],
 )
 def test_json_round_trip(defn: groups.GroupDefinition) -> None:
@@ -61,6 +75,11 @@ def test_json_round_trip(defn: groups.GroupDefinition) -> None:
         ({"type": "property_equals", "name": "x"}, "needs a 'value'"),
         ({"type": "and", "of": []}, "non-empty list 'of'"),
         ({"type": "circles_overlap", "position": 3}, "non-empty string"),
+        ({"type": "circle_meets_box"}, "box must be four finite numbers"),
+        ({"type": "circle_meets_box", "box": [0, 0, 1]}, "box must be four finite numbers"),
+        ({"type": "circle_meets_box", "box": [2, 0, 1, 1]}, "x0 <= x1"),
+        ({"type": "circle_meets_box", "box": [0, 0, 1, float("nan")]}, "four finite numbers"),
+        ({"type": "circle_meets_box", "box": [0, 0, 1, "1"]}, "four finite numbers"),
     ],
 )
 def test_invalid_json_is_refused_clearly(obj: object, reason: str) -> None:
@@ -82,6 +101,27 @@ def test_reach_bounds_candidates() -> None:
 
 
 points = st.lists(st.tuples(st.floats(-100, 100), st.floats(-100, 100)), min_size=0, max_size=40)
+coordinate = st.floats(-100, 100)
+
+
+@given(
+    own=st.tuples(coordinate, coordinate),
+    corners=st.tuples(coordinate, coordinate, coordinate, coordinate),
+    members=st.lists(st.tuples(coordinate, coordinate, st.floats(0, 30)), max_size=20),
+)
+def test_the_box_reach_holds_every_member(
+    own: tuple[float, float],
+    corners: tuple[float, float, float, float],
+    members: list[tuple[float, float, float]],
+) -> None:
+    xa, ya, xb, yb = corners
+    defn = groups.circle_meets_box((min(xa, xb), min(ya, yb), max(xa, xb), max(ya, yb)))
+    largest = max((r for _, _, r in members), default=0.0)
+    reach = defn.reach(props(*own), lambda name: largest)
+    assert reach is not None
+    for x, y, r in members:
+        if defn({}, props(x, y, r)):
+            assert math.dist((x, y), own) <= reach.radius + 1e-9
 
 
 @given(
