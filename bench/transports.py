@@ -173,7 +173,8 @@ async def run_worker(node_id: str, index: int, transport: str, connect: list[str
                     say(ok=True)
                 case "cpu":
                     wall = time.monotonic() - cpu_mark[0]
-                    say(cpu=(time.process_time() - cpu_mark[1]) / max(wall, 1e-9))
+                    seconds = time.process_time() - cpu_mark[1]
+                    say(cpu=seconds / max(wall, 1e-9), seconds=seconds)
                 case "fanout":
                     say(sent=await worker.fanout(cmd["count"], cmd["gap"]))
                 case "receipts":
@@ -218,14 +219,19 @@ async def run_zenoh_listener(endpoint: str, mode: str) -> None:
         config.insert_json5("scouting/gossip/enabled", "false")  # the publisher's link only
     session = zenoh.open(config)
     heard: dict[int, float] = {}
+    cpu_at_first: list[float] = []
 
     def note(sample: zenoh.Sample) -> None:
+        if not heard:
+            cpu_at_first.append(time.process_time())
         heard[int.from_bytes(sample.payload.to_bytes()[:4], "little")] = time.monotonic()
 
     session.declare_subscriber(FLOOR_KEY, direct(note))
     say(ready=True)
     await asyncio.get_running_loop().run_in_executor(None, sys.stdin.readline)
-    say(heard=heard)
+    # From the first sample to 0.5 s after the last, as a node's CPU in the fan-out phase.
+    cpu = time.process_time() - (cpu_at_first[0] if cpu_at_first else time.process_time())
+    say(heard=heard, cpu=cpu)
     session.close()  # type: ignore[no-untyped-call]
 
 
@@ -276,14 +282,16 @@ async def zenoh_fanout_floor(listeners: int, mode: str) -> dict[str, float]:
             session.put(FLOOR_KEY, i.to_bytes(4, "little") + bytes(4))
             await asyncio.sleep(FANOUT_GAP)
         await asyncio.sleep(0.5)
-        latencies = []
+        latencies, cpu = [], []
         for proc in procs:
-            heard = (await proc.ask(cmd="quit"))["heard"]
-            latencies += [t - sent[int(i)] for i, t in heard.items()]
+            reply = await proc.ask(cmd="quit")
+            latencies += [t - sent[int(i)] for i, t in reply["heard"].items()]
+            cpu.append(reply["cpu"])
         return {
             "p50": percentile(latencies, 50),
             "p99": percentile(latencies, 99),
             "delivered": len(latencies) / (FANOUT_COUNT * listeners),
+            "cpu_per_update": statistics.mean(cpu) / FANOUT_COUNT,
         }
     finally:
         if session is not None:
@@ -413,7 +421,8 @@ async def measure(transport: str, size: int) -> dict[str, Any]:
         seed.send(cmd="fanout", count=FANOUT_COUNT, gap=FANOUT_GAP)
         sent = (await seed.recv())["sent"]
         await asyncio.sleep(0.5)
-        cpu = [(await p.ask(cmd="cpu"))["cpu"] for p in procs[1:]]
+        cpu_replies = [await p.ask(cmd="cpu") for p in procs[1:]]
+        cpu = [r["cpu"] for r in cpu_replies]
         latencies = []
         for proc in procs[1:]:
             receipts = (await proc.ask(cmd="receipts"))["receipts"]
@@ -433,6 +442,7 @@ async def measure(transport: str, size: int) -> dict[str, Any]:
             "fan_p99": percentile(latencies, 99),
             "delivered": delivered,
             "cpu_fanout": statistics.mean(cpu),
+            "cpu_per_update": statistics.mean(r["seconds"] for r in cpu_replies) / FANOUT_COUNT,
             "cpu_blast": statistics.mean(r["cpu"] for r in results) / BLAST_SECONDS,
             "setup_p50": percentile(times, 50),
             "recv": statistics.mean(received),
@@ -783,8 +793,9 @@ async def coordinate(
                 [
                     f"plain Zenoh fan-out to {FLOOR_SIZE - 1} bare subscriber processes "
                     f"({FLOOR_LINKS[mode]}), "
-                    "p50 / p99 (delivered)",
-                    f"{f['p50'] * ms:.3f} / {f['p99'] * ms:.3f} ms ({f['delivered']:.1%})",
+                    "p50 / p99 (delivered), CPU per update per subscriber",
+                    f"{f['p50'] * ms:.3f} / {f['p99'] * ms:.3f} ms ({f['delivered']:.1%}), "
+                    f"{f['cpu_per_update'] * 1e6:.0f} µs",
                 ]
                 for mode, f in fan_floors.items()
             ],
@@ -824,7 +835,9 @@ async def coordinate(
                 + verdict(ratio <= 3, f"{ratio:.1f}x", f"{ratio:.1f}x")
                 + (
                     f"; bare Zenoh sessions, same links, no node: {bare['p50'] * ms:.2f} ms "
-                    f"({bare['p50'] / floor:.1f}x)"
+                    f"({bare['p50'] / floor:.1f}x); CPU per update per receiver: node "
+                    f"{r['cpu_per_update'] * 1e6:.0f} µs, bare subscriber "
+                    f"{bare['cpu_per_update'] * 1e6:.0f} µs"
                     if bare
                     else ""
                 )
