@@ -39,6 +39,7 @@ class _SimNode:
         self.pump = Pump(machine, self._transmit, self._schedule)
         self.activator = RoleActivator(machine, clock=net._now, wake=self.wake, space=space)
         self._node_id = node_id
+        self._loop = net._loop
 
     def _transmit(self, output: Output) -> int:
         return self.net._network.transmit(self._node_id, output)
@@ -77,14 +78,16 @@ class _SimNode:
     # an input does, the drain in ``finally`` sends what the machine queued before it.
 
     def deliver(self, source: str, message: Message, size: int) -> None:
+        machine = self.machine
         try:
-            self.machine.receive_message(source, message, self.net._loop.now, size=size)
+            machine.receive_message(source, message, self._loop.now, size=size)
         finally:
-            self.pump.drain()
+            if machine.has_work():  # most frames leave nothing to drain: no call then
+                self.pump.drain()
 
     def deliver_raw(self, source: str, data: bytes) -> None:
         try:
-            self.machine.receive(source, data, self.net._loop.now)
+            self.machine.receive(source, data, self._loop.now)
         finally:
             self.pump.drain()
 

@@ -186,3 +186,21 @@ def test_a_beat_takes_its_short_path_with_the_same_accounting() -> None:
     assert a.received_by_kind["property"] == [1, 9]
     a.receive_message("b", Beat(4), 6.0, size=4)  # a publication missed: snapshot asked
     assert [type(o).__name__ for o in a.messages_to_send()] == ["Send"]
+
+
+def test_a_delivered_frame_is_drained_when_it_leaves_work_and_only_then() -> None:
+    from objectplaces.core.messages import Beat
+    from objectplaces.sim import SimulatedNetwork
+
+    net = SimulatedNetwork(seed=1)
+    a, b = net.add_node("a"), net.add_node("b")
+    a.update_node_property("x", 1)
+    net.run_for(1.0)
+    sent_before = net.stats().per_node["b"].sent.get("property", [0, 0])[0]
+    net.inject("a", "b", codec.encode(Beat(1)))  # a's latest publication: nothing to do
+    net.run_for(1.0)
+    assert net.stats().per_node["b"].sent.get("property", [0, 0])[0] == sent_before
+    net.inject("ghost", "b", codec.encode(Beat(4)))  # unknown: b asks it for a snapshot
+    net.run_for(1.0)
+    assert net.stats().per_node["b"].sent["property"][0] == sent_before + 1
+    assert b.view()["a"] == {"x": 1}
