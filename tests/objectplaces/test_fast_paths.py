@@ -204,3 +204,26 @@ def test_a_delivered_frame_is_drained_when_it_leaves_work_and_only_then() -> Non
     net.run_for(1.0)
     assert net.stats().per_node["b"].sent["property"][0] == sent_before + 1
     assert b.view()["a"] == {"x": 1}
+
+
+def test_the_plain_outputs_and_messages_keep_a_frozen_values_equality_and_hash() -> None:
+    from objectplaces.core.events import Callback, Publish, Send
+    from objectplaces.core.messages import Beat, ChannelAck, ChannelData, FrameKind
+
+    pairs = [
+        (Send("a", b"x", "k"), Send("a", b"x", "k")),
+        (Publish(((0, 1),), b"x", "property", 1, None), Publish(((0, 1),), b"x", "property")),
+        (Callback(print, (1,), "s"), Callback(print, (1,), "s")),
+        (Beat(3), Beat(3)),
+        (
+            ChannelData(True, 1, 1, 0, FrameKind.ROLE, 5),
+            ChannelData(True, 1, 1, 0, FrameKind.ROLE, 5),
+        ),
+        (ChannelAck(False, 1, 1, 4), ChannelAck(False, 1, 1, 4)),
+    ]
+    for one, other in pairs:
+        assert one == other
+        assert hash(one) == hash(other)
+        assert len({one, other}) == 1
+    assert Beat(3) != Beat(4)
+    assert Send("a", b"x", "k") != Send("b", b"x", "k")
