@@ -17,6 +17,7 @@ from collections.abc import Callable, Mapping
 from typing import Any, TypeAlias
 
 from objectplaces.core.errors import LocalProtocolError
+from objectplaces.core.values import MAX_COORDINATE
 
 __all__ = [
     "AllOf",
@@ -153,13 +154,13 @@ class CircleMeetsBox(GroupDefinition):
         if (
             not isinstance(box, tuple | list)
             or len(box) != 4
-            or not all(isinstance(v, int | float) and math.isfinite(v) for v in box)
+            or not all(isinstance(v, int | float) and abs(v) <= MAX_COORDINATE for v in box)
             or box[0] > box[2]
             or box[1] > box[3]
         ):
             raise LocalProtocolError(
-                f"circle_meets_box: box must be four finite numbers x0 <= x1, y0 <= y1 "
-                f"as (x0, y0, x1, y1), got {box!r}"
+                f"circle_meets_box: box must be four numbers within +-{MAX_COORDINATE:g} "
+                f"(positions' range), x0 <= x1 and y0 <= y1, as (x0, y0, x1, y1), got {box!r}"
             )
         x0, y0, x1, y1 = (float(v) for v in box)
         self.box = (x0, y0, x1, y1)
