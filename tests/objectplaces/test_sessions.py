@@ -40,7 +40,7 @@ def all_state(net: SimulatedNetwork) -> dict[str, int]:
 
 
 @pytest.mark.parametrize("conditions", NETWORKS.values(), ids=NETWORKS.keys())
-def test_group_forms_and_follows_movement(conditions: dict[str, float]) -> None:
+def test_group_forms_and_follows_movement(conditions: dict[str, Any]) -> None:
     net = SimulatedNetwork(seed=11, property_interval=0.5, **conditions)
     log: list[Event] = []
     n = fleet(net, "abcd", log)
@@ -186,7 +186,7 @@ def test_channels_are_reliable_and_fifo_over_a_bad_network(seed: int) -> None:
 
 
 @pytest.mark.parametrize("conditions", NETWORKS.values(), ids=NETWORKS.keys())
-def test_stop_deactivates_everyone_and_leaves_no_state(conditions: dict[str, float]) -> None:
+def test_stop_deactivates_everyone_and_leaves_no_state(conditions: dict[str, Any]) -> None:
     net = SimulatedNetwork(seed=16, property_interval=0.5, failure_timeout=60.0, **conditions)
     log: list[Event] = []
     n = fleet(net, "abcde", log)

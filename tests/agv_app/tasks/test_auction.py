@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 from agv_app.tasks import Bidder, TaskSpec
 from agv_app.tasks.station import Station
 from objectplaces import RoleActivator
@@ -33,7 +35,7 @@ class Agent:
         self.node.update_node_property("status", "idle")
 
 
-def setup(seed: int = 1, **kw: float) -> tuple[SimulatedNetwork, Station, list[TaskSpec]]:
+def setup(seed: int = 1, **kw: Any) -> tuple[SimulatedNetwork, Station, list[TaskSpec]]:
     net = SimulatedNetwork(seed=seed, property_interval=0.5, **kw)
     awarded: list[TaskSpec] = []
     station = Station(
