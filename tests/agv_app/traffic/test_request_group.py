@@ -33,36 +33,26 @@ def polygon(points: list[tuple[float, float]]) -> Area:
 
 @given(
     ours=st.lists(st.tuples(coordinate, coordinate), min_size=1, max_size=6),
-    theirs=st.lists(st.tuples(coordinate, coordinate), min_size=1, max_size=6),
+    theirs=st.lists(st.tuples(coordinate, coordinate), min_size=2, max_size=6),
     centre=st.tuples(coordinate, coordinate),
+    claimed=st.booleans(),
 )
-def test_an_agv_whose_area_the_request_overlaps_is_in_its_group(
+def test_an_agv_the_request_may_conflict_with_is_in_its_group(
     ours: list[tuple[float, float]],
     theirs: list[tuple[float, float]],
     centre: tuple[float, float],
+    claimed: bool,
 ) -> None:
-    request, area = polygon(ours), polygon(theirs)
-    # The other AGV publishes the circle that covers its area, as every AGV does.
-    other = agv(*centre, hull_length(centre, [area]))
+    request = polygon(ours)
+    if claimed:
+        # Both claim the segment with vertices ``theirs``: the other's circle covers them.
+        reach = max(((x - centre[0]) ** 2 + (y - centre[1]) ** 2) ** 0.5 for x, y in theirs)
+        assert request_group(request, theirs)({}, agv(*centre, reach))
+        return
+    # The other AGV holds an area and publishes the circle that covers it, as every AGV does.
+    area = polygon(theirs)
     if request.geom.intersects(area.geom):
-        assert request_group(request)({}, other)
-
-
-@given(
-    ours=st.lists(st.tuples(coordinate, coordinate), min_size=1, max_size=6),
-    claimed=st.lists(st.tuples(coordinate, coordinate), min_size=2, max_size=4),
-    centre=st.tuples(coordinate, coordinate),
-)
-def test_an_agv_claiming_a_segment_the_request_claims_is_in_its_group(
-    ours: list[tuple[float, float]],
-    claimed: list[tuple[float, float]],
-    centre: tuple[float, float],
-) -> None:
-    # Both claim the segment with these vertices: the other's circle covers them.
-    other = agv(
-        *centre, max(((x - centre[0]) ** 2 + (y - centre[1]) ** 2) ** 0.5 for x, y in claimed)
-    )
-    assert request_group(polygon(ours), claimed)({}, other)
+        assert request_group(request)({}, agv(*centre, hull_length(centre, [area])))
 
 
 def test_an_agv_whose_circle_only_meets_the_requesters_circle_is_left_out() -> None:
