@@ -386,7 +386,7 @@ class Requester(Initiator):
         # Those that allowed need no longer rank below this request (written after the
         # lock, so their next requests meet it as a lock).
         end: dict[str, Any] = {"t": "end"}
-        for member in self.members:
+        for member in sorted(self.members, key=lambda m: m.node_id):  # never set order
             if self._votes.get(member.node_id) and self.send(member, end):
                 tally_send(self._tally, "vote", end)
         self.stop()
