@@ -14,7 +14,8 @@ Roles on ObjectPlaces (DESIGN.md, "The AGV application"):
   tuplespace and stops the session.
 * :class:`Voter` (participant) allows iff the request overlaps none of its AGV's
   requested or locked projections, or only requested ones of lower priority, and the
-  requester is in the voter's own group (``view_group``). Otherwise it defers and
+  requester's circle, as the voter's view has it, covers the request (the paper asks
+  less: the requester in the voter's own group; see ``decide_vote``). Otherwise it defers and
   re-evaluates whenever its AGV's area shrinks (tuplespace notify) and every
   ``recheck`` seconds (its view of the requester may catch up).
 
@@ -43,7 +44,7 @@ The bookkeeping all of them share lives in the node's tuplespace
 
 from __future__ import annotations
 
-from collections.abc import Callable, Container, Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from typing import Any
 
 import shapely
@@ -58,7 +59,6 @@ from objectplaces.groups import GroupDefinition
 from tuplespace import ANY, NotifyHandle, TupleSpace
 
 __all__ = [
-    "LazyGroup",
     "Requester",
     "Voter",
     "broadcast_group",
@@ -112,7 +112,6 @@ def decide_vote(
     priority: Priority,
     requester: str,
     book: LockBook,
-    group: Container[str],
     circle: tuple[float, float, float] | None = None,
     claims: frozenset[Claim] = frozenset(),
 ) -> str:
@@ -123,11 +122,16 @@ def decide_vote(
     of our pending request, the priorities decide.
 
     The group condition makes sure the voter's view already holds the requester's
-    new circle, so that any later request of the voter over the requested area
-    includes the requester. It holds when the requester is in the voter's group, or
-    when the requester's circle as the voter sees it covers the request (then the
-    voter's own circle need not reach it: a voter that just withdrew a request can
-    still allow others).
+    new circle: the requester's circle as the voter sees it covers the request. Then
+    that circle meets the box of any request of the voter's over the requested area,
+    pending or later, so the requester is a member of its group (``request_group``)
+    and the voter cannot lock there without the requester's allow. Until then the
+    voter defers and looks again (the circle went out before the request; a lost one
+    is found at the next frame and asked for). The paper's rule, the requester in the
+    voter's own circle group, is not enough once a request asks only the AGVs its box
+    meets: with a stale view of the requester's circle the two circles may overlap
+    while the stale circle misses the box of the voter's pending request, which then
+    locks without the requester's allow over the area the voter allowed it.
 
     Args:
         request: the requested projection (as received); a :class:`Probe` of it
@@ -135,13 +139,11 @@ def decide_vote(
         priority: the requester's priority.
         requester: the requester's node id.
         book: the voter node's bookkeeping.
-        group: the voter's own collision group, from its view (asked only when the
-            requester's circle does not cover the request; see ``LazyGroup``).
         circle: the requester's ``(x, y, hull_length)`` in the voter's view.
         claims: the direction claims the request asks for.
     """
     probe = request if isinstance(request, Probe) else Probe(request)
-    if not _covers(circle, probe) and requester not in group:
+    if not _covers(circle, probe):
         return "group"
     # Without claims of its own a request conflicts with no claim: the locks' claims
     # are looked up only when it has some.
@@ -199,29 +201,6 @@ def _received_request(coords: Any) -> Probe:
             del _requests_received[next(iter(_requests_received))]
         _requests_received[key] = probe
     return probe
-
-
-class LazyGroup:
-    """A collision group resolved on the first membership question, or never.
-
-    Resolving a group tries the definition on every node near the voter (a hundred on
-    a crowded floor), while the vote rarely needs it: the requester publishes its new
-    circle before it asks, so the circle usually covers the request already.
-
-    Args:
-        resolve: the group as the view has it now (``view_group``).
-    """
-
-    __slots__ = ("_members", "_resolve")
-
-    def __init__(self, resolve: Callable[[], frozenset[str]]) -> None:
-        self._resolve = resolve
-        self._members: frozenset[str] | None = None
-
-    def __contains__(self, node: object) -> bool:
-        if self._members is None:
-            self._members = self._resolve()
-        return node in self._members
 
 
 def _outwaited(since: Mapping[str, float], patience: float | None, now: float) -> bool:
@@ -397,8 +376,8 @@ class Voter(Participant):
     """Votes on other AGVs' requests for this node's AGV.
 
     Args:
-        group_view: the node's current view of the collision group (``view_group``).
-        view: the node's view of the others' properties (``RoleActivator.view``).
+        view: the node's view of the others' properties (``RoleActivator.view``): where
+            the requester's circle is read.
         recheck: seconds between re-evaluations of a deferred request.
         keep_allowed: seconds an allowed request still lowers this node's own priorities
             once this node left its session (while in it: until the request ends).
@@ -410,16 +389,14 @@ class Voter(Participant):
 
     def __init__(
         self,
-        group_view: Callable[[], frozenset[str]],
         *,
-        view: Callable[[], Mapping[str, Mapping[str, Any]]] | None = None,
+        view: Callable[[], Mapping[str, Mapping[str, Any]]],
         recheck: float = 0.5,
         keep_allowed: float = 30.0,
         blockers: Callable[[], frozenset[str]] | None = None,
         step_aside: Callable[[], None] | None = None,
         tally: MessageTally | None = None,
     ) -> None:
-        self._group_view = group_view
         self._blockers = blockers
         self._step_aside = step_aside
         self._view = view
@@ -499,7 +476,6 @@ class Voter(Participant):
             self._priority,
             requester,
             book,
-            LazyGroup(self._group_view),
             self._circle_of(requester),
             self._claims,
         )

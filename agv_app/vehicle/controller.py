@@ -213,7 +213,6 @@ class AgvController:
         node.set_participant_factory(
             "voter",
             lambda: Voter(
-                self._group_view,
                 view=self.node.view,
                 recheck=self.config.t_update / 2,
                 blockers=self._blockers,
@@ -228,9 +227,6 @@ class AgvController:
         node.update_node_property("task", None)
         node.update_node_property("last_done", self.last_done)
         self.publish()
-
-    def _group_view(self) -> frozenset[str]:
-        return self.node.view_group(self.definition)
 
     def _blockers(self) -> frozenset[str]:
         requester = self._requester

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import pytest
 
 from agv_app.fleet import Fleet, FleetConfig
@@ -16,7 +18,6 @@ from agv_app.traffic import (
     collision_group,
     decide_vote,
 )
-from agv_app.traffic.collision import LazyGroup
 from objectplaces.sim import SimulatedNetwork
 
 
@@ -105,33 +106,31 @@ def test_decide_vote_rule() -> None:
     book = LockBook(net.add_node("v").space)
     book.set_locks(LockEntry(1, 0.0, strip(0, 2)))
     book.add_request(RequestEntry(2, 0.0, strip(2, 6), (5.0, "v")))
-    group = frozenset({"r"})
-    assert decide_vote(strip(10, 12), (1.0, "r"), "r", book, group) == "allow"
-    assert decide_vote(strip(10, 12), (1.0, "r"), "r", book, frozenset()) == "group"
-    assert decide_vote(strip(-1, 1), (1.0, "r"), "r", book, group) == "lock"
-    assert decide_vote(strip(4, 8), (1.0, "r"), "r", book, group) == "allow"  # higher priority
-    assert decide_vote(strip(4, 8), (9.0, "r"), "r", book, group) == "priority"
+
+    def around(area: Area) -> tuple[float, float, float]:
+        # The requester's circle as published: centred on the area, covering it.
+        x0, y0, x1, y1 = area.geom.bounds
+        return (x0 + x1) / 2, (y0 + y1) / 2, math.hypot(x1 - x0, y1 - y0)
+
+    for area, priority, verdict in (
+        (strip(10, 12), 1.0, "allow"),
+        (strip(-1, 1), 1.0, "lock"),
+        (strip(4, 8), 1.0, "allow"),  # higher priority
+        (strip(4, 8), 9.0, "priority"),
+    ):
+        assert decide_vote(area, (priority, "r"), "r", book, around(area)) == verdict
+    assert decide_vote(strip(10, 12), (1.0, "r"), "r", book) == "group"  # not in view
 
 
-def test_the_group_is_resolved_only_when_the_requesters_circle_does_not_cover() -> None:
+def test_a_voter_waits_for_a_circle_that_covers_the_request() -> None:
+    # The paper's rule let a voter allow a requester merely in its own circle group; with
+    # a stale view of the requester's circle that group may hold it while the circle
+    # misses the box of the voter's own request, which would then lock without it.
     net = SimulatedNetwork(seed=1)
     book = LockBook(net.add_node("v").space)
-    asked: list[int] = []
-
-    def resolve() -> frozenset[str]:
-        asked.append(1)
-        return frozenset({"r"})
-
-    covering = (11.0, 0.0, 3.0)
-    assert decide_vote(strip(10, 12), (1.0, "r"), "r", book, LazyGroup(resolve), covering)
-    assert asked == []  # the circle covers the request: no group to resolve
-    short = (11.0, 0.0, 0.5)
-    lazy = LazyGroup(resolve)
-    assert decide_vote(strip(10, 12), (1.0, "r"), "r", book, lazy, short) == "allow"
-    assert "r" in lazy
-    assert asked == [1]  # resolved once, and only then
-    nobody = LazyGroup(frozenset)
-    assert decide_vote(strip(10, 12), (1.0, "r"), "r", book, nobody, short) == "group"
+    covering, stale = (11.0, 0.0, 3.0), (11.0, 0.0, 0.5)
+    assert decide_vote(strip(10, 12), (1.0, "r"), "r", book, covering) == "allow"
+    assert decide_vote(strip(10, 12), (1.0, "r"), "r", book, stale) == "group"
 
 
 class Node:
@@ -145,7 +144,7 @@ class Node:
         self.move(x, r)
 
         def factory() -> Voter:
-            voter = Voter(lambda: self.node.view_group(collision_group()), recheck=0.25)
+            voter = Voter(view=self.node.view, recheck=0.25)
             self.voters.append(voter)
             return voter
 

@@ -84,3 +84,19 @@ def test_a_fleet_asks_fewer_voters_than_the_circle_group_and_stays_safe(
         assert figures["collisions"] == figures["lock_overlaps"] == figures["deadlocks"] == 0
     votes, circle_votes = (f["role_vote_messages_per_agv_per_s"] for f in (boxed, circled))
     assert votes < 0.8 * circle_votes, (votes, circle_votes)
+
+
+@pytest.mark.slow
+def test_a_lossy_fleet_keeps_its_locks_apart_with_stale_views() -> None:
+    # Seed 4 under 10% loss: at 332 s agv-11's view of agv-01 still held a circle two
+    # publications old. Its voter had allowed agv-01's request because the two circles
+    # overlapped (the paper's rule), yet the stale circle missed the box of agv-11's own
+    # request, which locked without agv-01: both locks held the junction at 333.4 s.
+    # A voter now waits for a circle that covers the request.
+    cfg = FleetConfig(
+        agvs=20, seed=4, load=0.9, delay=0.05, jitter=0.025, loss=0.1, fail_on_violation=True
+    )
+    fleet = Fleet(config=cfg)
+    fleet.run(340.0)
+    assert fleet.monitor.lock_overlaps == fleet.monitor.collisions == 0
+    assert fleet.summary()["locks_granted"] > 500
