@@ -110,7 +110,6 @@ def broadcast_group() -> GroupDefinition:
 def decide_vote(
     request: Area | Probe,
     priority: Priority,
-    requester: str,
     book: LockBook,
     circle: tuple[float, float, float] | None = None,
     claims: frozenset[Claim] = frozenset(),
@@ -137,7 +136,6 @@ def decide_vote(
         request: the requested projection (as received); a :class:`Probe` of it
             when it is asked again and again (its answers are remembered).
         priority: the requester's priority.
-        requester: the requester's node id.
         book: the voter node's bookkeeping.
         circle: the requester's ``(x, y, hull_length)`` in the voter's view.
         claims: the direction claims the request asks for.
@@ -474,7 +472,6 @@ class Voter(Participant):
         verdict = decide_vote(
             probe,
             self._priority,
-            requester,
             book,
             self._circle_of(requester),
             self._claims,

@@ -35,7 +35,6 @@ from agv_app.traffic.collision import (
     Requester,
     Voter,
     broadcast_group,
-    collision_group,
     request_group,
 )
 from agv_app.traffic.deadlock import Claim, StopPlan, clearance_for, followable_segments
@@ -137,9 +136,6 @@ class AgvController:
         self._on_task_done = on_task_done
         self._on_lock_wait = on_lock_wait
         self._relocate = relocate
-        self.definition: GroupDefinition = (
-            broadcast_group() if self.config.broadcast else collision_group()
-        )
         self.clearance_m = clearance_for(spec.length_m, spec.width_m)
         self._followable = (
             followable_segments(layout) if self.config.direction_claims else frozenset()
@@ -601,7 +597,7 @@ class AgvController:
         """The group a request asks: every AGV in broadcast mode, else the AGVs whose
         circles meet the area or the claimed segments (``request_group``)."""
         if self.config.broadcast:
-            return self.definition
+            return broadcast_group()
         claimed = [xy for seg, _ in claims for xy in self.layout.segment_coords(seg)]
         return request_group(area, claimed)
 

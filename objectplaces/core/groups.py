@@ -67,6 +67,12 @@ def _point(props: Props, name: str) -> tuple[float, float] | None:
     return None
 
 
+def _radius(props: Props, name: str) -> float:
+    """A node's radius property; 0 when it lacks one or it is not a number."""
+    value = props.get(name, 0.0)
+    return float(value) if isinstance(value, int | float) else 0.0
+
+
 def distance(a: Props, b: Props, position: str = "position") -> float | None:
     """Euclidean distance between two nodes' positions, or None if either lacks one."""
     pa, pb = _point(a, position), _point(b, position)
@@ -116,15 +122,11 @@ class CirclesOverlap(GroupDefinition):
         self.position = position
         self.radius = radius
 
-    def _radius(self, props: Props) -> float:
-        value = props.get(self.radius, 0.0)
-        return float(value) if isinstance(value, int | float) else 0.0
-
     def __call__(self, initiator: Props, participant: Props) -> bool:
         a, b = _point(initiator, self.position), _point(participant, self.position)
         if a is None or b is None:
             return False
-        reach = self._radius(initiator) + self._radius(participant)
+        reach = _radius(initiator, self.radius) + _radius(participant, self.radius)
         dx, dy = a[0] - b[0], a[1] - b[1]
         return dx * dx + dy * dy <= reach * reach
 
@@ -132,7 +134,7 @@ class CirclesOverlap(GroupDefinition):
         return {"type": "circles_overlap", "position": self.position, "radius": self.radius}
 
     def reach(self, initiator: Props, max_of: MaxOf) -> Reach | None:
-        return Reach(self.position, self._radius(initiator) + max_of(self.radius))
+        return Reach(self.position, _radius(initiator, self.radius) + max_of(self.radius))
 
 
 class CircleMeetsBox(GroupDefinition):
@@ -171,8 +173,7 @@ class CircleMeetsBox(GroupDefinition):
         p = _point(participant, self.position)
         if p is None:
             return False
-        value = participant.get(self.radius, 0.0)
-        r = float(value) if isinstance(value, int | float) else 0.0
+        r = _radius(participant, self.radius)
         x0, y0, x1, y1 = self.box
         dx = max(x0 - p[0], 0.0, p[0] - x1)
         dy = max(y0 - p[1], 0.0, p[1] - y1)

@@ -284,9 +284,9 @@ class MemoryNetwork:
         (a new run) or is gone loses it."""
         # ``run``: the sender's run when it sent the frame (None: injected, never lost).
         nodes, voided, traffic, dropped = self._nodes, self._voided, self._traffic, self._dropped
+        void = bool(voided) and run is not None and run <= voided.get(source, 0)
         for target in targets:
             entry = nodes.get(target)
-            void = bool(voided) and run is not None and run <= voided.get(source, 0)
             if entry is None or entry[2] > mark or void:
                 dropped["dead"] += 1
                 continue

@@ -118,8 +118,8 @@ def test_decide_vote_rule() -> None:
         (strip(4, 8), 1.0, "allow"),  # higher priority
         (strip(4, 8), 9.0, "priority"),
     ):
-        assert decide_vote(area, (priority, "r"), "r", book, around(area)) == verdict
-    assert decide_vote(strip(10, 12), (1.0, "r"), "r", book) == "group"  # not in view
+        assert decide_vote(area, (priority, "r"), book, around(area)) == verdict
+    assert decide_vote(strip(10, 12), (1.0, "r"), book) == "group"  # not in view
 
 
 def test_a_voter_waits_for_a_circle_that_covers_the_request() -> None:
@@ -129,8 +129,8 @@ def test_a_voter_waits_for_a_circle_that_covers_the_request() -> None:
     net = SimulatedNetwork(seed=1)
     book = LockBook(net.add_node("v").space)
     covering, stale = (11.0, 0.0, 3.0), (11.0, 0.0, 0.5)
-    assert decide_vote(strip(10, 12), (1.0, "r"), "r", book, covering) == "allow"
-    assert decide_vote(strip(10, 12), (1.0, "r"), "r", book, stale) == "group"
+    assert decide_vote(strip(10, 12), (1.0, "r"), book, covering) == "allow"
+    assert decide_vote(strip(10, 12), (1.0, "r"), book, stale) == "group"
 
 
 class Node:

@@ -112,16 +112,14 @@ def test_a_lock_claiming_the_run_the_other_way_holds_the_request_up() -> None:
     far = Area(shapely.box(100, 0, 102, 1))
     book.set_locks(LockEntry(1, 0.0, Area(shapely.box(0, 0, 2, 1)), frozenset({("c1-c2", -1)})))
     circle = (101.0, 0.5, 3.0)  # the requester's, covering its request
-    assert decide_vote(far, (1.0, "r"), "r", book, circle, claims=frozenset({("c1-c2", -1)})) == (
+    assert decide_vote(far, (1.0, "r"), book, circle, claims=frozenset({("c1-c2", -1)})) == (
         "allow"
     )
-    assert decide_vote(far, (1.0, "r"), "r", book, circle, claims=frozenset({("c1-c2", 1)})) == (
-        "lock"
-    )
+    assert decide_vote(far, (1.0, "r"), book, circle, claims=frozenset({("c1-c2", 1)})) == ("lock")
     book.add_request(
         RequestEntry(2, 5.0, Area(shapely.box(50, 0, 52, 1)), (0.5, "v"), frozenset({("c2-c3", 0)}))
     )
-    assert decide_vote(far, (1.0, "r"), "r", book, circle, claims=frozenset({("c2-c3", 1)})) == (
+    assert decide_vote(far, (1.0, "r"), book, circle, claims=frozenset({("c2-c3", 1)})) == (
         "priority"
     )
 
