@@ -138,13 +138,7 @@ def dissemination_radius(
     # Every node on such a floor lies within the radius of every other: scoping would
     # leave nobody out, and one subscription to everything costs a receiver less than a
     # subscriber per row of cells (docs/zenoh.md, "Keys").
-    return None if radius >= _diagonal(layout) else radius
-
-
-def _diagonal(layout: Layout) -> float:
-    """The diagonal of the layout's bounds: no two nodes on it are farther apart."""
-    min_x, min_y, max_x, max_y = layout.bounds()
-    return math.hypot(max_x - min_x, max_y - min_y)
+    return None if radius >= layout.diagonal() else radius
 
 
 def _route_ahead(agv: AgvController) -> list[list[float]]:

@@ -303,6 +303,11 @@ class Layout:
             raise LayoutError(f"layout {self._name!r} has no points")
         return (min(xs), min(ys), max(xs), max(ys))
 
+    def diagonal(self) -> float:
+        """The diagonal of ``bounds``: no two points of the layout lie farther apart."""
+        x0, y0, x1, y1 = self.bounds()
+        return math.hypot(x1 - x0, y1 - y0)
+
     # -- graph ------------------------------------------------------------------
 
     def neighbours(self, point_id: str) -> tuple[str, ...]:

@@ -138,8 +138,7 @@ def largest_hull_length(layout: Layout, spec: VehicleSpec, config: AgvConfig) ->
         2 * config.t_update + 0.5
     )
     request = 1.25 * config.advance_m + longest_no_rest_zone(layout, clearance)
-    x0, y0, x1, y1 = layout.bounds()
-    along = min(need + request, math.hypot(x1 - x0, y1 - y0))
+    along = min(need + request, layout.diagonal())
     half_diagonal = math.hypot(spec.length_m / 2, spec.width_m / 2)
     return along + half_diagonal + config.hull_margin_m + _ROUNDING_M
 
