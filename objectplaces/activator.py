@@ -7,7 +7,7 @@ same instant, so updates made together are coalesced into one message).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -126,10 +126,15 @@ class RoleActivator:
         self._wake()
 
     def register_node_property_observer(
-        self, observer: Callable[[str, str, Any], Any]
+        self, observer: Callable[[str, str, Any], Any], *, names: Iterable[str] | None = None
     ) -> ObserverHandle:
-        """Call ``observer(node_id, name, value)`` on every property change, ours included."""
-        return ObserverHandle(self._machine.observers.add_property(observer))
+        """Call ``observer(node_id, name, value)`` on every property change, ours included;
+        given ``names``, only on changes of those properties (others cost nothing).
+
+        Raises:
+            TypeError: ``names`` is a single string.
+        """
+        return ObserverHandle(self._machine.observers.add_property(observer, names))
 
     def register_node_departure_observer(
         self, observer: Callable[[str, Mapping[str, Any]], Any]

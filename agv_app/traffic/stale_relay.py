@@ -50,7 +50,7 @@ class StaleRelay:
         self.failed: dict[str, Circle] = {}
         """Failed AGVs not heard since, by node id."""
         node.register_node_departure_observer(self._departed)
-        node.register_node_property_observer(self._property)
+        node.register_node_property_observer(self._property, names=("hull_length",))
         self._publish()
 
     def _departed(self, node_id: str, last: Mapping[str, Any]) -> None:
@@ -80,7 +80,7 @@ class StaleListener:
         self.node_id = node.node_id
         self._book = book
         self._learned: dict[str, Circle] = {}
-        node.register_node_property_observer(self._property)
+        node.register_node_property_observer(self._property, names=(FAILED_AGVS,))
 
     def _property(self, node_id: str, name: str, value: Any) -> None:
         if name != FAILED_AGVS or node_id == self.node_id or not isinstance(value, list):

@@ -6,11 +6,16 @@ drains the machine, after the state change it reports is complete. An observer t
 inspects the node from its callback therefore sees the change already applied (a
 departed node already gone from the view), and one that raises cannot leave the
 machine half-updated.
+
+A property observer may name the properties it wants. A change of any other property
+then queues nothing for it: on a floor where every node hears every other, most
+changes are of properties an observer would only look at and drop. Observers are
+notified in the order they registered, whichever form they took.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from typing import Any
 
 from objectplaces.core.outbox import Outbox
@@ -20,6 +25,10 @@ __all__ = ["DepartureObserver", "Observers", "PropertyObserver"]
 PropertyObserver = Callable[[str, str, Any], Any]
 DepartureObserver = Callable[[str, Mapping[str, Any]], Any]
 
+_Registration = tuple[PropertyObserver, frozenset[str] | None]
+
+_ROUTES_MAX = 1024  # property names whose observer list is remembered at once
+
 
 class Observers:
     """Registered observers, notified through the outbox.
@@ -28,23 +37,45 @@ class Observers:
         outbox: where notifications are queued.
     """
 
-    __slots__ = ("_departure", "_outbox", "_property", "watching_properties")
+    __slots__ = ("_departure", "_outbox", "_property", "_routes", "watching_properties")
 
     def __init__(self, outbox: Outbox) -> None:
         self._outbox = outbox
-        self._property: list[PropertyObserver] = []
+        #: Property observers in registration order, each with the names it wants
+        #: (None: every property).
+        self._property: list[_Registration] = []
+        #: The observers of one property name, worked out from ``_property`` at its
+        #: first change and forgotten whenever an observer comes or goes.
+        self._routes: dict[str, tuple[PropertyObserver, ...]] = {}
         self._departure: list[DepartureObserver] = []
         #: Whether any property observer is registered: a plain attribute, read for every
         #: received update, so the hot path skips all notification work when nobody watches.
         self.watching_properties = False
 
-    def add_property(self, observer: PropertyObserver) -> Callable[[], None]:
-        """Register ``observer(node_id, name, value)``; returns its cancel function."""
-        self._property.append(observer)
+    def add_property(
+        self, observer: PropertyObserver, names: Iterable[str] | None = None
+    ) -> Callable[[], None]:
+        """Register ``observer(node_id, name, value)`` for the properties ``names``
+        (None: every property); returns its cancel function.
+
+        Raises:
+            TypeError: ``names`` is a single string (a name is not a list of names).
+        """
+        if isinstance(names, str):
+            raise TypeError(f"names must be a collection of names, not the string {names!r}")
+        registration: _Registration = (observer, None if names is None else frozenset(names))
+        self._property.append(registration)
+        self._routes.clear()
         self.watching_properties = True
 
         def cancel() -> None:
-            _discard(self._property, observer)
+            # The registration itself, not an equal one: the same observer may be
+            # registered twice, and each cancel takes back its own.
+            for i, item in enumerate(self._property):
+                if item is registration:
+                    del self._property[i]
+                    break
+            self._routes.clear()
             self.watching_properties = bool(self._property)
 
         return cancel
@@ -55,9 +86,19 @@ class Observers:
         return lambda: _discard(self._departure, observer)
 
     def property_changed(self, node: str, name: str, value: Any) -> None:
-        """Queue a notification of one changed property for every property observer."""
-        for observer in self._property:
+        """Queue a notification of one changed property for every observer of it."""
+        observers = self._routes.get(name)
+        if observers is None:
+            observers = self._route(name)
+        for observer in observers:
             self._outbox.call(observer, (node, name, value))
+
+    def _route(self, name: str) -> tuple[PropertyObserver, ...]:
+        observers = tuple(o for o, names in self._property if names is None or name in names)
+        if len(self._routes) >= _ROUTES_MAX:
+            self._routes.clear()
+        self._routes[name] = observers
+        return observers
 
     def departed(self, node: str, last: Mapping[str, Any]) -> None:
         """Queue a notification of a departure, with a copy of the last properties."""
