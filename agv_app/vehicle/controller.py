@@ -218,7 +218,7 @@ class AgvController:
         )
         node.set_participant_factory("bidder", lambda: Bidder(self, tally=self.tally))
         node.register_node_departure_observer(self._departed)
-        node.register_node_property_observer(self._property)
+        node.register_node_property_observer(self._property, names=("hull_length",))
         node.update_node_property("kind", AGV_KIND)
         node.update_node_property("task", None)
         node.update_node_property("last_done", self.last_done)
