@@ -9,7 +9,8 @@ participant side repeats them:
   transmit what the window allows, and arm the channel's retransmission timer. One
   timer per channel, not per frame: a burst of a thousand messages costs one heap
   entry, re-armed at the next due frame each time it fires.
-* ``on_ack``: the window moves; frames waiting in the send buffer go out.
+* ``on_ack``: the window moves; frames waiting in the send buffer go out. The last
+  ack disarms the timer: with nothing unacknowledged it would only fire to find so.
 * ``acknowledge``: acks are cumulative and sent after every data frame, duplicates
   included, because a lost ack is repaired only by the next duplicate.
 * ``retransmit``: resend what is due; report a channel whose retries ran out as broken.
@@ -90,6 +91,11 @@ class Channels:
         """``target`` acknowledged ``channel``'s frames up to ``ack``: the window moves."""
         if not channel.on_ack(ack):
             self._outbox.count("dropped_ack_beyond_sent")
+            return
+        if channel.idle:
+            # Everything is acknowledged: the armed timer would fire with nothing to
+            # resend. Disarmed, it is dead (``timers.is_dead``); the next send arms anew.
+            channel.armed_at = None
             return
         self._transmit(target, channel, now)
 

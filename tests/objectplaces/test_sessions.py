@@ -53,7 +53,8 @@ def test_group_forms_and_follows_movement(conditions: dict[str, Any]) -> None:
     place(n["c"], 0.0, 1.9)  # c walks in
     net.run_for(1.0)
     place(n["b"], 2.1, 0.0)  # b walks out
-    net.run_for(1.0)
+    # Under 20% loss the update may need a republication or two (every 0.5 s) to arrive.
+    net.run_for(2.0)
     assert role.membership() == [("in", "b"), ("in", "c"), ("out", "b")]
     assert role.members == frozenset({ParticipantRef("c", role.session_id)})
     assert ("b", "out_group_of", "a") in log
