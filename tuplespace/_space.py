@@ -391,7 +391,7 @@ class TupleSpace:
         if t.keyed:
             q = a.by_first.get(t.key)
             rest = t.rest
-            found = [] if q is None else [e for e in q if e[0] is not None and rest(e[0])]
+            found = [] if not q else [e for e in q if e[0] is not None and rest(e[0])]
             if a.unkeyed:
                 found += [e for e in a.unkeyed if e[0] is not None and matches(e[0])]
                 found.sort(key=lambda e: e[1])
@@ -476,9 +476,12 @@ class TupleSpace:
             if self._heap:
                 self._drop_ended()
             _, found = self._find_all(t)
-            tups: list[Tup] = [e[0] for e in found]
-            after = self._drain()
-        self._flush(after)
+            tups: list[Tup] = [e[0] for e in found] if found else []
+            after = self._after
+            if after:
+                self._after = []
+        if after:
+            self._flush(after)
         return tups
 
     def in_all(self, tmpl: Tup) -> list[Tup]:
@@ -492,15 +495,22 @@ class TupleSpace:
             if self._heap:
                 self._drop_ended()
             a, found = self._find_all(t)
-            tups: list[Tup] = [e[0] for e in found]
-            if a is not None:
+            if found and a is not None:
+                tups: list[Tup] = [e[0] for e in found]
                 for e in found:
                     self._remove(a, e)
                 if self._observers:
                     for tup in tups:
                         self._emit("in", tup)
-            after = self._drain()
-        self._flush(after)
+            else:
+                tups = []
+            # Most calls find nothing and leave nothing to run (a lock book forgetting
+            # what it may not hold): no list handed over, no call to run it.
+            after = self._after
+            if after:
+                self._after = []
+        if after:
+            self._flush(after)
         return tups
 
     def count(self, tmpl: Tup) -> int:
