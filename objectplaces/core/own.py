@@ -75,6 +75,7 @@ class OwnProperties:
         "_readonly",
         "_seq",
         "_sizes",
+        "_snapshot",
         "_values",
         "pending",
     )
@@ -102,6 +103,10 @@ class OwnProperties:
         self._readonly: Mapping[str, Any] = MappingProxyType(self._values)
         self._dirty: dict[str, Any] = {}
         self._seq = 0  # the number of the latest publication
+        # The encoded snapshot of the values at ``_seq``, made at the first asking and
+        # dropped when a value or the sequence number changes: at start every node
+        # sends one to every node it hears, the same bytes each time.
+        self._snapshot: bytes | None = None
         self._published_home: tuple[Cell, ...] = ()  # where the last publication went
         self._bounds: tuple[int, int, int, int] | None = None
         #: Whether changes wait to be published (an attribute: the driver asks per drain).
@@ -153,6 +158,7 @@ class OwnProperties:
                 )
             self._sizes[name] = size
         self._values[name] = value
+        self._snapshot = None
         self._dirty[name] = value
         self.pending = True
         return value
@@ -217,8 +223,15 @@ class OwnProperties:
         """A snapshot for one peer (a newcomer, a new subscriber of our cell, an asker)."""
         if not self._values:
             return None
-        update = PropertyUpdate(self._seq, dict(self._values), full=True)
-        return Send(peer, codec.encode(update), "property")
+        return Send(peer, self._snapshot_data(), "property")
+
+    def _snapshot_data(self) -> bytes:
+        """Every value at the latest publication's number, encoded (kept until changed)."""
+        data = self._snapshot
+        if data is None:
+            update = PropertyUpdate(self._seq, dict(self._values), full=True)
+            data = self._snapshot = codec.encode(update)
+        return data
 
     def _publication(
         self, values: Mapping[str, Any], home: tuple[Cell, ...], *, full: bool, fresh: bool = False
@@ -227,6 +240,8 @@ class OwnProperties:
         carries a snapshot too."""
         self._seq += 1
         data = codec.encode(PropertyUpdate(self._seq, dict(values), full))
+        # A full publication of every value is that number's snapshot, byte for byte.
+        self._snapshot = data if full and values is self._values else None
         if self._config.interest_radius is None or not home:
             return Broadcast(data, "property")
         old = self._published_home
@@ -237,7 +252,7 @@ class OwnProperties:
         self._published_home = home
         snapshot = None
         if fresh:
-            snapshot = codec.encode(PropertyUpdate(self._seq, dict(self._values), True))
+            snapshot = self._snapshot_data()
         return Publish(cells, data, "property", len(home), snapshot)
 
     def _position(self) -> tuple[float, float] | None:
