@@ -373,7 +373,8 @@ class Fleet(FleetSourceBase):
                 m.waiting_seconds += dt
             self.stalls.observe(agv_id, stalled=agv.stalled, now=now)
         hulls = [(a, agv.vehicle.hull()) for a, agv in self.agvs.items()]
-        locks = [(a, e.area) for a, agv in self.agvs.items() for e in agv.book.locks()]
+        # The areas alone: the monitor needs no direction claims, a lookup per lock.
+        locks = [(a, area) for a, agv in self.agvs.items() for _, area in agv.book.lock_areas()]
         found = self.monitor.check(self.step_count, now, hulls, locks)
         if found and cfg.fail_on_violation:
             raise SafetyError("\n".join(str(v) for v in found))
