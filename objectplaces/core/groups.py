@@ -170,13 +170,21 @@ class CircleMeetsBox(GroupDefinition):
         self.radius = radius
 
     def __call__(self, initiator: Props, participant: Props) -> bool:
-        p = _point(participant, self.position)
-        if p is None:
+        # ``_point`` and ``_radius`` written out, and ``max`` as comparisons: a request
+        # group is tried on every node near its box when its session opens.
+        value = participant.get(self.position)
+        if not (isinstance(value, tuple | list) and len(value) == 2):
             return False
-        r = _radius(participant, self.radius)
+        px, py = value
+        if not (isinstance(px, int | float) and isinstance(py, int | float)):
+            return False
+        px, py = float(px), float(py)
+        r = participant.get(self.radius, 0.0)
+        r = float(r) if isinstance(r, int | float) else 0.0
         x0, y0, x1, y1 = self.box
-        dx = max(x0 - p[0], 0.0, p[0] - x1)
-        dy = max(y0 - p[1], 0.0, p[1] - y1)
+        # As max(x0 - px, 0, px - x1), a NaN included (it then matches nothing).
+        dx = x0 - px if px < x0 else (px - x1 if px > x1 else (0.0 if px == px else px))
+        dy = y0 - py if py < y0 else (py - y1 if py > y1 else (0.0 if py == py else py))
         return dx * dx + dy * dy <= r * r
 
     def to_json(self) -> dict[str, Any]:
@@ -241,7 +249,11 @@ class AllOf(GroupDefinition):
         self.parts = parts
 
     def __call__(self, initiator: Props, participant: Props) -> bool:
-        return all(part(initiator, participant) for part in self.parts)
+        # A loop, not all() over a generator: half the cost, on every candidate tried.
+        for part in self.parts:  # noqa: SIM110
+            if not part(initiator, participant):
+                return False
+        return True
 
     def to_json(self) -> dict[str, Any]:
         return {"type": "and", "of": [part.to_json() for part in self.parts]}
