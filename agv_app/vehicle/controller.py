@@ -4,10 +4,11 @@ The component owns a :class:`~agv_app.vehicle.Vehicle` and the AGV's node. Every
 simulation step it reads how far its locks reach *from the tuplespace* (the requester
 role writes them there), lets the vehicle drive up to that point, requests the next
 stretch before it runs out of locked area, and releases what it has driven over. It
-publishes ``position``, ``hull_length`` (distance to the furthest point of its locked
-and requested projections, plus a small margin for rounding), ``status``, ``task`` and
-``last_done`` whenever these change, which happens at least every ``t_update`` while
-it moves; the middleware's periodic republication is the heartbeat.
+publishes its circle, ``position`` and ``hull_length`` (distance to the furthest point
+of its locked and requested projections and claims, plus a small margin for rounding),
+when a request reaches beyond the circle in force or the circle would be much smaller,
+and ``status``, ``task`` and ``last_done`` whenever these change; the middleware's
+beats and republications are the heartbeat.
 
 It plays the voter (:mod:`agv_app.traffic.collision`) and bidder
 (:mod:`agv_app.tasks.auction`) roles, keeps stale-node records of failed AGVs, and
@@ -23,7 +24,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 from agv_app.geometry import Area, Polyline, Pose, hull_length, hull_projection, projection_ahead
 from agv_app.layout.elements import Route
@@ -50,8 +51,19 @@ _LEAD_M = 0.01  # a short piece in the old heading, so the first turn is swept a
 _MIN_ADVANCE_M = 1.25  # the shortest stretch a request held up by a lock shrinks to
 _DEPART_SLACK_S = 0.2  # a request before departure starts this much before the safe time
 
+_SHRINK_WORTH_M = 5.0  # a circle this much smaller is worth a publication to every listener
+
 _Announced = tuple[float, Area, frozenset[Claim]]
 """Since when a published circle covers a request, its area and direction claims."""
+
+
+class _Circle(NamedTuple):
+    """A circle the AGV published: centre, hull length, and when it went out."""
+
+    x: float
+    y: float
+    radius: float
+    since: float
 
 
 @dataclass(frozen=True, slots=True)
@@ -175,6 +187,8 @@ class AgvController:
         """A task finished at the drop station, reported when the dwell ends."""
         self._announced: _Announced | None = None
         """Since when a published circle covers the pending request, its area, claims."""
+        self._circle: _Circle | None = None
+        """The circle in force: the last position and hull length published, and when."""
         self.node = node
         self.attach(node)
         if central is not None:
@@ -322,10 +336,14 @@ class AgvController:
         Claimed two-way segments count too (to their far end, plus half the hull's
         diagonal): whoever might drive them the other way is then in our group.
         """
+        pose = self.vehicle.pose()
+        return self._reach_from(pose.x, pose.y)
+
+    def _reach_from(self, x0: float, y0: float) -> float:
+        """The hull length a circle centred at ``(x0, y0)`` needs, margin included."""
         locks, request = self.areas()
         shapes = locks if request is None else [*locks, request]
-        pose = self.vehicle.pose()
-        reach = hull_length((pose.x, pose.y), shapes)
+        reach = hull_length((x0, y0), shapes)
         book = self.book
         pending = book.request()
         claims = book.claims() | (frozenset() if pending is None else pending.claims)
@@ -333,8 +351,16 @@ class AgvController:
             half = math.hypot(self.spec.length_m, self.spec.width_m) / 2
             for seg, _ in claims:
                 for x, y in self.layout.segment_coords(seg):
-                    reach = max(reach, math.hypot(x - pose.x, y - pose.y) + half)
+                    reach = max(reach, math.hypot(x - x0, y - y0) + half)
         return reach + self.config.hull_margin_m
+
+    def _covered_since(self) -> float | None:
+        """When the circle in force was published, if it covers the locks, the pending
+        request and the claims; None if they reach beyond it (or none was published)."""
+        circle = self._circle
+        if circle is None or self._reach_from(circle.x, circle.y) > circle.radius:
+            return None
+        return circle.since
 
     def publish(self) -> None:
         """Publish position, hull length and status now."""
@@ -344,9 +370,9 @@ class AgvController:
         node = self.node
         node.update_node_property("position", (pose.x, pose.y))
         # Rounded up to whole millimetres, so the wire's rounding never shrinks it.
-        node.update_node_property(
-            "hull_length", math.ceil(self.current_hull_length() * 1000) / 1000
-        )
+        radius = math.ceil(self.current_hull_length() * 1000) / 1000
+        node.update_node_property("hull_length", radius)
+        self._circle = _Circle(pose.x, pose.y, radius, node.now())
         if node.properties.get("status") != self.status:
             node.update_node_property("status", self.status)
 
@@ -569,8 +595,13 @@ class AgvController:
             self._first_try = (lock_end, now)
         entry = RequestEntry(self._key, end, area, self._priority_for(area), claims)
         book.add_request(entry)
-        self.publish()
-        announced_at = self._announced_at(now, area, claims, prior)
+        # A request inside the circle in force needs no new one: the others have had
+        # it since it went out (docs/traffic.md, "A request inside the published circle").
+        covered_since = self._covered_since()
+        if covered_since is None:
+            self.publish()
+            covered_since = now
+        announced_at = min(covered_since, self._announced_at(now, area, claims, prior))
         self._announced = (announced_at, area, claims)
         if self._central is not None:
             request = self._central.submit(
@@ -661,7 +692,10 @@ class AgvController:
         # Shrinking is optional for safety (the old circle still covers what is left);
         # publish it when it is worth the message: fewer AGVs in our next groups.
         published = self.node.properties.get("hull_length")
-        if not isinstance(published, float) or self.current_hull_length() < published - 2.0:
+        if (
+            not isinstance(published, float)
+            or self.current_hull_length() < published - _SHRINK_WORTH_M
+        ):
             self.publish()
 
     def _arrived(self, now: float) -> None:
