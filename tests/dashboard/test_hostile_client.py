@@ -168,7 +168,10 @@ BODIES = st.fixed_dictionaries(
 )
 
 
-@settings(max_examples=150, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(
+    max_examples=150,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
 @given(body=BODIES)
 def test_generated_session_bodies_never_get_a_5xx(client: TestClient, body: Any) -> None:
     r = client.post("/api/sessions", content=json.dumps(body, allow_nan=True))
@@ -180,7 +183,10 @@ def test_generated_session_bodies_never_get_a_5xx(client: TestClient, body: Any)
         assert r.json()["detail"]
 
 
-@settings(max_examples=100, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(
+    max_examples=100,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
 @given(definition=DEFINITION_LIKE | JSON_VALUES | st.text(max_size=50))
 def test_generated_group_views_never_get_a_5xx(client: TestClient, definition: Any) -> None:
     text = definition if isinstance(definition, str) else json.dumps(definition, allow_nan=True)
