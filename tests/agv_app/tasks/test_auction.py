@@ -77,7 +77,10 @@ def test_an_agv_that_enters_range_during_the_session_may_bid() -> None:
 
 
 def test_tasks_queue_and_each_goes_to_one_agv_under_loss() -> None:
-    net, station, awarded = setup(seed=5, loss=0.1, delay=0.02, jitter=0.01)
+    # At 10% loss three republications in a row go missing about once in a thousand
+    # intervals; with the default timeout (three intervals) the station would count a
+    # winner as failed and auction its task again. Six intervals: once in a million.
+    net, station, awarded = setup(seed=5, loss=0.1, delay=0.02, jitter=0.01, failure_timeout=3.0)
     agents = [Agent(net.add_node(f"a{i}"), float(i), float(i)) for i in range(4)]
     for k in range(3):
         station.add_task(TaskSpec(f"t{k}", "st", "x"))
