@@ -227,6 +227,10 @@ class TupleSpace:
         self._after: list[_AfterItem] = []
         self._emptied = 0
         self._sweep_at = 1024
+        # The stamp of the latest store or removal, by hashable first field (``version``):
+        # stamps grow with every change of any key, so no key's version ever comes back.
+        self._versions: dict[Any, int] = {}
+        self._stamps = itertools.count(1)
 
     # -- writing -------------------------------------------------------------------
 
@@ -280,6 +284,7 @@ class TupleSpace:
             else:
                 if q is None:
                     q = a.by_first[tup[0]] = _Queue()
+                self._versions[tup[0]] = next(self._stamps)
             entry = [tup, next(self._seq), q]
             q.append(entry)
         else:
@@ -288,11 +293,14 @@ class TupleSpace:
         return entry
 
     def _remove(self, a: _Arity, entry: list[Any]) -> None:
+        tup = entry[0]
         entry[0] = None
         _unlink(a.all, entry)
         q = entry[2]
         if q is not None:
             _unlink(q, entry)
+            if q is not a.unkeyed:
+                self._versions[tup[0]] = next(self._stamps)
             if not q and q is not a.unkeyed:
                 # Empty buckets stay (a tag that goes empty and back, as a lock or a
                 # request does, would otherwise rebuild its bucket every time) and are
@@ -308,6 +316,12 @@ class TupleSpace:
         for a in self._arities.values():
             a.by_first = {key: q for key, q in a.by_first.items() if q}
             buckets += len(a.by_first)
+        # A key with no tuple left goes back to version 0, the version of no tuples.
+        self._versions = {
+            key: v
+            for key, v in self._versions.items()
+            if any(key in a.by_first for a in self._arities.values())
+        }
         self._emptied = 0
         self._sweep_at = max(1024, buckets)
 
@@ -537,6 +551,29 @@ class TupleSpace:
             after = self._drain()
         self._flush(after)
         return n
+
+    def version(self, key: Any) -> int:
+        """A number that stays the same as long as the tuples whose first field is
+        ``key`` do: a store or a removal (taken, expired) of one moves it to a value it
+        never had, so whatever was worked out from them holds while it is unchanged
+        (0: none was ever stored, or the last went a while ago). Tuples whose first
+        field cannot be hashed are not followed (a key equal to one, as
+        ``frozenset({1})`` is to ``{1}``: ask the tuples themselves).
+
+        Raises:
+            TypeError: ``key`` cannot be hashed.
+        """
+        hash(key)
+        with self._lock:
+            if self._heap:
+                self._drop_ended()  # a lease that ended is a change
+            count = self._versions.get(key, 0)
+            after = self._after
+            if after:
+                self._after = []
+        if after:
+            self._flush(after)
+        return count
 
     def __repr__(self) -> str:
         return f"<TupleSpace with {len(self)} tuples>"
