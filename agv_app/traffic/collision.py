@@ -406,6 +406,9 @@ class Voter(Participant):
         self._claims: frozenset[Claim] = frozenset()
         self._priority: Priority = (0.0, "")
         self._said = ""
+        # What the last vote was decided on (the book's version and the requester's
+        # circle) and its verdict: the same inputs give the same verdict.
+        self._decided: tuple[Any, str] | None = None
         self._watches: list[NotifyHandle] = []
         self._active = False
 
@@ -469,13 +472,16 @@ class Voter(Participant):
             return
         book = LockBook(self.space)
         requester = self.initiator.node_id
-        verdict = decide_vote(
-            probe,
-            self._priority,
-            book,
-            self._circle_of(requester),
-            self._claims,
-        )
+        circle = self._circle_of(requester)
+        # Rechecks and releases mostly find the book and the requester as they were
+        # (an AGV that stands still): then the verdict is the one decided on them.
+        inputs = (book.version(), circle)
+        decided = self._decided
+        if decided is not None and decided[0] == inputs:
+            verdict = decided[1]
+        else:
+            verdict = decide_vote(probe, self._priority, book, circle, self._claims)
+            self._decided = (inputs, verdict)
         aside = (
             verdict == "priority"
             and self._blockers is not None

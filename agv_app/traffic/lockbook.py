@@ -99,6 +99,12 @@ class LockBook:
         the claims, which cost a lookup per lock)."""
         return [(t[1], t[3]) for t in self.space.rd_all(("lock", ANY, ANY, ANY))]
 
+    def version(self) -> tuple[int, int, int]:
+        """Unchanged as long as the locks, the request and their claims are: what a
+        vote reads of the book (``TupleSpace.version``)."""
+        space = self.space
+        return space.version("lock"), space.version("request"), space.version("claims")
+
     def claims_of(self, key: int) -> frozenset[Claim]:
         """The direction claims the lock or request ``key`` holds."""
         t = self.space.rdp(("claims", key, ANY))
