@@ -189,8 +189,17 @@ class SessionTable:
         nodes = set(self._view.candidates(session.definition, self._own))
         nodes.update(session.members)
         nodes.update(session.declined)
-        for node in sorted(nodes):  # never set order (STYLE.md §7)
-            self._evaluate(session, node, now)
+        ordered = sorted(nodes)  # never set order (STYLE.md §7)
+        # Decided in one pass, then acted on in order: definitions are pure, and
+        # neither an activation nor a removal changes the view or our properties.
+        matching = self._view.matching(session.definition, self._own, ordered, session.sid)
+        members, declined = session.members, session.declined
+        for node in ordered:
+            if node in matching:
+                if node not in members and node not in declined:
+                    self._activate(session, node, now)
+            elif node in members or node in declined:
+                self._unmatched(session, node, now)
 
     def _evaluate(self, session: SessionState, node: str, now: float) -> None:
         if self._view.matches(session.definition, self._own, node, session.sid):

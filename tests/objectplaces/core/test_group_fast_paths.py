@@ -1,4 +1,5 @@
-"""The group definitions' written-out tests against their plain definitions."""
+"""The group definitions' written-out tests, and a group decided in one pass, against
+their plain forms."""
 
 from __future__ import annotations
 
@@ -9,6 +10,11 @@ from hypothesis import example, given
 from hypothesis import strategies as st
 
 from objectplaces import groups
+from objectplaces.core.config import NodeConfig
+from objectplaces.core.messages import PropertyUpdate
+from objectplaces.core.observers import Observers
+from objectplaces.core.plumbing import Plumbing
+from objectplaces.core.view import PropertyView
 
 NUMBERS = (
     st.floats(-50.0, 50.0)
@@ -83,3 +89,33 @@ def test_all_of_is_every_part_and_stops_at_the_first_no(
     props = {} if kind is None else {"kind": kind}
     assert definition({}, props) is all(flags)
     assert asked == list(range(flags.index(False) + 1 if False in flags else len(flags)))
+
+
+@given(
+    nodes=st.lists(
+        st.tuples(st.sampled_from("abcdef"), st.integers(0, 3)), unique_by=lambda t: t[0]
+    ),
+    asked=st.lists(st.sampled_from("abcdefg"), unique=True),
+    raising=st.sets(st.integers(0, 3), max_size=1),
+)
+def test_matching_in_one_pass_is_matches_node_by_node(
+    nodes: list[tuple[str, int]], asked: list[str], raising: set[int]
+) -> None:
+    def plumbing_and_view() -> tuple[Plumbing, PropertyView]:
+        plumbing = Plumbing.build("me", NodeConfig(cell_size=10.0))
+        v = PropertyView(plumbing, observers=Observers(plumbing.outbox))
+        for i, (node, level) in enumerate(nodes):
+            v.apply(node, PropertyUpdate(i + 1, {"level": level}), now=0.0)
+        return plumbing, v
+
+    def definition(own: Any, props: Any) -> bool:
+        if props["level"] in raising:
+            raise RuntimeError("a broken definition")
+        return bool(props["level"] >= 2)
+
+    plumbing, v = plumbing_and_view()
+    plain_plumbing, plain = plumbing_and_view()
+    one_pass = v.matching(definition, {}, asked, "s")
+    node_by_node = {n for n in asked if plain.matches(definition, {}, n, "s")}
+    assert one_pass == node_by_node
+    assert plumbing.outbox.counters == plain_plumbing.outbox.counters
