@@ -4,8 +4,13 @@ The station publishes its position (and ``kind = "station"``), queues the tasks 
 appear at it, and runs a :class:`~agv_app.tasks.TaskAnnouncer` for the oldest. It
 remembers which AGV won each task until that AGV publishes the task as done
 (``last_done``); if the winner's node fails first, the task goes back to the front of
-the queue (never lost). Without a bid for ``widen_after`` seconds the auction restarts
-with twice the range, and finally with no range limit.
+the queue (never lost) unless the winner is heard again within ``return_after`` seconds
+still carrying it: under message loss a live node is now and then counted as failed
+(a few beats lost in a row), and giving its task to a second AGV would have two carry
+it. Left open: a winner counted as failed while it already publishes its next task and
+has not yet reported this one done (the few seconds of a dwell at the drop station).
+Without a bid for ``widen_after`` seconds the auction restarts with twice the range,
+and finally with no range limit.
 """
 
 from __future__ import annotations
@@ -35,6 +40,8 @@ class Station:
         on_assigned: called with ``(task, agv)`` on every award.
         on_returned: called with ``(task, agv)`` when a task comes back because its
             AGV failed.
+        return_after: seconds a failed winner's tasks wait before they go back to the
+            queue; a winner heard again by then with the task as its ``task`` keeps it.
         tally: counts protocol messages.
     """
 
@@ -49,6 +56,7 @@ class Station:
         widen_after: float = 10.0,
         on_assigned: Callable[[TaskSpec, str], None] | None = None,
         on_returned: Callable[[TaskSpec, str], None] | None = None,
+        return_after: float = 5.0,
         tally: MessageTally | None = None,
     ) -> None:
         self.node = node
@@ -59,6 +67,7 @@ class Station:
         self.widen_after = widen_after
         self._on_assigned = on_assigned
         self._on_returned = on_returned
+        self.return_after = return_after
         self._tally = tally
         self.queue: deque[TaskSpec] = deque()
         self.assigned: dict[str, tuple[TaskSpec, str]] = {}
@@ -148,11 +157,21 @@ class Station:
 
     def _departed(self, node_id: str, last: Mapping[str, Any]) -> None:
         done = last.get("last_done")
+        if isinstance(done, str) and self.assigned.get(done, (None, None))[1] == node_id:
+            del self.assigned[done]
+        if any(agv == node_id for _, agv in self.assigned.values()):
+            self.node.call_later(self.return_after, lambda: self._return_if_gone(node_id))
+
+    def _return_if_gone(self, node_id: str) -> None:
+        """Put back the tasks of ``node_id`` unless it is heard again carrying them."""
+        props = self.node.view().get(node_id)
+        carrying = None if props is None else props.get("task")
         for task_id, (task, agv) in sorted(self.assigned.items()):
-            if agv == node_id and done != task_id:
-                del self.assigned[task_id]
-                self.returned += 1
-                self.queue.appendleft(task)
-                if self._on_returned is not None:
-                    self._on_returned(task, agv)
+            if agv != node_id or task_id == carrying:
+                continue
+            del self.assigned[task_id]
+            self.returned += 1
+            self.queue.appendleft(task)
+            if self._on_returned is not None:
+                self._on_returned(task, agv)
         self._next()

@@ -78,9 +78,9 @@ def test_an_agv_that_enters_range_during_the_session_may_bid() -> None:
 
 def test_tasks_queue_and_each_goes_to_one_agv_under_loss() -> None:
     # At 10% loss three republications in a row go missing about once in a thousand
-    # intervals; with the default timeout (three intervals) the station would count a
-    # winner as failed and auction its task again. Six intervals: once in a million.
-    net, station, awarded = setup(seed=5, loss=0.1, delay=0.02, jitter=0.01, failure_timeout=3.0)
+    # intervals, so now and then the station counts a live winner as failed (seed 5
+    # does, at 6.5 s); the winner, heard again carrying its task, keeps it.
+    net, station, awarded = setup(seed=5, loss=0.1, delay=0.02, jitter=0.01)
     agents = [Agent(net.add_node(f"a{i}"), float(i), float(i)) for i in range(4)]
     for k in range(3):
         station.add_task(TaskSpec(f"t{k}", "st", "x"))
@@ -100,7 +100,45 @@ def test_a_task_whose_agv_fails_is_returned_and_given_again() -> None:
     assert [t.id for t in first.taken] == ["t1"]
     net.remove_node("first")
     second = Agent(net.add_node("second"), 2.0, 2.0)
-    net.run_for(6.0)
+    net.run_for(6.0)  # failure timeout 1.5 s, then return_after 5 s
+    assert station.returned == 0
+    assert second.taken == []
+    net.run_for(4.0)
     assert station.returned == 1
     assert [t.id for t in second.taken] == ["t1"]
+    assert [t.id for t in awarded] == ["t1", "t1"]
+
+
+def test_a_winner_counted_as_failed_and_heard_again_keeps_its_task() -> None:
+    net, station, awarded = setup()
+    first = Agent(net.add_node("first"), 1.0, 1.0)
+    second = Agent(net.add_node("second"), 2.0, 2.0)
+    net.run_for(0.5)
+    station.add_task(TaskSpec("t1", "st", "x"))
+    net.run_for(4.0)
+    assert [t.id for t in first.taken] == ["t1"]
+    second.node.update_node_property("status", "idle")
+    net.partition(["st"], ["first", "second"])
+    net.run_for(2.5)  # the station counts "first" as failed
+    assert "first" not in station.node.view()
+    net.heal()
+    net.run_for(8.0)
+    assert station.returned == 0
+    assert second.taken == []
+    assert [t.id for t in awarded] == ["t1"]
+    assert station.assigned == {"t1": (TaskSpec("t1", "st", "x"), "first")}
+
+
+def test_a_winner_that_restarts_without_its_task_has_it_returned() -> None:
+    net, station, awarded = setup()
+    first = Agent(net.add_node("first"), 1.0, 1.0)
+    net.run_for(0.5)
+    station.add_task(TaskSpec("t1", "st", "x"))
+    net.run_for(4.0)
+    assert [t.id for t in first.taken] == ["t1"]
+    net.remove_node("first")
+    net.run_for(2.0)
+    Agent(net.add_node("first"), 1.0, 5.0)  # back within return_after, the task forgotten
+    net.run_for(8.0)
+    assert station.returned == 1
     assert [t.id for t in awarded] == ["t1", "t1"]
