@@ -111,9 +111,21 @@ class Polyline:
         return self.piece_heading(self.piece_index(s))
 
     def pose_at(self, s: float) -> Pose:
-        """Position and heading at arc length ``s``."""
-        x, y = self.point_at(s)
-        return Pose(x, y, self.heading_at(s))
+        """Position and heading at arc length ``s``: ``point_at`` and ``heading_at``
+        with the piece found once (every AGV's pose is asked several times a step)."""
+        coords = self.coords
+        if len(coords) == 1:
+            x, y = coords[0]
+            return Pose(x, y, self.rest_heading_rad)
+        s = self.clamp(s)
+        i = self.piece_index(s)
+        (x0, y0), (x1, y1) = coords[i], coords[i + 1]
+        heading = math.atan2(y1 - y0, x1 - x0)
+        s0, s1 = self.cumulative[i], self.cumulative[i + 1]
+        t = (s - s0) / (s1 - s0)
+        if t >= 1.0:
+            return Pose(x1, y1, heading)
+        return Pose(x0 + (x1 - x0) * t, y0 + (y1 - y0) * t, heading)
 
     def slice(self, s0: float, s1: float) -> Polyline:
         """Return the part between arc lengths ``s0 <= s1`` (both clamped)."""
