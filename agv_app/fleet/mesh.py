@@ -277,7 +277,7 @@ class MeshFleet(FleetSourceBase):
             node_args["listen"] = f"{_HOST}:0"
         observer = await start_node(OBSERVER_ID, **node_args)
         self.observer = observer
-        observer.register_node_property_observer(self._on_property)
+        observer.register_node_property_observer(self._on_property, names=("last_done", "state"))
         observer.register_node_departure_observer(lambda node_id, _: self._departed(node_id))
         if not (zenoh and self.zenoh_mode == "client"):
             link = {"connect": [observer.address]} if zenoh else {"join": [observer.address]}
