@@ -141,8 +141,8 @@ class Station:
 
     def _awarded(self, task: TaskSpec, agv: str) -> None:
         self.assigned[task.id] = (task, agv)
-        if self.queue and self.queue[0].id == task.id:
-            self.queue.popleft()
+        # Not always first in line: a task returned during the auction went before it.
+        self.queue = deque(t for t in self.queue if t.id != task.id)
         self._session = None
         self._announcer = None
         if self._on_assigned is not None:

@@ -142,3 +142,26 @@ def test_a_winner_that_restarts_without_its_task_has_it_returned() -> None:
     net.run_for(8.0)
     assert station.returned == 1
     assert [t.id for t in awarded] == ["t1", "t1"]
+
+
+def test_a_task_returned_during_another_auction_does_not_requeue_the_one_awarded() -> None:
+    net, station, awarded = setup()
+    first = Agent(net.add_node("first"), 1.0, 1.0)
+    net.run_for(0.5)
+    station.add_task(TaskSpec("t0", "st", "x"))
+    net.run_for(4.0)
+    assert [t.id for t in first.taken] == ["t0"]
+    station.add_task(TaskSpec("t1", "st", "x"))  # nobody idle: its auction waits
+    net.remove_node("first")
+    net.run_for(8.0)  # t0 comes back, in front of t1, while t1's auction runs
+    assert station.returned == 1
+    assert station.current == TaskSpec("t1", "st", "x")
+    Agent(net.add_node("second"), 2.0, 2.0)
+    net.run_for(4.0)
+    assert [t.id for t in awarded] == ["t0", "t1"]
+    assert [t.id for t in station.queue] == ["t0"]
+    Agent(net.add_node("third"), 3.0, 3.0)
+    Agent(net.add_node("fourth"), 4.0, 4.0)
+    net.run_for(10.0)
+    assert [t.id for t in awarded] == ["t0", "t1", "t0"]
+    assert list(station.queue) == []
