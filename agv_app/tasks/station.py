@@ -7,8 +7,8 @@ remembers which AGV won each task until that AGV publishes the task as done
 the queue (never lost) unless the winner is heard again within ``return_after`` seconds
 still carrying it: under message loss a live node is now and then counted as failed
 (a few beats lost in a row), and giving its task to a second AGV would have two carry
-it. Left open: a winner counted as failed while it already publishes its next task and
-has not yet reported this one done (the few seconds of a dwell at the drop station).
+it. One heard again with another task (taken while it dwells at this task's drop
+station, before it reports this one done) gets another ``return_after``.
 Without a bid for ``widen_after`` seconds the auction restarts with twice the range,
 and finally with no range limit.
 """
@@ -41,7 +41,8 @@ class Station:
         on_returned: called with ``(task, agv)`` when a task comes back because its
             AGV failed.
         return_after: seconds a failed winner's tasks wait before they go back to the
-            queue; a winner heard again by then with the task as its ``task`` keeps it.
+            queue; a winner heard again by then with the task as its ``task`` keeps it,
+            one with another task has one more ``return_after`` to report it done.
         tally: counts protocol messages.
     """
 
@@ -162,16 +163,29 @@ class Station:
         if any(agv == node_id for _, agv in self.assigned.values()):
             self.node.call_later(self.return_after, lambda: self._return_if_gone(node_id))
 
-    def _return_if_gone(self, node_id: str) -> None:
-        """Put back the tasks of ``node_id`` unless it is heard again carrying them."""
+    def _return_if_gone(self, node_id: str, *, patient: bool = True) -> None:
+        """Put back the tasks of ``node_id`` unless it is heard again carrying them.
+
+        A winner heard again with another task as its ``task`` may still dwell at
+        this task's drop station (it takes the next task there and reports this one
+        done when the dwell ends): it gets one more ``return_after`` to report it.
+        """
         props = self.node.view().get(node_id)
         carrying = None if props is None else props.get("task")
+        wait = False
         for task_id, (task, agv) in sorted(self.assigned.items()):
             if agv != node_id or task_id == carrying:
+                continue
+            if patient and carrying is not None:
+                wait = True
                 continue
             del self.assigned[task_id]
             self.returned += 1
             self.queue.appendleft(task)
             if self._on_returned is not None:
                 self._on_returned(task, agv)
+        if wait:
+            self.node.call_later(
+                self.return_after, lambda: self._return_if_gone(node_id, patient=False)
+            )
         self._next()

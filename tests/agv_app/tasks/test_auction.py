@@ -165,3 +165,42 @@ def test_a_task_returned_during_another_auction_does_not_requeue_the_one_awarded
     net.run_for(10.0)
     assert [t.id for t in awarded] == ["t0", "t1", "t0"]
     assert list(station.queue) == []
+
+
+def _counted_as_failed_then_heard(net: SimulatedNetwork, first: Agent) -> None:
+    """Cut ``first`` off from the station until it counts it as failed, then heal."""
+    net.partition(["st"], [first.node.node_id])
+    net.run_for(2.5)
+    net.heal()
+
+
+def test_a_winner_heard_again_with_its_next_task_has_time_to_report_this_one() -> None:
+    net, station, awarded = setup()
+    first = Agent(net.add_node("first"), 1.0, 1.0)
+    net.run_for(0.5)
+    station.add_task(TaskSpec("t1", "st", "x"))
+    net.run_for(4.0)
+    _counted_as_failed_then_heard(net, first)
+    first.node.update_node_property("task", "t9")  # taken while dwelling at t1's drop
+    net.run_for(6.0)
+    assert station.returned == 0
+    first.finish()  # t1 reported done as the dwell ends
+    net.run_for(8.0)
+    assert station.returned == 0
+    assert station.assigned == {}
+    assert [t.id for t in awarded] == ["t1"]
+
+
+def test_a_winner_heard_again_with_another_task_that_never_reports_this_one_returns_it() -> None:
+    net, station, _ = setup()
+    first = Agent(net.add_node("first"), 1.0, 1.0)
+    net.run_for(0.5)
+    station.add_task(TaskSpec("t1", "st", "x"))
+    net.run_for(4.0)
+    _counted_as_failed_then_heard(net, first)
+    first.node.update_node_property("task", "t9")
+    net.run_for(6.0)
+    assert station.returned == 0
+    net.run_for(5.0)
+    assert station.returned == 1
+    assert [t.id for t in station.queue] == ["t1"]
