@@ -82,7 +82,7 @@ class Station:
         node.update_node_property("kind", STATION_KIND)
         node.update_node_property("position", position)
         node.register_node_departure_observer(self._departed)
-        node.register_node_property_observer(self._property)
+        node.register_node_property_observer(self._property, names=("last_done",))
 
     @property
     def current(self) -> TaskSpec | None:
