@@ -48,6 +48,16 @@ def setup(seed: int = 1, **kw: Any) -> tuple[SimulatedNetwork, Station, list[Tas
     return net, station, awarded
 
 
+def _won_by_first(net: SimulatedNetwork, station: Station, task_id: str) -> Agent:
+    """An AGV "first" that wins ``task_id``, the station's only task so far."""
+    first = Agent(net.add_node("first"), 1.0, 1.0)
+    net.run_for(0.5)
+    station.add_task(TaskSpec(task_id, "st", "x"))
+    net.run_for(4.0)
+    assert [t.id for t in first.taken] == [task_id]
+    return first
+
+
 def test_best_bid_wins_and_the_task_is_given_once() -> None:
     net, station, awarded = setup()
     far = Agent(net.add_node("far"), 15.0, 15.0)
@@ -93,11 +103,7 @@ def test_tasks_queue_and_each_goes_to_one_agv_under_loss() -> None:
 
 def test_a_task_whose_agv_fails_is_returned_and_given_again() -> None:
     net, station, awarded = setup()
-    first = Agent(net.add_node("first"), 1.0, 1.0)
-    net.run_for(0.5)
-    station.add_task(TaskSpec("t1", "st", "x"))
-    net.run_for(4.0)
-    assert [t.id for t in first.taken] == ["t1"]
+    _won_by_first(net, station, "t1")
     net.remove_node("first")
     second = Agent(net.add_node("second"), 2.0, 2.0)
     net.run_for(6.0)  # failure timeout 1.5 s, then return_after 5 s
@@ -131,11 +137,7 @@ def test_a_winner_counted_as_failed_and_heard_again_keeps_its_task() -> None:
 
 def test_a_winner_that_restarts_without_its_task_has_it_returned() -> None:
     net, station, awarded = setup()
-    first = Agent(net.add_node("first"), 1.0, 1.0)
-    net.run_for(0.5)
-    station.add_task(TaskSpec("t1", "st", "x"))
-    net.run_for(4.0)
-    assert [t.id for t in first.taken] == ["t1"]
+    _won_by_first(net, station, "t1")
     net.remove_node("first")
     net.run_for(2.0)
     Agent(net.add_node("first"), 1.0, 5.0)  # back within return_after, the task forgotten
@@ -146,11 +148,7 @@ def test_a_winner_that_restarts_without_its_task_has_it_returned() -> None:
 
 def test_a_task_returned_during_another_auction_does_not_requeue_the_one_awarded() -> None:
     net, station, awarded = setup()
-    first = Agent(net.add_node("first"), 1.0, 1.0)
-    net.run_for(0.5)
-    station.add_task(TaskSpec("t0", "st", "x"))
-    net.run_for(4.0)
-    assert [t.id for t in first.taken] == ["t0"]
+    _won_by_first(net, station, "t0")
     station.add_task(TaskSpec("t1", "st", "x"))  # nobody idle: its auction waits
     net.remove_node("first")
     net.run_for(8.0)  # t0 comes back, in front of t1, while t1's auction runs
@@ -176,10 +174,7 @@ def _counted_as_failed_then_heard(net: SimulatedNetwork, first: Agent) -> None:
 
 def test_a_winner_heard_again_with_its_next_task_has_time_to_report_this_one() -> None:
     net, station, awarded = setup()
-    first = Agent(net.add_node("first"), 1.0, 1.0)
-    net.run_for(0.5)
-    station.add_task(TaskSpec("t1", "st", "x"))
-    net.run_for(4.0)
+    first = _won_by_first(net, station, "t1")
     _counted_as_failed_then_heard(net, first)
     first.node.update_node_property("task", "t9")  # taken while dwelling at t1's drop
     net.run_for(6.0)
@@ -193,10 +188,7 @@ def test_a_winner_heard_again_with_its_next_task_has_time_to_report_this_one() -
 
 def test_a_winner_heard_again_with_another_task_that_never_reports_this_one_returns_it() -> None:
     net, station, _ = setup()
-    first = Agent(net.add_node("first"), 1.0, 1.0)
-    net.run_for(0.5)
-    station.add_task(TaskSpec("t1", "st", "x"))
-    net.run_for(4.0)
+    first = _won_by_first(net, station, "t1")
     _counted_as_failed_then_heard(net, first)
     first.node.update_node_property("task", "t9")
     net.run_for(6.0)
