@@ -44,7 +44,7 @@ import threading
 import time
 import weakref
 from collections import deque
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from types import TracebackType
 from typing import Any, Final
 
@@ -264,10 +264,7 @@ class TupleSpace:
                         entry = self._store(tup)
                         self._leases[entry[1]] = (end, entry)
                         heapq.heappush(self._heap, (end, entry[1]))
-            if self._after:
-                after, self._after = self._after, []
-            else:
-                after = None
+            after = self._drain()
         if after:
             self._flush(after)
 
@@ -454,10 +451,7 @@ class TupleSpace:
                 self._remove(a, entry)
                 if self._observers:
                     self._emit("in", tup)
-            if self._after:
-                after, self._after = self._after, []
-            else:
-                after = None
+            after = self._drain()
         if after:
             self._flush(after)
         return tup
@@ -471,10 +465,7 @@ class TupleSpace:
         t = _analyse(tmpl)
         with self._lock:
             tup = self._read_locked(tmpl, t)
-            if self._after:
-                after, self._after = self._after, []
-            else:
-                after = None
+            after = self._drain()
         if after:
             self._flush(after)
         return tup
@@ -491,9 +482,7 @@ class TupleSpace:
                 self._drop_ended()
             _, found = self._find_all(t)
             tups: list[Tup] = [e[0] for e in found] if found else []
-            after = self._after
-            if after:
-                self._after = []
+            after = self._drain()
         if after:
             self._flush(after)
         return tups
@@ -520,9 +509,7 @@ class TupleSpace:
                 tups = []
             # Most calls find nothing and leave nothing to run (a lock book forgetting
             # what it may not hold): no list handed over, no call to run it.
-            after = self._after
-            if after:
-                self._after = []
+            after = self._drain()
         if after:
             self._flush(after)
         return tups
@@ -568,9 +555,7 @@ class TupleSpace:
             if self._heap:
                 self._drop_ended()  # a lease that ended is a change
             count = self._versions.get(key, 0)
-            after = self._after
-            if after:
-                self._after = []
+            after = self._drain()
         if after:
             self._flush(after)
         return count
@@ -750,13 +735,15 @@ class TupleSpace:
                 if ok:
                     self._after.append((o, kind, tup))
 
-    def _drain(self) -> list[_AfterItem]:
-        if not self._after:
-            return []
-        after, self._after = self._after, []
+    def _drain(self) -> Sequence[_AfterItem]:
+        """Take what waits to run once the lock is released (nothing: no new list)."""
+        after = self._after
+        if not after:
+            return ()
+        self._after = []
         return after
 
-    def _flush(self, after: list[_AfterItem]) -> None:
+    def _flush(self, after: Sequence[_AfterItem]) -> None:
         """Run queued wake-ups and callbacks (lock released)."""
         for item in after:
             if isinstance(item, tuple):
