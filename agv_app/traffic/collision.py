@@ -55,7 +55,7 @@ from agv_app.protocol import AGV_KIND, MessageTally, tally_send
 from agv_app.traffic.deadlock import Claim, claims_conflict
 from agv_app.traffic.lockbook import LockBook, Priority, RequestEntry
 from objectplaces import Initiator, Participant, ParticipantRef, groups
-from objectplaces.groups import GroupDefinition
+from objectplaces.groups import AllOf, CircleMeetsBox, GroupDefinition
 from tuplespace import ANY, NotifyHandle, TupleSpace
 
 __all__ = [
@@ -64,6 +64,7 @@ __all__ = [
     "broadcast_group",
     "collision_group",
     "decide_vote",
+    "group_within",
     "request_coords",
     "request_group",
 ]
@@ -100,6 +101,33 @@ def request_group(area: Area, claimed: Iterable[tuple[float, float]] = ()) -> Gr
     grow = _WIRE_GROWTH_M + 0.05
     box = (min(xs) - grow, min(ys) - grow, max(xs) + grow, max(ys) + grow)
     return groups.circle_meets_box(box) & groups.property_equals("kind", AGV_KIND)
+
+
+def group_within(new: GroupDefinition, old: GroupDefinition) -> bool:
+    """True if ``old`` takes every node ``new`` takes, whatever the view: they are
+    equal, or both are request groups (``request_group``) and ``new``'s box lies in
+    ``old``'s (a circle that meets the inner box meets the outer one).
+
+    A request asked again whose group lies within the open session's may be asked on
+    that session (:meth:`Requester.ask_again`): its members stay a superset of the new
+    request's group for as long as the session runs.
+    """
+    if new == old:
+        return True
+    if not isinstance(new, AllOf) or not isinstance(old, AllOf):
+        return False
+    if len(new.parts) != len(old.parts):
+        return False
+    for inner, outer in zip(new.parts, old.parts, strict=True):
+        if isinstance(inner, CircleMeetsBox) and isinstance(outer, CircleMeetsBox):
+            (ix0, iy0, ix1, iy1), (ox0, oy0, ox1, oy1) = inner.box, outer.box
+            if (inner.position, inner.radius) != (outer.position, outer.radius) or not (
+                ox0 <= ix0 and oy0 <= iy0 and ix1 <= ox1 and iy1 <= oy1
+            ):
+                return False
+        elif inner != outer:
+            return False
+    return True
 
 
 def broadcast_group() -> GroupDefinition:
@@ -201,6 +229,18 @@ def _received_request(coords: Any) -> Probe:
     return probe
 
 
+def _request_message(entry: RequestEntry) -> dict[str, Any]:
+    message: dict[str, Any] = {
+        "t": "req",
+        "k": entry.key,
+        "p": [entry.priority[0], entry.priority[1]],
+        "a": request_coords(entry.area),
+    }
+    if entry.claims:
+        message["c"] = [[seg, way] for seg, way in sorted(entry.claims)]
+    return message
+
+
 def _outwaited(since: Mapping[str, float], patience: float | None, now: float) -> bool:
     if patience is None:
         return False
@@ -225,6 +265,9 @@ class Requester(Initiator):
             too (an AGV asks again for no more than before): the safe time counts from
             then, as the others have had such a circle since (docs/traffic.md, "Asking
             again").
+        definition: the group definition the session was opened with; a request asked
+            again whose group lies within it may be asked on this session
+            (:meth:`ask_again`).
     """
 
     def __init__(
@@ -238,8 +281,11 @@ class Requester(Initiator):
         on_done: Callable[[str], None],
         tally: MessageTally | None = None,
         announced_at: float | None = None,
+        definition: GroupDefinition | None = None,
     ) -> None:
         self.entry = entry
+        self._definition = definition
+        self._kept = False  # withdrawn with the session kept open for the next request
         self.safe_time = safe_time
         self._announced_at = announced_at
         self._group_view = group_view
@@ -250,14 +296,7 @@ class Requester(Initiator):
         self._queued: dict[str, float] = {}
         self._votes: dict[str, bool] = {}
         self._blocked: dict[str, float] = {}
-        self._message: dict[str, Any] = {
-            "t": "req",
-            "k": entry.key,
-            "p": [entry.priority[0], entry.priority[1]],
-            "a": request_coords(entry.area),
-        }
-        if entry.claims:
-            self._message["c"] = [[seg, way] for seg, way in sorted(entry.claims)]
+        self._message = _request_message(entry)
         self._started_at: float | None = None
         self._safe_from = 0.0
         self.done = ""
@@ -300,8 +339,13 @@ class Requester(Initiator):
         self.call_later(0.0, self._check)
 
     def receive(self, participant: ParticipantRef, message: Any) -> None:
-        """A vote: ``allow`` counts; a deferral because of a lock withdraws the request."""
+        """A vote: ``allow`` counts; a deferral because of a lock withdraws the request.
+
+        A vote on an earlier request of this session (asked again since) is ignored.
+        """
         if not isinstance(message, dict) or self.done:
+            return
+        if message.get("k", self.entry.key) != self.entry.key:
             return
         node = participant.node_id
         if message.get("t") == "allow":
@@ -328,10 +372,56 @@ class Requester(Initiator):
         """Re-check whether the lock can be taken (the driver calls it periodically)."""
         self._check()
 
-    def withdraw(self) -> None:
-        """Drop the request now (the AGV steps aside, or asks again with a new priority)."""
+    def withdraw(self, *, keep_session: bool = False) -> None:
+        """Drop the request now (the AGV steps aside, or asks again with a new priority).
+
+        With ``keep_session`` the session stays open, its members and channels kept,
+        for the request asked next (:meth:`ask_again`; :meth:`close` if there is none).
+        """
         if not self.done and self._started_at is not None:
-            self._finish("withdrawn")
+            if keep_session:
+                self.done = "withdrawn"
+                self._kept = True
+                LockBook(self.space).withdraw(self.entry.key)
+                self._on_done("withdrawn")
+            else:
+                self._finish("withdrawn")
+
+    def ask_again(
+        self, entry: RequestEntry, definition: GroupDefinition, *, announced_at: float | None
+    ) -> bool:
+        """Ask the members of the kept session for ``entry`` instead of the withdrawn
+        request; False (nothing done) if the session was not kept or ``definition``,
+        the new request's group, does not lie within the session's.
+
+        Every member gets the new request at once; to its voter it is a new request
+        (verdict, records, the end of the one before: ``Voter.receive``). The votes
+        start again, and so does the safe time, from now or ``announced_at``, as in a
+        session opened now.
+        """
+        old = self._definition
+        if not self._kept or old is None or not group_within(definition, old):
+            return False
+        self._kept = False
+        self.done = ""
+        self.entry = entry
+        self._message = _request_message(entry)
+        self._announced_at = announced_at
+        self._votes = dict.fromkeys(self._votes, False)
+        self._blocked.clear()
+        self._queued.clear()
+        self.started()
+        for member in sorted(self.members, key=lambda m: m.node_id):  # never set order
+            if member.node_id in self._votes:
+                self.send(member, self._message)
+                tally_send(self._tally, "request", self._message)
+        return True
+
+    def close(self) -> None:
+        """End a kept session that no request was asked on (:meth:`withdraw`)."""
+        if self._kept:
+            self._kept = False
+            self._end_session()
 
     def _check(self) -> None:
         if self.done or self._started_at is None:
@@ -360,6 +450,10 @@ class Requester(Initiator):
             book.grant(self.entry.key)
         else:
             book.withdraw(self.entry.key)
+        self._end_session()
+        self._on_done(outcome)
+
+    def _end_session(self) -> None:
         # Those that allowed need no longer rank below this request (written after the
         # lock, so their next requests meet it as a lock).
         end: dict[str, Any] = {"t": "end"}
@@ -367,7 +461,6 @@ class Requester(Initiator):
             if self._votes.get(member.node_id) and self.send(member, end):
                 tally_send(self._tally, "vote", end)
         self.stop()
-        self._on_done(outcome)
 
 
 class Voter(Participant):
@@ -411,6 +504,11 @@ class Voter(Participant):
         self._decided: tuple[Any, str] | None = None
         self._watches: list[NotifyHandle] = []
         self._active = False
+        # The request voted on (its key) and the name of this node's records of it: a
+        # session may ask again (``Requester.ask_again``), and each request is new.
+        self._key: Any = None
+        self._record = ""
+        self._round = 0  # bumped at each new request: the rechecks of the last one stop
 
     @property
     def verdict(self) -> str:
@@ -427,7 +525,7 @@ class Voter(Participant):
         self._active = False
         self._unwatch()
         if self._said == "allow":
-            LockBook(self.space).keep_allowed(self.session_id, self._keep)
+            LockBook(self.space).keep_allowed(self._record, self._keep)
 
     def _unwatch(self) -> None:
         for handle in self._watches:
@@ -435,24 +533,44 @@ class Voter(Participant):
         self._watches = []
 
     def receive(self, message: Any) -> None:
-        """The request: evaluate it at once. Its end: forget that we allowed it."""
+        """The request: evaluate it at once. Its end: forget that we allowed it.
+
+        A request with another key on the same session (asked again) is a new request:
+        the one before it ended (as with ``end``), and the verdict, the watches, the
+        rechecks and the records start afresh, as in a new session.
+        """
         if isinstance(message, dict) and message.get("t") == "end":
             # The request is locked (the requester's voter now defers for its lock) or
             # withdrawn: our allow no longer needs to lower our own priorities.
             if self._said == "allow":
-                LockBook(self.space).forget_allowed(self.session_id)
+                LockBook(self.space).forget_allowed(self._record)
             return
-        if not isinstance(message, dict) or message.get("t") != "req" or self._area is not None:
+        if not isinstance(message, dict) or message.get("t") != "req":
+            return
+        key = message.get("k")
+        if self._area is not None and key == self._key:
             return
         try:
-            self._probe = _received_request(message["a"])
-            self._area = self._probe.area
+            probe = _received_request(message["a"])
             p = message["p"]
-            self._priority = (float(p[0]), str(p[1]))
-            self._claims = frozenset((str(seg), int(way)) for seg, way in message.get("c", ()))
+            priority = (float(p[0]), str(p[1]))
+            claims = frozenset((str(seg), int(way)) for seg, way in message.get("c", ()))
         except (KeyError, IndexError, TypeError, ValueError):
             return
+        if self._area is not None:
+            self._forget_request()
+        self._probe, self._area, self._priority, self._claims = probe, probe.area, priority, claims
+        self._key = key
+        self._record = f"{self.session_id}/{key}"
         self._evaluate()
+
+    def _forget_request(self) -> None:
+        if self._said == "allow":
+            LockBook(self.space).forget_allowed(self._record)
+        self._unwatch()
+        self._round += 1
+        self._said = ""
+        self._decided = None
 
     def _circle_of(self, node_id: str) -> tuple[float, float, float] | None:
         props = {} if self._view is None else self._view().get(node_id, {})
@@ -491,12 +609,12 @@ class Voter(Participant):
         if verdict == "allow" or aside:
             self._unwatch()
             self._said = "allow"
-            book.note_allowed(self.session_id, probe.area, self._priority)
+            book.note_allowed(self._record, probe.area, self._priority)
             if aside and self._step_aside is not None:
                 # The requester's lock holds up our request, so it must move first: our
                 # request goes, and comes back ranked below the one we allow.
                 self._step_aside()
-            message: dict[str, Any] = {"t": "allow"}
+            message: dict[str, Any] = {"t": "allow", "k": self._key}
             self.send(message)
             tally_send(self._tally, "vote", message)
             return
@@ -512,16 +630,18 @@ class Voter(Participant):
             # Tell our AGV that it stands in someone's way (an idle one moves off), and
             # let it inherit the priority of the request it holds up.
             self.space.out(("in_the_way", requester), lease=self._recheck * 2)
-            book.note_blocking(self.session_id, self._priority, lease=self._recheck * 3)
+            book.note_blocking(self._record, self._priority, lease=self._recheck * 3)
         if verdict != self._said:
             self._said = verdict
-            message = {"t": "defer", "why": verdict}
+            message = {"t": "defer", "why": verdict, "k": self._key}
             self.send(message)
             tally_send(self._tally, "vote", message)
 
     def _schedule_recheck(self) -> None:
+        round_ = self._round
+
         def again() -> None:
-            if self._active and self._said != "allow":
+            if self._active and self._said != "allow" and self._round == round_:
                 self._evaluate()
                 self._schedule_recheck()
 
