@@ -249,13 +249,21 @@ class AgvController:
         if requester is None:
             return
         prior = self._announced
+        # The session stays open: the new request is asked on it if its group lies
+        # within the old one's, keeping the members and their channels.
+        kept = requester if isinstance(requester, Requester) else None
         self._asking_again = True
         try:
-            requester.withdraw()
+            if kept is not None:
+                kept.withdraw(keep_session=True)
+            else:
+                requester.withdraw()
         finally:
             self._asking_again = False
         self._retry_at = 0.0
-        self._request_ahead(self.node.now(), prior)
+        self._request_ahead(self.node.now(), prior, kept)
+        if kept is not None:
+            kept.close()  # nothing if the new request was asked on it
 
     def _priority_for(self, area: Area) -> tuple[float, str]:
         """The priority of a request over ``area``: when the AGV started waiting for this
@@ -565,7 +573,9 @@ class AgvController:
             return now
         return since
 
-    def _request_ahead(self, now: float, prior: _Announced | None = None) -> None:
+    def _request_ahead(
+        self, now: float, prior: _Announced | None = None, kept: Requester | None = None
+    ) -> None:
         if self._requester is not None or self._plan is None or now < self._retry_at:
             return
         vehicle, spec, book = self.vehicle, self.spec, self.book
@@ -611,6 +621,11 @@ class AgvController:
             request.check()
             return
         definition = self._group_of(area, claims)
+        if kept is not None:
+            if kept.ask_again(entry, definition, announced_at=announced_at):
+                self._requester = kept
+                return
+            kept.close()
         requester = Requester(
             entry,
             safe_time=safe_time,
@@ -620,6 +635,7 @@ class AgvController:
             on_done=lambda outcome: self._request_done(requester, outcome),
             tally=self.tally,
             announced_at=announced_at,
+            definition=definition,
         )
         self._requester = requester
         self.node.start_interaction(requester, definition, "voter")
