@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+from agv_app.fleet import Fleet, FleetConfig
 from agv_app.traffic import LockEntry, RequestEntry, Requester
 from agv_app.traffic.collision import group_within, request_group
 from objectplaces import ParticipantRef, groups
@@ -175,3 +176,35 @@ def test_a_request_whose_group_reaches_further_opens_a_new_session() -> None:
     assert a.node.sessions() == []  # closed: its members were let go
     assert _allowed(b) == []  # b allowed the first request, and heard its end
     assert a.book.request() is None
+
+
+def _sessions_and_safety(reuse: bool) -> tuple[int, int, dict[str, Any]]:
+    opened: list[str] = []
+    original = Requester.started
+
+    def started(self: Requester) -> None:
+        opened.append(self.session_id)
+        original(self)
+
+    ask_again = Requester.ask_again
+    Requester.started = started  # type: ignore[method-assign]
+    if not reuse:
+        Requester.ask_again = lambda self, *a, **k: False  # type: ignore[method-assign]
+    try:
+        fleet = Fleet(None, FleetConfig(agvs=20, seed=2, load=0.9, fail_on_violation=True))
+        fleet.run(90.0)
+    finally:
+        Requester.started = original  # type: ignore[method-assign]
+        Requester.ask_again = ask_again  # type: ignore[method-assign]
+    return len(opened), len(set(opened)), fleet.summary(1.0)
+
+
+def test_a_fleet_asks_again_on_open_sessions_as_safely_as_on_new_ones() -> None:
+    asked, sessions, kept = _sessions_and_safety(reuse=True)
+    plain_asked, plain_sessions, plain = _sessions_and_safety(reuse=False)
+    assert plain_asked == plain_sessions  # the plain path: a session per request
+    assert sessions < asked  # re-asks on open sessions
+    assert sessions < 0.8 * plain_sessions
+    for summary in (kept, plain):
+        assert summary["collisions"] == summary["lock_overlaps"] == summary["deadlocks"] == 0
+    assert kept["locks_granted"] >= 0.9 * plain["locks_granted"]
