@@ -17,6 +17,7 @@ from agv_app.geometry.area import (
     XY,
     Area,
     Pose,
+    Spine,
     hull_length,
     overlaps,
 )
@@ -44,6 +45,7 @@ __all__ = [
     "Coords",
     "Polyline",
     "Pose",
+    "Spine",
     "coords_to_polygon",
     "hull",
     "hull_length",

@@ -12,7 +12,15 @@ from typing import Any
 import numpy as np
 import shapely
 
-__all__ = ["DEFAULT_OVERLAP_TOLERANCE_M2", "XY", "Area", "Pose", "hull_length", "overlaps"]
+__all__ = [
+    "DEFAULT_OVERLAP_TOLERANCE_M2",
+    "XY",
+    "Area",
+    "Pose",
+    "Spine",
+    "hull_length",
+    "overlaps",
+]
 
 XY = tuple[float, float]
 """A point on the floor, ``(x, y)`` in metres."""
@@ -30,21 +38,38 @@ class Pose:
     heading_rad: float
 
 
+@dataclass(frozen=True, slots=True)
+class Spine:
+    """Points known to lie deep inside an area: every point of ``geom`` (a shapely
+    point or line) is at least ``clearance`` metres from the area's edge.
+
+    An overlap test may take a point of the spine that lies deep inside the other
+    area as proof of an overlap, without working out the intersection
+    (:class:`agv_app.geometry.probe.Probe`).
+    """
+
+    geom: Any
+    clearance: float
+
+
 class Area:
     """An immutable area on the floor (a shapely polygon or multipolygon, maybe empty).
 
     The raw shapely object is available as :attr:`geom` for callers that need
-    more than the methods here; do not mutate it.
+    more than the methods here; do not mutate it. :attr:`spine`, when known (hull
+    projections), names points deep inside it.
     """
 
-    __slots__ = ("_extent", "geom")
+    __slots__ = ("_extent", "geom", "spine")
 
     geom: Any
+    spine: Spine | None
     _extent: tuple[float, float, float, float] | tuple[()] | None
 
-    def __init__(self, geom: Any) -> None:
+    def __init__(self, geom: Any, spine: Spine | None = None) -> None:
         """Wrap a shapely geometry (use :meth:`empty` for nothing)."""
         object.__setattr__(self, "geom", geom)
+        object.__setattr__(self, "spine", spine)
         # The bounding box, worked out on the first overlap test (see ``extent``).
         object.__setattr__(self, "_extent", None)
 

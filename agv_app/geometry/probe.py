@@ -10,18 +10,28 @@ are immutable, so an answer about the same object stays true).
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
 import shapely
 
-from agv_app.geometry.area import XY, Area, overlaps
+from agv_app.geometry.area import DEFAULT_OVERLAP_TOLERANCE_M2, XY, Area, overlaps
 
 __all__ = ["Probe"]
 
 _MEMO_LIMIT = 64
 """Areas whose overlap a probe remembers; past that it starts over (a voter meets a
 handful of locks in its session, so this bounds only a pathological one)."""
+
+_INSET_M = 0.01
+"""How far inside its edge a point of the probed area must lie to prove an overlap."""
+
+_PROOF_M = 0.5 * _INSET_M
+"""The radius of the disc such a point is taken to prove: the inset's arcs are drawn
+as chords, a fraction of a per cent inside the true ones, and half leaves room."""
+
+assert math.pi * _PROOF_M**2 > DEFAULT_OVERLAP_TOLERANCE_M2  # the disc is an overlap
 
 
 class Probe:
@@ -31,11 +41,12 @@ class Probe:
         area: the area to probe with (never changed: areas are immutable).
     """
 
-    __slots__ = ("_met", "_reach", "_vertices", "area")
+    __slots__ = ("_inset", "_met", "_reach", "_vertices", "area")
 
     def __init__(self, area: Area) -> None:
         self.area = area
         self._vertices: Any = None
+        self._inset: Any = None  # the area shrunk by _INSET_M, prepared; False: empty
         self._reach: dict[XY, float] = {}  # position -> hull_length from there
         # id(other) -> (other, answer): the other is kept so that its id is not reused.
         self._met: dict[int, tuple[Area, bool]] = {}
@@ -45,11 +56,35 @@ class Probe:
         met = self._met.get(id(other))
         if met is not None and met[0] is other:
             return met[1]
-        answer = overlaps(self.area, other)
+        answer = self._surely_overlaps(other) or overlaps(self.area, other)
         if len(self._met) >= _MEMO_LIMIT:
             self._met.clear()
         self._met[id(other)] = (other, answer)
         return answer
+
+    def _surely_overlaps(self, other: Area) -> bool:
+        """True if a point of ``other``'s spine lies ``_INSET_M`` inside this area: a
+        disc around it lies in both, larger than the tolerance, so ``overlaps`` would
+        say True. False says nothing (``overlaps`` decides then)."""
+        spine = other.spine
+        if spine is None or spine.clearance < _PROOF_M:
+            return False
+        box_a, box_b = self.area.extent(), other.extent()
+        if not box_a or not box_b:
+            return False
+        ax0, ay0, ax1, ay1 = box_a
+        bx0, by0, bx1, by1 = box_b
+        if ax1 < bx0 or bx1 < ax0 or ay1 < by0 or by1 < ay0:
+            return False
+        inset = self._inset
+        if inset is None:
+            inset = self.area.geom.buffer(-_INSET_M)
+            if inset.is_empty:
+                inset = False
+            else:
+                shapely.prepare(inset)
+            self._inset = inset
+        return inset is not False and bool(shapely.intersects(inset, spine.geom))
 
     def hull_length(self, position: XY) -> float:
         """``hull_length(position, [self.area])``: the distance to its furthest vertex."""

@@ -26,7 +26,7 @@ from typing import Any
 
 import shapely
 
-from agv_app.geometry.area import Area, Pose
+from agv_app.geometry.area import Area, Pose, Spine
 from agv_app.geometry.polyline import Polyline
 
 __all__ = ["hull", "hull_projection", "hull_projection_sampled", "projection_ahead"]
@@ -85,7 +85,26 @@ def _stretch(
     if len(polyline.coords) > 1:
         return a, b, None
     x, y = polyline.coords[0]
-    return a, b, Area(_rect(x, y, polyline.rest_heading_rad, length / 2, width / 2))
+    half_l, half_w = length / 2, width / 2
+    rest = _rect(x, y, polyline.rest_heading_rad, half_l, half_w)
+    return a, b, Area(rest, Spine(shapely.Point(x, y), _clearance(half_l, half_w)))
+
+
+def _clearance(half_l: float, half_w: float) -> float:
+    """How far every point of a projection's path lies inside it: a hull centred on
+    it (the disc of its shorter half side), less a hair for rounding."""
+    return min(half_l, half_w) * (1.0 - 1e-9)
+
+
+def _path(polyline: Polyline, a: float, b: float) -> Any:
+    """The path driven from ``a`` to ``b``: a projection's spine."""
+    pts = [polyline.point_at(a)]
+    cums = polyline.cumulative
+    pts.extend(polyline.coords[bisect.bisect_right(cums, a) : bisect.bisect_left(cums, b)])
+    pts.append(polyline.point_at(b))
+    if len(pts) == 2 and pts[0] == pts[1]:
+        return shapely.Point(pts[0])
+    return shapely.LineString(pts)
 
 
 def hull_projection(
@@ -141,9 +160,11 @@ def hull_projection(
         shapes.append(_rect((px + qx) / 2, (py + qy) / 2, h, half_span, half_w))
         i = j + 1
     shapes.extend(_turn_shapes(polyline, a, b, half_l=half_l, half_w=half_w, step=step))
+    # Every point of the path is the centre of a hull the projection holds.
+    spine = Spine(_path(polyline, a, b), _clearance(half_l, half_w))
     if len(shapes) == 1:
-        return Area(shapes[0])
-    return Area(shapely.union_all(shapes))
+        return Area(shapes[0], spine)
+    return Area(shapely.union_all(shapes), spine)
 
 
 def _turn_shapes(
