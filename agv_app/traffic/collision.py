@@ -11,7 +11,8 @@ Roles on ObjectPlaces (DESIGN.md, "The AGV application"):
   still on its way counts as a missing vote), and the safe time ``2 * t_update`` has
   passed since the session started, or since a circle covering the area went out if
   the request is asked again for no more than before. Then it writes the lock to the
-  tuplespace and stops the session.
+  tuplespace and stops the session. A request asked again whose group lies within
+  the session's is asked on the open session (``ask_again``), its members kept.
 * :class:`Voter` (participant) allows iff the request overlaps none of its AGV's
   requested or locked projections, or only requested ones of lower priority, and the
   requester's circle, as the voter's view has it, covers the request (the paper asks

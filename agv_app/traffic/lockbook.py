@@ -18,6 +18,9 @@ node's tuplespace (:class:`LockBook` is typed access to these tuples):
 * ``("blocking", session, priority)``: a request this node's voter defers because of
   one of its locks (leased, renewed while it defers): the AGV inherits that request's
   priority, so it gets out of the older request's way before younger ones.
+
+``session`` in these two names the request: the voter passes ``"<session>/<key>"``, as
+a session may ask again (``Requester.ask_again``) and each request counts on its own.
 """
 
 from __future__ import annotations
