@@ -101,6 +101,12 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
         help="mean seconds between new tasks (overrides --load's rate, no tasks at the start)",
     )
     p.add_argument(
+        "--max-open-tasks",
+        type=int,
+        help="tasks on the floor at once, at most; newer ones wait at the task desk, oldest "
+        "first (default: no limit)",
+    )
+    p.add_argument(
         "--heartbeat",
         type=float,
         help="liveness interval (default: the 1 s update interval): a node silent this long "
@@ -134,6 +140,12 @@ def run_sim(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         return 2
+    if args.max_open_tasks is not None and args.max_open_tasks < 1:
+        print(
+            f"objectplaces sim: --max-open-tasks must be at least 1; got {args.max_open_tasks}",
+            file=sys.stderr,
+        )
+        return 2
     try:
         generated = parse_generated(args.layout) if args.layout else None
         layout = generated_warehouse(generated) if generated else None
@@ -149,6 +161,7 @@ def run_sim(args: argparse.Namespace) -> int:
             traffic=args.traffic,
             load=args.load,
             task_interval=args.task_interval,
+            max_open_tasks=args.max_open_tasks,
             heartbeat=args.heartbeat,
         )
         fleet = Fleet(layout, config)

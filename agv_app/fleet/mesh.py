@@ -364,7 +364,7 @@ class MeshFleet(FleetSourceBase):
     def _on_property(self, node_id: str, name: str, value: Any) -> None:
         book = self.desk.book
         if name == "last_done" and isinstance(value, str):
-            book.finish(value, now=self.now)
+            self.desk.finish(value, now=self.now)
         elif name == "state" and value == "driving" and self.observer is not None:
             # The task property travels before the state that shows the AGV set off.
             task = self.observer.view().get(node_id, {}).get("task")

@@ -93,6 +93,9 @@ class FleetConfig:
         start_tasks: tasks created at the start (None: about ``load * agvs`` when the
             rate follows from the load and ``task_until`` is not 0, else none).
         task_until: no new tasks after this time (None: never).
+        max_open_tasks: tasks on the floor at once, at most (handed to the stations and
+            not yet done); the others wait at the desk, oldest first (None: no limit;
+            :class:`~agv_app.tasks.desk.TaskDesk`).
         deadlock_after: an AGV stalled this long counts as a deadlock.
         station_range: first auction range of the stations.
         dwell: seconds at a pick or drop station.
@@ -121,6 +124,7 @@ class FleetConfig:
     task_interval: float | None = None
     start_tasks: int | None = None
     task_until: float | None = None
+    max_open_tasks: int | None = None
     deadlock_after: float = STALL_LIMIT_S
     station_range: float = 30.0
     dwell: float = 5.0
@@ -221,6 +225,7 @@ class Fleet(FleetSourceBase):
                 station_range=cfg.station_range,
                 tally=self.metrics_raw.tally,
                 on_created=self.free_flow.add,
+                max_open=cfg.max_open_tasks,
             ),
         )
         self.agv_config = AgvConfig(t_update=cfg.t_update, dwell=cfg.dwell, broadcast=cfg.broadcast)
@@ -323,7 +328,7 @@ class Fleet(FleetSourceBase):
         self.desk.book.start(task_id, agv_id, now=self.net.now)
 
     def _task_done(self, task_id: str) -> None:
-        self.desk.book.finish(task_id, now=self.net.now)
+        self.desk.finish(task_id, now=self.net.now)
 
     # -- failures -------------------------------------------------------------------------
 

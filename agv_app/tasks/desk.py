@@ -5,11 +5,19 @@ station and create tasks the same way: at a pick station, to a drop station draw
 random unless given, numbered by the :class:`~agv_app.tasks.book.TaskBook`. The desk
 does that once for both; the stations report awards and returns into the book, and the
 fleet reports starts and deliveries, which it learns from its vehicles.
+
+A desk may keep the tasks on the floor to a number (``max_open``): a task created
+while that many are open (handed to their stations and not yet done) waits at the
+desk and goes to its station, in the order created, when one is done or cancelled.
+A floor carries only so many moving AGVs: past that, more tasks at once only fill its
+lanes and each AGV waits longer than it drives (docs/fleet.md, "More AGVs than the
+floor carries"); held at the desk, they wait without taking a lane.
 """
 
 from __future__ import annotations
 
 import random
+from collections import deque
 from collections.abc import Callable, Iterable
 
 from agv_app.layout.graph import Layout
@@ -68,6 +76,11 @@ class TaskDesk:
         history: finished tasks the book keeps in detail.
         on_created: told of every task created, with the time (e.g. a
             :class:`~agv_app.tasks.free_flow.FreeFlowBound`'s ``add``).
+        max_open: tasks handed to the stations and not yet done, at most (None: no
+            limit); the others wait at the desk, oldest first.
+
+    Raises:
+        ValueError: ``max_open`` is set and not a positive whole number.
     """
 
     def __init__(
@@ -80,7 +93,10 @@ class TaskDesk:
         tally: MessageTally | None = None,
         history: int = DEFAULT_HISTORY,
         on_created: Callable[[TaskSpec, float], None] | None = None,
+        max_open: int | None = None,
     ) -> None:
+        if max_open is not None and (isinstance(max_open, bool) or max_open < 1):
+            raise ValueError(f"max_open must be a whole number >= 1 or None, got {max_open!r}")
         self.layout = layout
         self.rng = rng
         self.clock = clock
@@ -90,7 +106,12 @@ class TaskDesk:
         self.stations: dict[str, Station] = {}
         """The open stations, by station id."""
         self.on_created = on_created
+        self.max_open = max_open
         self._drops = drop_stations(layout)
+        self._open: set[str] = set()
+        """Tasks handed to their stations and not yet done or cancelled."""
+        self._waiting: deque[TaskSpec] = deque()
+        """Tasks created while ``max_open`` were open, oldest first."""
 
     def open_station(self, station_id: str, node: RoleActivator) -> Station:
         """Run the task-assignment component of ``station_id`` on ``node``."""
@@ -106,6 +127,11 @@ class TaskDesk:
         )
         self.stations[station_id] = station
         return station
+
+    @property
+    def waiting(self) -> int:
+        """Tasks created and held at the desk (``max_open`` were open)."""
+        return len(self._waiting)
 
     @property
     def returned(self) -> int:
@@ -138,8 +164,26 @@ class TaskDesk:
         task = self.book.create(station_id, drop, now=now)
         if self.on_created is not None:
             self.on_created(task, now)
-        station.add_task(task)
+        self._waiting.append(task)
+        self._hand_out()
         return task.id
+
+    def finish(self, task_id: str, *, now: float) -> bool:
+        """A vehicle delivered ``task_id``: close it in the book, and hand out the next
+        task waiting at the desk. False if the book holds no such open task."""
+        finished = self.book.finish(task_id, now=now)
+        if finished:
+            self._open.discard(task_id)
+            self._hand_out()
+        return finished
+
+    def _hand_out(self) -> None:
+        """Give waiting tasks to their stations while fewer than ``max_open`` are open."""
+        limit = self.max_open
+        while self._waiting and (limit is None or len(self._open) < limit):
+            task = self._waiting.popleft()
+            self._open.add(task.id)
+            self.stations[task.pick].add_task(task)
 
     def create_random(self) -> str | None:
         """Create a task at a pick station drawn at random; None without stations."""
@@ -158,12 +202,19 @@ class TaskDesk:
         record = self.book.get(task_id)
         if record is None or record.state in ("done", "cancelled"):
             raise KeyError(f"no open task {task_id!r}")
+        held = next((t for t in self._waiting if t.id == task_id), None)
+        if held is not None:
+            self._waiting.remove(held)
+            self.book.cancel(task_id, now=self.clock())
+            return
         if not self.stations[record.task.pick].cancel(task_id):
             raise ValueError(
                 f"task {task_id!r} is {record.state} to {record.vehicle!r}: only a task no "
                 "vehicle holds can be cancelled"
             )
         self.book.cancel(task_id, now=self.clock())
+        self._open.discard(task_id)
+        self._hand_out()
 
     def _assigned(self, task: TaskSpec, agv: str) -> None:
         self.book.assign(task.id, agv, now=self.clock())
