@@ -4,11 +4,15 @@ go to their stations oldest first, as tasks are done or cancelled."""
 from __future__ import annotations
 
 import random
+from collections.abc import Callable
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from agv_app.fleet import Fleet, FleetConfig
 from agv_app.layout.demo import demo_warehouse
+from agv_app.tasks.auction import TaskSpec
 from agv_app.tasks.desk import TaskDesk, pick_stations
 from objectplaces.cli import main
 from objectplaces.sim import SimulatedNetwork
@@ -84,3 +88,54 @@ def test_a_fleet_never_has_more_tasks_on_the_floor_than_its_limit() -> None:
 def test_the_cli_refuses_a_limit_below_one(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["sim", "--agvs", "2", "--minutes", "1", "--max-open-tasks", "0", "--quiet"]) == 2
     assert "--max-open-tasks must be at least 1; got 0" in capsys.readouterr().err
+
+
+_STATIONS = ("dock-in-1", "dock-in-2", "pick-A1-1")
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    limit=st.integers(1, 4),
+    ops=st.lists(
+        st.tuples(st.sampled_from(("create", "cancel", "finish")), st.integers(0, 40)),
+        max_size=40,
+    ),
+)
+def test_the_limit_holds_and_tasks_go_out_in_creation_order(
+    limit: int, ops: list[tuple[str, int]]
+) -> None:
+    desk = _desk(max_open=limit)
+    handed: list[str] = []  # every task that reached a station, in that order
+    for station in desk.stations.values():
+        add = station.add_task
+
+        def watched(task: TaskSpec, add: Callable[[TaskSpec], None] = add) -> None:
+            handed.append(task.id)
+            add(task)
+
+        station.add_task = watched  # type: ignore[method-assign]
+    created: list[str] = []
+    closed: set[str] = set()
+    for op, n in ops:
+        if op == "create":
+            created.append(desk.create(_STATIONS[n % len(_STATIONS)]))
+            continue
+        live = [t for t in created if t not in closed]
+        if not live:
+            continue
+        task = live[n % len(live)]
+        if op == "cancel":
+            desk.cancel(task)
+        else:
+            desk.book.assign(task, "agv-1", now=0.0)
+            assert desk.finish(task, now=0.0)
+        closed.add(task)
+        on_floor = [t for t in handed if t not in closed]
+        assert len(on_floor) <= limit
+        # Nothing waits while there is room, and nothing is lost.
+        assert desk.waiting == 0 or len(on_floor) == limit
+        assert len(on_floor) + desk.waiting == len(created) - len(closed)
+    # Tasks reach their stations in the order they were created (skipping any
+    # cancelled while they waited at the desk).
+    assert handed == [t for t in created if t in handed]
+    assert len(set(handed)) == len(handed)
