@@ -72,6 +72,13 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
         "(default: the fleet's, 0.7)",
     )
     parser.add_argument(
+        "--max-open-tasks",
+        type=int,
+        default=None,
+        help="tasks on the floor at once, at most; newer ones wait at the task desk, oldest "
+        "first (default: no limit; for fleets larger than the floor carries)",
+    )
+    parser.add_argument(
         "--processes",
         type=int,
         default=0,
@@ -122,8 +129,15 @@ def build_source(args: argparse.Namespace) -> FleetSource:
         extra: dict[str, str] = {} if vda5050 is None else {"vda5050": vda5050}
         if getattr(args, "transport", "websocket") != "websocket":
             extra["transport"] = args.transport
+        limit = getattr(args, "max_open_tasks", None)
+        extra_limit: dict[str, int] = {} if limit is None else {"max_open_tasks": limit}
         return make(
-            agvs=args.agvs, seed=args.seed, processes=args.processes, load=args.load, **extra
+            agvs=args.agvs,
+            seed=args.seed,
+            processes=args.processes,
+            load=args.load,
+            **extra,
+            **extra_limit,
         )
     except ValueError as exc:
         raise SystemExit(f"objectplaces demo: {exc}") from exc
@@ -186,6 +200,12 @@ def run_demo(args: argparse.Namespace, *, builder: SourceBuilder = build_source)
         print(
             f"objectplaces demo: --processes must be 0 or more, got {args.processes}",
             file=sys.stderr,
+        )
+        return 2
+    limit = getattr(args, "max_open_tasks", None)
+    if limit is not None and limit < 1:
+        print(
+            f"objectplaces demo: --max-open-tasks must be at least 1, got {limit}", file=sys.stderr
         )
         return 2
     if args.token is None and not is_loopback(args.host):

@@ -25,6 +25,7 @@ def demo_source(
     load: float | None = None,
     vda5050: str | None = None,
     transport: str = "websocket",
+    max_open_tasks: int | None = None,
 ) -> Fleet | MeshFleet:
     """The fleet ``objectplaces demo`` shows: the demo warehouse, tasks arriving for ever.
 
@@ -41,6 +42,9 @@ def demo_source(
     ``processes`` each AGV process its own client), and no task arrives by itself: the
     master control sends orders (docs/vda5050.md).
 
+    ``max_open_tasks`` keeps at most that many tasks on the floor; the others wait at
+    the task desk (:class:`~agv_app.tasks.desk.TaskDesk`; None: no limit).
+
     Raises:
         ValueError: ``processes`` is negative or more than the layout can park, or
             ``load`` is not in (0, 1].
@@ -52,6 +56,7 @@ def demo_source(
         load = getattr(args, "load", load)
         vda5050 = getattr(args, "vda5050", vda5050)
         transport = getattr(args, "transport", transport)
+        max_open_tasks = getattr(args, "max_open_tasks", max_open_tasks)
     load = check_load(DEFAULT_LOAD if load is None else load)
     seed = 1 if seed is None else seed
     if processes < 0:
@@ -77,5 +82,9 @@ def demo_source(
             start_tasks=initial_tasks(agvs=processes, load=load),
             dwell=dwell,
             transport=transport,
+            max_open_tasks=max_open_tasks,
         )
-    return Fleet(demo_warehouse(), FleetConfig(agvs=agvs or DEMO_AGVS, seed=seed, load=load))
+    config = FleetConfig(
+        agvs=agvs or DEMO_AGVS, seed=seed, load=load, max_open_tasks=max_open_tasks
+    )
+    return Fleet(demo_warehouse(), config)

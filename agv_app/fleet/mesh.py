@@ -116,10 +116,12 @@ class MeshFleet(FleetSourceBase):
             ``t_update``).
         poll_interval: on Zenoh, the AGV processes hand received frames on every this
             many seconds (0: each at once; ``agv_app.fleet.agv_process``).
+        max_open_tasks: tasks on the floor at once, at most; the others wait at the
+            task desk (None: no limit; :class:`~agv_app.tasks.desk.TaskDesk`).
 
     Raises:
-        ValueError: ``agvs`` < 1, ``start_tasks`` < 0, more AGVs than parking spots, or
-            an unknown ``zenoh_mode``.
+        ValueError: ``agvs`` < 1, ``start_tasks`` < 0, more AGVs than parking spots,
+            an unknown ``zenoh_mode``, or ``max_open_tasks`` < 1.
     """
 
     def __init__(
@@ -143,6 +145,7 @@ class MeshFleet(FleetSourceBase):
         publish_interval: float | None = None,
         republish_beats: int = REPUBLISH_BEATS,
         poll_interval: float = POLL_INTERVAL_S,
+        max_open_tasks: int | None = None,
     ) -> None:
         if agvs < 1:
             raise ValueError(f"agvs must be at least 1, got {agvs!r}")
@@ -196,6 +199,7 @@ class MeshFleet(FleetSourceBase):
                 station_range=station_range,
                 tally=self.metrics_raw.tally,
                 on_created=self.free_flow.add,
+                max_open=max_open_tasks,
             ),
         )
         self.processes = AgvProcesses(python=python, capture_output=capture_output)

@@ -102,3 +102,21 @@ def test_the_load_reaches_the_fleet() -> None:
     quiet = build_source(parse("--seed", "2", "--load", "0.1"))
     busy = build_source(parse("--seed", "2", "--load", "1"))
     assert quiet.metrics()["tasks_created"] < busy.metrics()["tasks_created"]
+
+
+def test_the_limit_on_open_tasks_reaches_the_fleet() -> None:
+    held = build_source(parse("--seed", "2", "--max-open-tasks", "3"))
+    free = build_source(parse("--seed", "2"))
+    assert held.desk.max_open == 3  # type: ignore[attr-defined]
+    assert free.desk.max_open is None  # type: ignore[attr-defined]
+    # The demo's 12 AGVs start with 8 tasks: 5 of them wait at the desk.
+    assert held.desk.waiting == 5  # type: ignore[attr-defined]
+    assert free.desk.waiting == 0  # type: ignore[attr-defined]
+
+
+def test_a_limit_below_one_is_refused(capsys: pytest.CaptureFixture[str]) -> None:
+    def builder(args: argparse.Namespace):
+        raise AssertionError("must not build a fleet")
+
+    assert run_demo(parse("--max-open-tasks", "0"), builder=builder) == 2
+    assert "--max-open-tasks must be at least 1, got 0" in capsys.readouterr().err

@@ -154,3 +154,10 @@ def test_dashboard_shows_the_agv_processes() -> None:
         assert "1.0" in reply.text
     assert not any(_alive(pid) for pid in pids)
     assert not any(code is None for code in fleet.exit_codes().values())
+
+
+def test_the_task_desk_of_a_mesh_fleet_takes_the_limit() -> None:
+    assert MeshFleet(agvs=2, seed=1, max_open_tasks=4).desk.max_open == 4
+    assert MeshFleet(agvs=2, seed=1).desk.max_open is None
+    with pytest.raises(ValueError, match="max_open must be a whole number >= 1"):
+        MeshFleet(agvs=2, seed=1, max_open_tasks=0)
