@@ -190,6 +190,14 @@ def run_sim(args: argparse.Namespace) -> int:
         print(f"{key:<{width}}  {value}")
     for violation in fleet.monitor.violations:
         print(f"VIOLATION {violation}", file=sys.stderr)
+    if figures["deadlocks"] and args.max_open_tasks is None:
+        print(
+            f"objectplaces sim: {figures['deadlocks']:.0f} waits passed "
+            f"{fleet.stalls.limit_s:.0f} s. A fleet larger than its floor carries fills the "
+            "lanes: --max-open-tasks K keeps K tasks on the floor and the rest at the task "
+            'desk (docs/fleet.md, "More AGVs than the floor carries")',
+            file=sys.stderr,
+        )
     if args.json_path:
         Path(args.json_path).write_text(json.dumps(figures, indent=2, sort_keys=True) + "\n")
     return 1 if any(figures[k] for k in SAFETY_KEYS) else 0

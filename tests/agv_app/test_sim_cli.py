@@ -140,3 +140,22 @@ def test_sim_refuses_a_task_interval_that_is_not_positive(
 ) -> None:
     assert main(["sim", "--agvs", "2", "--minutes", "1", "--task-interval", "0"]) == 2
     assert "--task-interval must be more than 0 s; got 0.0" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("limit", [None, "3"])
+def test_waits_past_the_limit_point_to_the_task_desk_limit(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], limit: str | None
+) -> None:
+    real = fleet_module.Fleet.summary
+
+    def stalled(self: fleet_module.Fleet, wall_seconds: float = 0.0) -> dict[str, float]:
+        figures = real(self, wall_seconds)
+        figures["deadlocks"] = 2
+        return figures
+
+    monkeypatch.setattr(fleet_module.Fleet, "summary", stalled)
+    extra = [] if limit is None else ["--max-open-tasks", limit]
+    assert main(["sim", "--agvs", "2", "--minutes", "0.2", "--quiet", *extra]) == 1
+    err = capsys.readouterr().err
+    hint = "2 waits passed 180 s. A fleet larger than its floor carries fills the lanes"
+    assert (hint in err) is (limit is None)
