@@ -89,17 +89,20 @@ def test_broadcast_and_an_opentcs_layout(tmp_path: Path) -> None:
     assert code == 0
 
 
+def _report(monkeypatch: pytest.MonkeyPatch, **figures: float) -> None:
+    """Make every fleet report ``figures`` on top of what it measured."""
+    real = fleet_module.Fleet.summary
+
+    def changed(self: fleet_module.Fleet, wall_seconds: float = 0.0) -> dict[str, float]:
+        return {**real(self, wall_seconds), **figures}
+
+    monkeypatch.setattr(fleet_module.Fleet, "summary", changed)
+
+
 def test_exit_status_is_one_when_a_safety_figure_is_not_zero(
     monkeypatch: pytest.MonkeyPatch, tmp_path: Path
 ) -> None:
-    real = fleet_module.Fleet.summary
-
-    def broken(self: fleet_module.Fleet, wall_seconds: float = 0.0) -> dict[str, float]:
-        figures = real(self, wall_seconds)
-        figures["collisions"] = 1
-        return figures
-
-    monkeypatch.setattr(fleet_module.Fleet, "summary", broken)
+    _report(monkeypatch, collisions=1)
     assert main(["sim", "--agvs", "2", "--minutes", "0.2", "--quiet"]) == 1
 
 
@@ -146,14 +149,7 @@ def test_sim_refuses_a_task_interval_that_is_not_positive(
 def test_waits_past_the_limit_point_to_the_task_desk_limit(
     monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], limit: str | None
 ) -> None:
-    real = fleet_module.Fleet.summary
-
-    def stalled(self: fleet_module.Fleet, wall_seconds: float = 0.0) -> dict[str, float]:
-        figures = real(self, wall_seconds)
-        figures["deadlocks"] = 2
-        return figures
-
-    monkeypatch.setattr(fleet_module.Fleet, "summary", stalled)
+    _report(monkeypatch, deadlocks=2)
     extra = [] if limit is None else ["--max-open-tasks", limit]
     assert main(["sim", "--agvs", "2", "--minutes", "0.2", "--quiet", *extra]) == 1
     err = capsys.readouterr().err
