@@ -18,6 +18,7 @@ __all__ = [
     "Area",
     "Pose",
     "Spine",
+    "boxes_apart",
     "hull_length",
     "overlaps",
 ]
@@ -168,6 +169,17 @@ def hull_length(position: XY, shapes: Iterable[Area]) -> float:
     return float(d.max())
 
 
+def boxes_apart(a: Area, b: Area) -> bool:
+    """True if ``a`` or ``b`` is empty or their bounding boxes do not meet: then the
+    areas share no point (the cheap test before any exact one)."""
+    box_a, box_b = a.extent(), b.extent()
+    if not box_a or not box_b:
+        return True
+    ax0, ay0, ax1, ay1 = box_a
+    bx0, by0, bx1, by1 = box_b
+    return ax1 < bx0 or bx1 < ax0 or ay1 < by0 or by1 < ay0
+
+
 def overlaps(a: Area, b: Area, *, tolerance_m2: float = DEFAULT_OVERLAP_TOLERANCE_M2) -> bool:
     """True if the interiors of ``a`` and ``b`` share more than ``tolerance_m2`` square metres.
 
@@ -175,12 +187,7 @@ def overlaps(a: Area, b: Area, *, tolerance_m2: float = DEFAULT_OVERLAP_TOLERANC
     are safe, and the tolerance keeps floating-point slivers from raising false
     alarms. Any real encroachment (1 mm x 1 m is already 10x the default) counts.
     """
-    box_a, box_b = a.extent(), b.extent()
-    if not box_a or not box_b:
-        return False
-    ax0, ay0, ax1, ay1 = box_a
-    bx0, by0, bx1, by1 = box_b
-    if ax1 < bx0 or bx1 < ax0 or ay1 < by0 or by1 < ay0:
+    if boxes_apart(a, b):
         return False
     ga, gb = a.geom, b.geom
     if not shapely.intersects(ga, gb):

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 import shapely
 
-from agv_app.geometry.area import DEFAULT_OVERLAP_TOLERANCE_M2, XY, Area, overlaps
+from agv_app.geometry.area import DEFAULT_OVERLAP_TOLERANCE_M2, XY, Area, boxes_apart, overlaps
 
 __all__ = ["Probe"]
 
@@ -69,12 +69,7 @@ class Probe:
         spine = other.spine
         if spine is None or spine.clearance < _PROOF_M:
             return False
-        box_a, box_b = self.area.extent(), other.extent()
-        if not box_a or not box_b:
-            return False
-        ax0, ay0, ax1, ay1 = box_a
-        bx0, by0, bx1, by1 = box_b
-        if ax1 < bx0 or bx1 < ax0 or ay1 < by0 or by1 < ay0:
+        if boxes_apart(self.area, other):
             return False
         inset = self._inset
         if inset is None:
