@@ -193,16 +193,17 @@ class SessionTable:
         # Decided in one pass, then acted on in order: definitions are pure, and
         # neither an activation nor a removal changes the view or our properties.
         matching = self._view.matching(session.definition, self._own, ordered, session.sid)
-        members, declined = session.members, session.declined
         for node in ordered:
-            if node in matching:
-                if node not in members and node not in declined:
-                    self._activate(session, node, now)
-            elif node in members or node in declined:
-                self._unmatched(session, node, now)
+            self._apply(session, node, node in matching, now)
 
     def _evaluate(self, session: SessionState, node: str, now: float) -> None:
-        if self._view.matches(session.definition, self._own, node, session.sid):
+        matched = self._view.matches(session.definition, self._own, node, session.sid)
+        self._apply(session, node, matched, now)
+
+    def _apply(self, session: SessionState, node: str, matched: bool, now: float) -> None:
+        """Activate ``node`` if it satisfies the definition and is not yet a member (nor
+        declined); remove it if it no longer does."""
+        if matched:
             if node not in session.members and node not in session.declined:
                 self._activate(session, node, now)
         elif node in session.members or node in session.declined:
