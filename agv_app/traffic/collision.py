@@ -380,13 +380,8 @@ class Requester(Initiator):
         for the request asked next (:meth:`ask_again`; :meth:`close` if there is none).
         """
         if not self.done and self._started_at is not None:
-            if keep_session:
-                self.done = "withdrawn"
-                self._kept = True
-                LockBook(self.space).withdraw(self.entry.key)
-                self._on_done("withdrawn")
-            else:
-                self._finish("withdrawn")
+            self._kept = keep_session
+            self._finish("withdrawn", end_session=not keep_session)
 
     def ask_again(
         self, entry: RequestEntry, definition: GroupDefinition, *, announced_at: float | None
@@ -444,14 +439,15 @@ class Requester(Initiator):
             return  # someone in our view has not joined (or answered) yet
         self._finish("locked")
 
-    def _finish(self, outcome: str) -> None:
+    def _finish(self, outcome: str, *, end_session: bool = True) -> None:
         self.done = outcome
         book = LockBook(self.space)
         if outcome == "locked":
             book.grant(self.entry.key)
         else:
             book.withdraw(self.entry.key)
-        self._end_session()
+        if end_session:
+            self._end_session()
         self._on_done(outcome)
 
     def _end_session(self) -> None:
