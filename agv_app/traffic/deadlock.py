@@ -36,9 +36,10 @@ place. See docs/traffic.md for the whole argument and its limits.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
+from agv_app.geometry import XY
 from agv_app.layout.elements import Route
 from agv_app.layout.graph import Layout
 
@@ -49,6 +50,7 @@ __all__ = [
     "claims_conflict",
     "clearance_for",
     "followable_segments",
+    "merge_branches",
 ]
 
 Claim = tuple[str, int]
@@ -92,6 +94,66 @@ def followable_segments(layout: Layout) -> frozenset[str]:
                 if p in parent:
                     joined.setdefault(root(p), set()).add(p)
     return frozenset(s.id for s in two_way if len(joined.get(root(s.start), ())) >= 2)
+
+
+_TURN_RAD = math.radians(20.0)
+"""A branch that meets its junction's way on at a wider angle than this turns there."""
+
+
+def _heading(coords: Sequence[XY], *, at_end: bool) -> float:
+    """The heading of a polyline's last piece (``at_end``) or its first one."""
+    (x0, y0), (x1, y1) = coords[-2:] if at_end else coords[:2]
+    return math.atan2(y1 - y0, x1 - x0)
+
+
+def merge_branches(layout: Layout) -> frozenset[str]:
+    """The one-way segments whose end an AGV must not rest near: those that join
+    another way in at a *merge* (a junction that two or more segments enter) by
+    turning into the way on, and every one-way segment into a *crossing* (two or more
+    one-way segments in and two or more out).
+
+    An AGV at rest on such a junction, or with its front on it, still faces the way
+    it came; a vehicle on the lane it joins pulls up behind it into the room its turn
+    needs, and each waits for the other for ever. A keep-clear box (a two-way last
+    piece, docs/layout-format.md) keeps such an AGV off the junction in the layout;
+    these branches get the same no-rest zone from the layout's shape, so a floor drawn
+    without boxes (an openTCS plant, a generated warehouse) is safe too. The lane a
+    branch joins goes straight on: an AGV resting there waits only on the lane ahead.
+    """
+    entering: dict[str, list[str]] = {}
+    one_way_in: dict[str, int] = {}
+    leaving: dict[str, list[tuple[str, bool]]] = {}
+    for seg in layout.segments.values():
+        entering.setdefault(seg.end, []).append(seg.id)
+        leaving.setdefault(seg.start, []).append((seg.id, True))
+        if seg.bidirectional:
+            entering.setdefault(seg.start, []).append(seg.id)
+            leaving.setdefault(seg.end, []).append((seg.id, False))
+        else:
+            one_way_in[seg.end] = one_way_in.get(seg.end, 0) + 1
+    branches: set[str] = set()
+    for point, ins in entering.items():
+        if len(ins) < 2:
+            continue
+        outs = leaving.get(point, [])
+        crossing = (
+            one_way_in.get(point, 0) >= 2
+            and sum(1 for sid, _ in outs if not layout.segment(sid).bidirectional) >= 2
+        )
+        for sid in ins:
+            segment = layout.segment(sid)
+            if segment.bidirectional:
+                continue
+            arrive = _heading(layout.segment_coords(sid), at_end=True)
+            turns = all(
+                abs(math.remainder(_heading(coords, at_end=False) - arrive, math.tau)) > _TURN_RAD
+                for out, forward in outs
+                if out != sid
+                for coords in [layout.segment_coords(out)[:: 1 if forward else -1]]
+            )
+            if crossing or turns:
+                branches.add(sid)
+    return frozenset(branches)
 
 
 def clearance_for(length_m: float, width_m: float, *, margin_m: float = 0.15) -> float:
@@ -140,13 +202,23 @@ class StopPlan:
         *,
         clearance_m: float,
         followable: frozenset[str] = frozenset(),
+        merges: frozenset[str] = frozenset(),
+        merge_box_m: float = 0.0,
     ) -> StopPlan:
         """Compute the no-rest zones of ``route`` on ``layout`` and the direction claims
-        on those of their segments that are ``followable`` (none by default)."""
+        on those of their segments that are ``followable`` (none by default).
+
+        A segment of the route in ``merges`` (:func:`merge_branches`) ends in a zone as
+        a keep-clear box of ``merge_box_m`` would: from ``merge_box_m`` plus the
+        clearance before its junction to the clearance beyond it.
+        """
         raw: list[tuple[float, float, list[Claim]]] = []
         spans: list[tuple[str, float, float]] = []
         for i, seg_id in enumerate(route.segments):
             segment = layout.segment(seg_id)
+            if seg_id in merges:
+                junction = route.offsets[i + 1]
+                raw.append((junction - merge_box_m - clearance_m, junction + clearance_m, []))
             if not segment.bidirectional:
                 continue
             extent = layout.passing_extent(route, i)

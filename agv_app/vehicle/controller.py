@@ -38,7 +38,13 @@ from agv_app.traffic.collision import (
     broadcast_group,
     request_group,
 )
-from agv_app.traffic.deadlock import Claim, StopPlan, clearance_for, followable_segments
+from agv_app.traffic.deadlock import (
+    Claim,
+    StopPlan,
+    clearance_for,
+    followable_segments,
+    merge_branches,
+)
 from agv_app.traffic.lockbook import LockBook, LockEntry, RequestEntry, StaleRecord
 from agv_app.vehicle.kinematics import Vehicle, VehicleSpec
 from objectplaces import RoleActivator
@@ -87,6 +93,10 @@ class AgvConfig:
         direction_claims: follow same-direction AGVs through two-way runs that the
             route drives through, holding direction claims on their segments
             (docs/traffic.md, "Capacity: direction claims").
+        clear_merges: never rest near the end of a branch that turns into a merge or
+            enters a crossing, as if it ended in a keep-clear box
+            (:func:`~agv_app.traffic.deadlock.merge_branches`; docs/traffic.md,
+            "Merges").
     """
 
     t_update: float = 1.0
@@ -99,6 +109,7 @@ class AgvConfig:
     patience: float | None = None
     queue_patience: float | None = 30.0
     direction_claims: bool = True
+    clear_merges: bool = True
 
 
 class AgvController:
@@ -152,6 +163,9 @@ class AgvController:
         self._followable = (
             followable_segments(layout) if self.config.direction_claims else frozenset()
         )
+        self._merges = merge_branches(layout) if self.config.clear_merges else frozenset()
+        # The hull clear of the lane a branch joins: half its length plus half a width.
+        self._merge_box_m = (spec.length_m + spec.width_m) / 2
         self.point = home if start is None else start
         p = layout.point(self.point)
         self.vehicle = Vehicle.parked(spec, Pose(p.x, p.y, heading_rad))
@@ -483,7 +497,12 @@ class AgvController:
         self.vehicle.new_route(path, s=path.cumulative[1])
         standing = self.book.claims()  # kept until the new route's first lock moves it
         plan = StopPlan.for_route(
-            self.layout, route, clearance_m=self.clearance_m, followable=self._followable
+            self.layout,
+            route,
+            clearance_m=self.clearance_m,
+            followable=self._followable,
+            merges=self._merges,
+            merge_box_m=self._merge_box_m,
         )
         self._route_shift = path.cumulative[1]
         self._plan = plan.shifted(self._route_shift)
