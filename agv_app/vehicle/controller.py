@@ -546,14 +546,9 @@ class AgvController:
 
     def _review_request(self, now: float) -> None:
         """Withdraw the pending request to yield (see ``_must_yield``), or ask again if
-        it would now rank higher: an inherited priority, or its own age back once the
-        requests it stepped aside for have ended (``LockBook.next_priority`` ranked it
-        below them while they were pending).
+        it would now rank higher (an inherited priority).
 
-        Held up by a lock, it asks again for rank only without ``patience`` (the
-        default): asking again would restart that. Without it, an AGV waiting to join a
-        busy lane took the priority of every lane AGV it stepped aside for and kept it,
-        so lane AGVs that came later outranked it, one after another.
+        Not while a lock holds it up: asking again would restart its ``patience``.
         """
         requester = self._requester
         if requester is None or requester.done:
@@ -561,15 +556,12 @@ class AgvController:
         if requester.blocked_by:
             if self._must_yield(now):
                 requester.withdraw()
-                return
-            if self._may_shorten():
+            elif self._may_shorten():
                 # Held up by a lock while standing: ask for half the stretch, which
                 # may fit behind the AGV ahead (followers close up on a full lane).
                 self._advance = max(_MIN_ADVANCE_M, self._advance / 2)
                 self._ask_again()
-                return
-            if self.config.patience is not None:
-                return
+            return
         entry = requester.entry
         if self._priority_for(entry.area) < entry.priority:
             self._ask_again()

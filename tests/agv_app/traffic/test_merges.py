@@ -101,12 +101,12 @@ def _without_clear_merges(*args: Any, config: Any, **kwargs: Any) -> AgvControll
 
 # Each run is 400 simulated seconds of 12 AGVs (a few seconds of CPU).
 @pytest.mark.slow
-@pytest.mark.parametrize("seed", [2, 5])
+@pytest.mark.parametrize("seed", [1, 2])
 def test_a_floor_without_boxes_no_longer_locks_at_its_merges(seed: int) -> None:
     """The generated warehouse has no keep-clear boxes. Before, an AGV came to rest
     where an aisle turns into the M lane, its hull still facing down the aisle; the AGV
     behind it on the lane pulled up into the room its turn needs, and each waited for
-    the other (the whole fleet behind them stood, 11 and 9 of 12 AGVs over 180 s)."""
+    the other (the whole fleet behind them stood, 9 and 12 of 12 AGVs over 180 s)."""
     layout = generated_warehouse(12)
     config = FleetConfig(agvs=12, seed=seed, load=0.9, fail_on_violation=True)
     locked = Fleet(layout, config, vehicle=_without_clear_merges)
