@@ -85,16 +85,17 @@ def one_way_floor(
 
 @st.composite
 def one_way_floors(draw: st.DrawFn) -> OneWayFloor:
-    """A ring 40 to 60 m wide, one to three aisles, maybe a middle lane, as many AGVs
-    as the floor parks or fewer."""
-    columns = draw(st.integers(8, 12))
+    """A ring 40 to 50 m wide and 12 to 20 m high, one to three aisles, maybe a middle
+    lane, and as many AGVs as the floor parks or one fewer: crowded enough that,
+    without the merge rule, about one draw in eight locks."""
+    columns = draw(st.integers(8, 10))
     height = draw(st.sampled_from([12.0, 16.0, 20.0]))
     inner = list(range(2, columns - 1))
     chosen = draw(st.lists(st.sampled_from(inner), min_size=1, max_size=3, unique=True))
     aisles = {k: draw(st.sampled_from(["n", "s"])) for k in chosen}
     middle = draw(st.booleans())
-    docks = columns - 1 - len(aisles)
-    agvs = draw(st.integers(3, docks))
+    parking = columns - 1 - len(aisles)
+    agvs = draw(st.integers(max(3, parking - 1), parking))
     return one_way_floor(columns, height, aisles, middle=middle, agvs=agvs)
 
 
@@ -123,12 +124,13 @@ def test_the_floors_have_merges_without_boxes() -> None:
     }
 
 
-# Floors, seeds and loads on which AGVs locked at a merge without the rule (5 or 6
-# AGVs over 180 s each): sampled at random, as the strategy draws them.
+# Floors, seeds and loads on which AGVs locked at a merge without the rule (4 to 6
+# AGVs over 180 s, 0 to 18 tasks done): sampled at random, as the strategy draws them.
 _LOCKED = [
-    (one_way_floor(10, 16.0, {2: "s", 7: "s", 8: "s"}, middle=True, agvs=6), 5706, 0.9),
     (one_way_floor(9, 16.0, {3: "s", 5: "s", 7: "n"}, middle=True, agvs=5), 9755, 0.9),
     (one_way_floor(8, 16.0, {5: "s"}, middle=True, agvs=6), 625, 1.0),
+    (one_way_floor(9, 12.0, {4: "n", 5: "s", 6: "n"}, middle=True, agvs=5), 1269, 1.0),
+    (one_way_floor(8, 12.0, {3: "n", 5: "n"}, middle=True, agvs=5), 2910, 0.9),
 ]
 
 
@@ -159,11 +161,12 @@ def test_without_the_rule_these_floors_lock() -> None:
 @given(
     floor=one_way_floors(),
     seed=st.integers(0, 10_000),
-    load=st.sampled_from([0.5, 0.7, 0.9, 1.0]),
+    load=st.sampled_from([0.7, 0.9, 1.0]),
 )
 @example(*_LOCKED[0])
 @example(*_LOCKED[1])
 @example(*_LOCKED[2])
+@example(*_LOCKED[3])
 def test_random_one_way_floors_never_stall(floor: OneWayFloor, seed: int, load: float) -> None:
     fleet = _run(floor, seed, load)
     figures = fleet.summary()
