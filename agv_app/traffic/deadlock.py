@@ -35,6 +35,7 @@ place. See docs/traffic.md for the whole argument and its limits.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -71,6 +72,9 @@ def claims_conflict(ours: Iterable[Claim], theirs: Iterable[Claim]) -> bool:
     return False
 
 
+# Every AGV of a fleet asks for these at start on the same layout (a layout never
+# changes): once per layout, not once per AGV (1.4 and 3.1 ms on the 1,000-AGV floor).
+@functools.lru_cache(maxsize=4)
 def followable_segments(layout: Layout) -> frozenset[str]:
     """The two-way segments a route may drive *through*, where AGVs may follow each
     other: those of every connected set of two-way segments that one-way segments join
@@ -106,6 +110,7 @@ def _heading(coords: Sequence[XY], *, at_end: bool) -> float:
     return math.atan2(y1 - y0, x1 - x0)
 
 
+@functools.lru_cache(maxsize=4)
 def merge_branches(layout: Layout) -> frozenset[str]:
     """The one-way segments whose end an AGV must not rest near: those that join
     another way in at a *merge* (a junction that two or more segments enter) by
