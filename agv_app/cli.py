@@ -19,7 +19,7 @@ from agv_app.layout.elements import LayoutError
 from agv_app.layout.generated import generated_warehouse, parse_generated
 from agv_app.layout.graph import Layout
 from agv_app.layout.json_format import load_any
-from agv_app.tasks.load import DEFAULT_LOAD
+from agv_app.tasks.load import DEFAULT_LOAD, LANE_M_PER_OPEN_TASK, carried_tasks
 
 __all__ = ["DEFAULT_AGVS", "SAFETY_KEYS", "fleet_size", "register", "run_sim"]
 
@@ -191,11 +191,14 @@ def run_sim(args: argparse.Namespace) -> int:
     for violation in fleet.monitor.violations:
         print(f"VIOLATION {violation}", file=sys.stderr)
     if figures["deadlocks"] and args.max_open_tasks is None:
+        carried = carried_tasks(fleet.layout)
+        per = f"one per {LANE_M_PER_OPEN_TASK:g} m of lane"
+        about = "" if carried is None else f"; this floor carries about {carried} ({per})"
         print(
             f"objectplaces sim: {figures['deadlocks']:.0f} waits passed "
             f"{fleet.stalls.limit_s:.0f} s. A fleet larger than its floor carries fills the "
             "lanes: --max-open-tasks K keeps K tasks on the floor and the rest at the task "
-            'desk (docs/fleet.md, "More AGVs than the floor carries")',
+            f'desk{about} (docs/fleet.md, "More AGVs than the floor carries")',
             file=sys.stderr,
         )
     if args.json_path:

@@ -31,7 +31,9 @@ from agv_app.tasks.free_flow import (
 )
 from agv_app.tasks.load import (
     DEFAULT_LOAD,
+    LANE_M_PER_OPEN_TASK,
     TaskArrivals,
+    carried_tasks,
     check_load,
     initial_tasks,
     task_interval_for_load,
@@ -43,6 +45,7 @@ from agv_app.tasks.station import (
 __all__ = [
     "DEFAULT_HISTORY",
     "DEFAULT_LOAD",
+    "LANE_M_PER_OPEN_TASK",
     "TASK_STATES",
     "Bidder",
     "FreeFlowBound",
@@ -57,6 +60,7 @@ __all__ = [
     "TaskSpec",
     "TaskState",
     "bidder_group",
+    "carried_tasks",
     "check_load",
     "drop_stations",
     "initial_tasks",

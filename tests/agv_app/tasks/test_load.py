@@ -7,10 +7,13 @@ import math
 import pytest
 
 from agv_app.layout import Layout, Point, Segment, Station
+from agv_app.layout.demo import demo_warehouse
+from agv_app.layout.generated import generated_warehouse
 from agv_app.tasks import (
     FreeFlowBound,
     FreeFlowTimer,
     TaskSpec,
+    carried_tasks,
     check_load,
     initial_tasks,
     mean_task_seconds,
@@ -89,3 +92,17 @@ def test_the_bound_shares_tasks_among_its_vehicles_and_idles_between_arrivals() 
 def test_a_bound_needs_vehicles() -> None:
     with pytest.raises(ValueError, match="at least one vehicle"):
         FreeFlowBound(TIMER, [])
+
+
+def test_a_floor_carries_about_one_task_per_20_m_of_lane() -> None:
+    assert carried_tasks(demo_warehouse()) == 22
+    assert carried_tasks(generated_warehouse(100)) == 15
+    # A corridor driven through (one-way in at one end, out at the other) is lane too.
+    points = [Point(f"p{i}", 20.0 * i, 0.0) for i in range(4)]
+    corridor = [Segment("in", "p0", "p1"), Segment("run", "p1", "p2", True)]
+    corridor.append(Segment("out", "p2", "p3"))
+    assert carried_tasks(Layout(points, corridor)) == 3
+
+
+def test_a_floor_of_dead_end_lanes_has_no_lane_to_carry_tasks() -> None:
+    assert carried_tasks(lane()) is None
