@@ -155,5 +155,6 @@ def test_waits_past_the_limit_point_to_the_task_desk_limit(
     err = capsys.readouterr().err
     hint = "2 waits passed 180 s. A fleet larger than its floor carries fills the lanes"
     assert (hint in err) is (limit is None)
-    # The demo warehouse's 440 m of one-way lane, at one task per 20 m.
+    # The demo warehouse's 434 m of one-way lane and 25 m of keep-clear boxes (two-way
+    # pieces routes drive through), at one task per 20 m.
     assert ("this floor carries about 22 (one per 20 m of lane)" in err) is (limit is None)
