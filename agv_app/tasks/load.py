@@ -38,10 +38,11 @@ The demo warehouse carries it without a stall (no wait over 180 s, 12 AGVs, seed
 
 
 LANE_M_PER_OPEN_TASK = 20.0
-"""Metres of lane a floor needs for each task on it at once, about: measured, not
-derived (docs/fleet.md, "More AGVs than the floor carries"). The demo warehouse (434 m
-of one-way lane) delivered most with about 20 tasks on the floor, the generated
-warehouse for 100 AGVs (304 m) with about 15."""
+"""Metres of lane a floor needs for each task on it at once, about, once its lanes
+fill: measured, not derived (docs/fleet.md, "More AGVs than the floor carries"). The
+demo warehouse (434 m of one-way lane) delivered most with about 20 tasks on the floor,
+the generated warehouse for 100 AGVs (304 m) with about 15. A floor whose lanes do not
+fill (long tasks on the long loop) carries more."""
 
 
 def carried_tasks(layout: Layout) -> int | None:
