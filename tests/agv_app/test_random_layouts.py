@@ -148,7 +148,8 @@ def floors(draw: st.DrawFn) -> Floor:
     return Floor(Layout(points, segments, stations, name="random"), agvs)
 
 
-_RANDOM = settings(
+# Settings for properties whose examples are fleet runs (here and in the one-way floors).
+FLEET_EXAMPLES = settings(
     max_examples=20,
     deadline=None,
     derandomize=_CI,
@@ -177,7 +178,7 @@ def _run(floor: Floor, seed: int, interval: float) -> Fleet:
 # suite's 120 s guard against hangs is too tight for them on a busy machine.
 @pytest.mark.slow
 @pytest.mark.timeout(900)
-@_RANDOM
+@FLEET_EXAMPLES
 @given(floor=floors(), seed=st.integers(0, 10_000), interval=st.sampled_from([20.0, 40.0, 60.0]))
 def test_random_layouts_stay_safe_and_get_work_done(
     floor: Floor, seed: int, interval: float
@@ -192,7 +193,7 @@ def test_random_layouts_stay_safe_and_get_work_done(
 # suite's 120 s guard against hangs is too tight for them on a busy machine.
 @pytest.mark.slow
 @pytest.mark.timeout(900)
-@_RANDOM
+@FLEET_EXAMPLES
 @given(floor=floors(), seed=st.integers(0, 10_000), interval=st.sampled_from([20.0, 40.0, 60.0]))
 @example(*_STARVED[0])
 @example(*_STARVED[1])

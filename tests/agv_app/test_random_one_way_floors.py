@@ -14,22 +14,20 @@ stall limit may happen (docs/traffic.md, "Merges and crossings of one-way lanes"
 
 from __future__ import annotations
 
-import dataclasses
-import os
 from dataclasses import dataclass
 from typing import Any
 
 import pytest
-from hypothesis import HealthCheck, Phase, example, given, settings
+from hypothesis import example, given
 from hypothesis import strategies as st
 
 from agv_app.fleet import Fleet, FleetConfig
 from agv_app.layout import Layout
 from agv_app.layout.builder import LayoutBuilder
 from agv_app.traffic.deadlock import merge_branches
-from agv_app.vehicle import AgvController
+from tests.agv_app.test_random_layouts import FLEET_EXAMPLES
+from tests.agv_app.traffic.test_merges import without_clear_merges
 
-_CI = bool(os.environ.get("CI"))
 _STEP = 5.0
 _SPUR = 2.5
 
@@ -134,15 +132,11 @@ _LOCKED = [
 ]
 
 
-def _without_clear_merges(*args: Any, config: Any, **kwargs: Any) -> AgvController:
-    return AgvController(*args, config=dataclasses.replace(config, clear_merges=False), **kwargs)
-
-
 @pytest.mark.slow
 def test_without_the_rule_these_floors_lock() -> None:
     """What the examples below replay: each of them locks without the rule."""
     for floor, seed, load in _LOCKED:
-        fleet = _run(floor, seed, load, vehicle=_without_clear_merges)
+        fleet = _run(floor, seed, load, vehicle=without_clear_merges)
         assert fleet.summary()["deadlocks"] > 0, f"seed {seed}, load {load}, {floor}"
 
 
@@ -150,14 +144,7 @@ def test_without_the_rule_these_floors_lock() -> None:
 # of CPU each).
 @pytest.mark.slow
 @pytest.mark.timeout(900)
-@settings(
-    max_examples=20,
-    deadline=None,
-    derandomize=_CI,
-    # A failing run is reported as drawn: shrinking a fleet run costs minutes.
-    phases=(Phase.explicit, Phase.reuse, Phase.generate),
-    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
-)
+@FLEET_EXAMPLES
 @given(
     floor=one_way_floors(),
     seed=st.integers(0, 10_000),

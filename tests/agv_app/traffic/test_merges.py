@@ -95,7 +95,8 @@ def test_the_branch_ends_in_a_zone_like_a_box() -> None:
     ).may_rest(20.0)
 
 
-def _without_clear_merges(*args: Any, config: Any, **kwargs: Any) -> AgvController:
+def without_clear_merges(*args: Any, config: Any, **kwargs: Any) -> AgvController:
+    """An AGV component built as the fleet asks, but without ``clear_merges``."""
     return AgvController(*args, config=dataclasses.replace(config, clear_merges=False), **kwargs)
 
 
@@ -109,7 +110,7 @@ def test_a_floor_without_boxes_no_longer_locks_at_its_merges(seed: int) -> None:
     the other (the whole fleet behind them stood, 9 and 12 of 12 AGVs over 180 s)."""
     layout = generated_warehouse(12)
     config = FleetConfig(agvs=12, seed=seed, load=0.9, fail_on_violation=True)
-    locked = Fleet(layout, config, vehicle=_without_clear_merges)
+    locked = Fleet(layout, config, vehicle=without_clear_merges)
     locked.run(400.0)
     assert locked.summary()["deadlocks"] > 0
     fleet = Fleet(layout, config)
