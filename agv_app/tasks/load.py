@@ -49,10 +49,11 @@ def carried_tasks(layout: Layout) -> int | None:
     """About how many tasks ``layout`` carries at once: its lanes (one-way segments and
     two-way ones that routes drive through) over :data:`LANE_M_PER_OPEN_TASK`; None
     for a floor without such lanes (every two-way run ends in a dead end)."""
+    through = followable_segments(layout)
     lanes = sum(
         layout.segment_length(seg.id)
         for seg in layout.segments.values()
-        if not seg.bidirectional or seg.id in followable_segments(layout)
+        if not seg.bidirectional or seg.id in through
     )
     carried = math.floor(lanes / LANE_M_PER_OPEN_TASK)
     return carried if carried >= 1 else None
