@@ -30,7 +30,13 @@ hull, and wait forever. So an AGV that has not left the start of its route, stan
 a no-rest zone of it and has waited ``AgvConfig.yield_after`` for its first lock
 because of someone's lock backs off to a waiting place (its home: a parking spot at a
 dead end or off every two-way lane), then goes on from there, which is a resting
-place. See docs/traffic.md for the whole argument and its limits.
+place.
+
+Waiting for a station. An AGV bound for a station another one stands at waits at the
+last resting place before it; on a one-way floor that place may lie on the way the
+standing AGV must leave by, and then each waits for the other. So, near the end of a
+route, the destination's way out (:func:`way_out`) is no resting place either. See
+docs/traffic.md for the whole argument and its limits.
 """
 
 from __future__ import annotations
@@ -52,6 +58,7 @@ __all__ = [
     "clearance_for",
     "followable_segments",
     "merge_branches",
+    "way_out",
 ]
 
 Claim = tuple[str, int]
@@ -161,6 +168,45 @@ def merge_branches(layout: Layout) -> frozenset[str]:
     return frozenset(branches)
 
 
+@functools.lru_cache(maxsize=4)
+def _ways_out(layout: Layout) -> dict[str, frozenset[str]]:
+    """The ways out found so far on ``layout``, by point (filled by :func:`way_out`)."""
+    return {}
+
+
+def way_out(layout: Layout, point: str) -> frozenset[str]:
+    """The segments every AGV leaving ``point`` must drive: from ``point`` on for as
+    long as each point reached has one way on (not counting the way back), up to the
+    first point with two or more. An AGV bound for ``point`` must not rest on them
+    where its request would reach ``point`` (:meth:`StopPlan.for_route`): the AGV
+    standing there (at a dead-end dock, after its dwell) leaves by them, and the two
+    would wait on each other for ever (docs/traffic.md, "Waiting for a station")."""
+    known = _ways_out(layout)
+    found = known.get(point)
+    if found is None:
+        found = known[point] = _trace_way_out(layout, point)
+    return found
+
+
+def _trace_way_out(layout: Layout, point: str) -> frozenset[str]:
+    segments: list[str] = []
+    visited = {point}
+    came_by: str | None = None
+    at = point
+    while True:
+        ways = [
+            (target, seg)
+            for target in layout.successors(at)
+            for seg in [layout.segment_between(at, target)]
+            if seg is not None and seg != came_by
+        ]
+        if len(ways) != 1 or ways[0][0] in visited:
+            return frozenset(segments)
+        at, came_by = ways[0]
+        visited.add(at)
+        segments.append(came_by)
+
+
 def clearance_for(length_m: float, width_m: float, *, margin_m: float = 0.15) -> float:
     """Distance an AGV's centre keeps from a bidirectional run it waits to enter.
 
@@ -172,6 +218,20 @@ def clearance_for(length_m: float, width_m: float, *, margin_m: float = 0.15) ->
 
 DEFAULT_CLEARANCE_M = clearance_for(2.0, 1.0)
 """The clearance for the demo's 2 m x 1 m vehicles."""
+
+
+def _merged(
+    raw: list[tuple[float, float, list[Claim]]],
+) -> list[tuple[float, float, list[Claim]]]:
+    """Zones sorted, those that overlap or touch merged into one, claims joined."""
+    merged: list[tuple[float, float, list[Claim]]] = []
+    for lo, hi, claims in sorted(raw, key=lambda z: (z[0], z[1])):
+        if merged and lo <= merged[-1][1]:
+            last = merged[-1]
+            merged[-1] = (last[0], max(last[1], hi), last[2] + claims)
+        else:
+            merged.append((lo, hi, claims))
+    return merged
 
 
 @dataclass(frozen=True, slots=True)
@@ -209,6 +269,7 @@ class StopPlan:
         followable: frozenset[str] = frozenset(),
         merges: frozenset[str] = frozenset(),
         merge_box_m: float = 0.0,
+        way_out_reach_m: float | None = None,
     ) -> StopPlan:
         """Compute the no-rest zones of ``route`` on ``layout`` and the direction claims
         on those of their segments that are ``followable`` (none by default).
@@ -216,14 +277,26 @@ class StopPlan:
         A segment of the route in ``merges`` (:func:`merge_branches`) ends in a zone as
         a keep-clear box of ``merge_box_m`` would: from ``merge_box_m`` plus the
         clearance before its junction to the clearance beyond it.
+
+        With ``way_out_reach_m`` (how far a request reaches), a segment of the
+        destination's :func:`way_out` is a zone too, widened by the clearance at both
+        ends, where a request from it would reach the destination: where it lies
+        within that reach (and a quarter more, and the clearance) of the last resting
+        place before the destination, and again from the new last one. There an AGV
+        would wait for the AGV standing at the destination on the way that one leaves
+        by.
         """
+        exits = way_out(layout, route.end) if way_out_reach_m is not None else frozenset()
         raw: list[tuple[float, float, list[Claim]]] = []
+        leaving: list[tuple[float, float]] = []
         spans: list[tuple[str, float, float]] = []
         for i, seg_id in enumerate(route.segments):
             segment = layout.segment(seg_id)
             if seg_id in merges:
                 junction = route.offsets[i + 1]
                 raw.append((junction - merge_box_m - clearance_m, junction + clearance_m, []))
+            if seg_id in exits:
+                leaving.append((route.offsets[i] - clearance_m, route.offsets[i + 1] + clearance_m))
             if not segment.bidirectional:
                 continue
             extent = layout.passing_extent(route, i)
@@ -237,14 +310,16 @@ class StopPlan:
             spans.append(
                 (seg_id, route.offsets[i] - clearance_m, route.offsets[i + 1] + clearance_m)
             )
-        raw.sort(key=lambda z: (z[0], z[1]))
-        merged: list[tuple[float, float, list[Claim]]] = []
-        for lo, hi, claims in raw:
-            if merged and lo <= merged[-1][1]:
-                last = merged[-1]
-                merged[-1] = (last[0], max(last[1], hi), last[2] + claims)
-            else:
-                merged.append((lo, hi, claims))
+        merged = _merged(raw)
+        if way_out_reach_m is not None:
+            reach = 1.25 * way_out_reach_m + clearance_m
+            while leaving:
+                approach = next((lo for lo, hi, _ in merged if hi >= route.length), route.length)
+                near = [(lo, hi) for lo, hi in leaving if lo < approach and hi > approach - reach]
+                if not near:
+                    break
+                leaving = [span for span in leaving if span not in near]
+                merged = _merged(merged + [(lo, hi, []) for lo, hi in near])
         through = tuple(bool(zone) and hi < route.length - 1e-9 for _, hi, zone in merged)
         per_zone = tuple(
             tuple(c if leaves else (c[0], 0) for c in zone)

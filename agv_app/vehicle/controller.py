@@ -97,6 +97,10 @@ class AgvConfig:
             enters a crossing, as if it ended in a keep-clear box
             (:func:`~agv_app.traffic.deadlock.merge_branches`; docs/traffic.md,
             "Merges").
+        keep_way_out: never rest on the way out of the route's destination
+            (:func:`~agv_app.traffic.deadlock.way_out`) where a request would reach
+            the destination from there: the AGV standing there leaves by it
+            (docs/traffic.md, "Waiting for a station").
     """
 
     t_update: float = 1.0
@@ -110,6 +114,7 @@ class AgvConfig:
     queue_patience: float | None = 30.0
     direction_claims: bool = True
     clear_merges: bool = True
+    keep_way_out: bool = True
 
 
 class AgvController:
@@ -503,6 +508,7 @@ class AgvController:
             followable=self._followable,
             merges=self._merges,
             merge_box_m=self._merge_box_m,
+            way_out_reach_m=self.config.advance_m if self.config.keep_way_out else None,
         )
         self._route_shift = path.cumulative[1]
         self._plan = plan.shifted(self._route_shift)
