@@ -27,7 +27,7 @@ from dataclasses import dataclass
 from typing import Any, NamedTuple
 
 from agv_app.geometry import Area, Polyline, Pose, hull_length, hull_projection, projection_ahead
-from agv_app.layout.elements import Route
+from agv_app.layout.elements import NoRouteError, Route
 from agv_app.layout.graph import Layout
 from agv_app.protocol import AGV_KIND, MessageTally
 from agv_app.tasks.auction import Bidder, TaskSpec
@@ -101,6 +101,11 @@ class AgvConfig:
             (:func:`~agv_app.traffic.deadlock.way_out`) where a request would reach
             the destination from there: the AGV standing there leaves by it
             (docs/traffic.md, "Waiting for a station").
+        drive_on_after: seconds an AGV at the last resting place before its
+            destination waits for its request into it, held up by a lock, before it
+            drives on to a waiting place and comes back (None: never); AGVs queued
+            behind it may stand where the destination's AGV must drive to leave
+            (docs/traffic.md, "Driving on").
     """
 
     t_update: float = 1.0
@@ -115,6 +120,7 @@ class AgvConfig:
     direction_claims: bool = True
     clear_merges: bool = True
     keep_way_out: bool = True
+    drive_on_after: float | None = 60.0
 
 
 class AgvController:
@@ -200,6 +206,8 @@ class AgvController:
         """How far the next request reaches beyond the locks (shorter while held up)."""
         self._resume: str | None = None
         """Where a yielding AGV goes once it has reached its waiting place."""
+        self._no_drive_on_until = 0.0
+        """No drive-on before then (the last one found no other way on)."""
         self._hold_until = 0.0
         """The vehicle stands still until then (the dwell ends) though its route is set."""
         self._done_later: str | None = None
@@ -501,7 +509,17 @@ class AgvController:
         # in and the first request sweeps the turn.
         self.vehicle.new_route(path, s=path.cumulative[1])
         standing = self.book.claims()  # kept until the new route's first lock moves it
-        plan = StopPlan.for_route(
+        self._route_shift = path.cumulative[1]
+        self._plan = self._plan_for(route).shifted(self._route_shift)
+        self._key += 1
+        self.book.set_locks(
+            LockEntry(self._key, self.vehicle.s, self.vehicle.hull(), claims=standing)
+        )
+        self._released_at_s = self.vehicle.s
+
+    def _plan_for(self, route: Route) -> StopPlan:
+        """The resting places of ``route`` under this AGV's rules."""
+        return StopPlan.for_route(
             self.layout,
             route,
             clearance_m=self.clearance_m,
@@ -510,13 +528,6 @@ class AgvController:
             merge_box_m=self._merge_box_m,
             way_out_reach_m=self.config.advance_m if self.config.keep_way_out else None,
         )
-        self._route_shift = path.cumulative[1]
-        self._plan = plan.shifted(self._route_shift)
-        self._key += 1
-        self.book.set_locks(
-            LockEntry(self._key, self.vehicle.s, self.vehicle.hull(), claims=standing)
-        )
-        self._released_at_s = self.vehicle.s
 
     def _route_for(self, dest: str) -> Route:
         """The route from the point we rest on to ``dest``: the shortest one (an order
@@ -560,7 +571,7 @@ class AgvController:
         if requester is None or requester.done:
             return
         if requester.blocked_by:
-            if self._must_yield(now):
+            if self._must_yield(now) or self._must_drive_on(now, requester):
                 requester.withdraw()
             elif self._may_shorten():
                 # Held up by a lock while standing: ask for half the stretch, which
@@ -686,6 +697,8 @@ class AgvController:
             self._retry_at = now + self.config.retry
             if requester.blocked_by and self._must_yield(now):
                 self._yield()
+            elif requester.blocked_by and self._must_drive_on(now, requester):
+                self._drive_on()
             self.publish()
 
     def _must_yield(self, now: float) -> bool:
@@ -717,6 +730,74 @@ class AgvController:
         self._route_to(place)
         self.phase = phase
         self._resume = dest
+
+    def _must_drive_on(self, now: float, requester: Requester | CentralRequest) -> bool:
+        """True if the AGV stands on its way, past its start, at the last resting place
+        before its destination, and its request into the destination has been held up
+        for ``drive_on_after`` (docs/traffic.md, "Driving on")."""
+        after, plan, first = self.config.drive_on_after, self._plan, self._first_try
+        return (
+            after is not None
+            and plan is not None
+            and self._resume is None
+            and self.vehicle.speed == 0.0
+            and self.vehicle.s > self._route_shift + 1e-6
+            and requester.entry.end_s >= plan.length - 1e-9
+            and first is not None
+            and now - first[1] >= after
+            and now >= self._no_drive_on_until
+        )
+
+    def _drive_on(self) -> bool:
+        """Drive on from the next point of the route to a waiting place (home, else a
+        free rest point), then come back to the destination from there; False (and
+        no new try for ``drive_on_after``) where there is no other way on."""
+        route, dest, vehicle = self._route, self._dest, self.vehicle
+        assert route is not None
+        assert dest is not None
+        found = self._onward(route, dest)
+        if found is None:
+            assert self.config.drive_on_after is not None
+            self._no_drive_on_until = self.node.now() + self.config.drive_on_after
+            return False
+        ahead, onward = found
+        lead = vehicle.route.slice(vehicle.s, route.offsets[ahead] + self._route_shift)
+        path = Polyline([*lead.coords, *onward.polyline.coords])
+        standing = self.book.claims()
+        vehicle.new_route(path, s=0.0)
+        self._plan = self._plan_for(onward).shifted(lead.length)
+        self._route = onward
+        self._route_shift = lead.length
+        self._dest = onward.end
+        self._resume = dest
+        self._stalled = False
+        self._first_try = None
+        self._advance = self.config.advance_m
+        self._route_started_at = self.node.now()
+        self._key += 1
+        self.book.set_locks(LockEntry(self._key, vehicle.s, vehicle.hull(), claims=standing))
+        self._released_at_s = vehicle.s
+        return True
+
+    def _onward(self, route: Route, dest: str) -> tuple[int, Route] | None:
+        """The index of the route's next point and the way from there to a waiting
+        place that does not pass ``dest``, or None."""
+        ahead = route.index_at(self.vehicle.s - self._route_shift + 1e-6) + 1
+        via = route.points[min(ahead, len(route.points) - 1)]
+        if via == dest:
+            return None  # already on the way into it: there is no other way on
+        place: str | None = self.home
+        if place in (via, dest) and self._relocate is not None:
+            place = self._relocate(self)
+            if place is not None:
+                self.home = place
+        if place is None or place in (via, dest):
+            return None
+        try:
+            onward = self.layout.route(via, place)
+        except NoRouteError:
+            return None
+        return None if dest in onward.points else (ahead, onward)
 
     def _release(self) -> None:
         vehicle, spec, book = self.vehicle, self.spec, self.book

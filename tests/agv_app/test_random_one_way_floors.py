@@ -16,10 +16,10 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import pytest
-from hypothesis import example, given, settings
+from hypothesis import example, given
 from hypothesis import strategies as st
 
 from agv_app.fleet import Fleet, FleetConfig
@@ -146,10 +146,7 @@ def test_without_the_rule_these_floors_lock() -> None:
 # of CPU each).
 @pytest.mark.slow
 @pytest.mark.timeout(900)
-# Derandomized everywhere, not only in CI: about one crowded draw in three hundred
-# still locks, AGVs queued behind one that waits for a dock (the last test below pins
-# it; docs/traffic.md, "Limits").
-@settings(FLEET_EXAMPLES, derandomize=True)
+@FLEET_EXAMPLES
 @given(
     floor=one_way_floors(),
     seed=st.integers(0, 10_000),
@@ -196,19 +193,50 @@ def test_an_agv_waiting_for_a_dock_stays_off_the_way_out(
     assert figures["tasks_completed"] > 2 * locked["tasks_completed"]
 
 
-# A draw (of 300) that still locks: an AGV waits for a dock off an aisle on the north
-# lane, clear of the dock's way out, and three AGVs bound elsewhere queue behind it;
-# the dock's AGV leaves round a short loop (down its aisle, along the middle lane, up
-# the next aisle) whose first request reaches onto the north lane into the queue.
+# A draw (of 300) that locked with the way-out rule: an AGV waits for a dock off an
+# aisle on the north lane, clear of the dock's way out, and three AGVs bound elsewhere
+# queue behind it; the dock's AGV leaves round a short loop (down its aisle, along the
+# middle lane, up the next aisle) whose first request reaches onto the north lane, into
+# the queue.
 _QUEUED = (one_way_floor(10, 12.0, {6: "n", 5: "s", 3: "s"}, middle=True, agvs=5), 7976, 0.7)
 
 
+class _DrivingOn(AgvController):
+    """An AGV component that records each time it drives on: (AGV, pose before, pose
+    after, the destination it left, where it drives, where it comes back to)."""
+
+    log: ClassVar[list[tuple[str, Any, Any, str | None, str | None, str | None]]] = []
+
+    def _drive_on(self) -> bool:
+        before, left = self.vehicle.pose(), self._dest
+        drove = super()._drive_on()
+        if drove:
+            self.log.append(
+                (self.node_id, before, self.vehicle.pose(), left, self._dest, self._resume)
+            )
+        return drove
+
+
+def without_driving_on(*args: Any, config: Any, **kwargs: Any) -> AgvController:
+    """An AGV component built as the fleet asks, but that never drives on."""
+    return AgvController(*args, config=dataclasses.replace(config, drive_on_after=None), **kwargs)
+
+
+# One fleet that locks (about 40 s of CPU) and one that does not (a few seconds).
 @pytest.mark.slow
 @pytest.mark.timeout(300)
-@pytest.mark.xfail(
-    strict=True,
-    reason="AGVs queued behind one that waits for a dock may stand where the dock's AGV "
-    'must drive to leave (docs/traffic.md, "Limits")',
-)
-def test_a_queue_behind_an_agv_waiting_for_a_dock_leaves_its_way_out_clear() -> None:
-    assert _run(*_QUEUED).summary()["deadlocks"] == 0
+def test_an_agv_held_up_before_its_dock_drives_on_and_the_queue_behind_it_clears() -> None:
+    locked = _run(*_QUEUED, vehicle=without_driving_on).summary()
+    assert locked["deadlocks"] > 0
+    _DrivingOn.log.clear()
+    fleet = _run(*_QUEUED, vehicle=_DrivingOn)
+    figures = fleet.summary()
+    assert figures["deadlocks"] == figures["collisions"] == figures["lock_overlaps"] == 0
+    assert figures["tasks_completed"] > 1.5 * locked["tasks_completed"]
+    assert _DrivingOn.log, "no AGV drove on"
+    parking = {s.point for s in _QUEUED[0].layout.stations.values() if s.kind == "parking"}
+    for agv, before, after, left, place, back in _DrivingOn.log:
+        # It drives on from where it stands, to a parking place, and comes back.
+        assert (after.x, after.y) == pytest.approx((before.x, before.y)), agv
+        assert place in parking, agv
+        assert back == left, agv
