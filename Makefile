@@ -6,7 +6,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test lint bench chromium mosquitto clean soak
+.PHONY: demo test lint bench chromium mosquitto clean soak soak-floors
 
 $(STAMP): pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -44,6 +44,11 @@ bench: $(STAMP) chromium mosquitto
 SEEDS ?= 200
 soak: $(STAMP)
 	$(BIN)/python -m tests.soak.runner --seeds 1-$(SEEDS) --jobs 2
+
+# Fleets on random one-way floors (docs/soak.md): FLOOR_SEEDS seeds from 0.
+FLOOR_SEEDS ?= 300
+soak-floors: $(STAMP)
+	$(BIN)/python -m tests.soak.floors --seeds 0-$$(($(FLOOR_SEEDS) - 1)) --jobs 2
 
 clean:
 	rm -rf $(VENV) .pytest_cache .mypy_cache .ruff_cache .hypothesis

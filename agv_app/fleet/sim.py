@@ -256,6 +256,7 @@ class Fleet(FleetSourceBase):
                 on_task_started=functools.partial(self._task_started, agv_id),
                 on_task_done=self._task_done,
                 on_lock_wait=self.metrics_raw.lock_waits.append,
+                on_last_resort=self.metrics_raw.last_resort,
                 relocate=self._relocate,
                 central=self.central,
             )

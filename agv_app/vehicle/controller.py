@@ -138,6 +138,9 @@ class AgvController:
         on_task_started: called with the task id when the AGV sets off with a task.
         on_task_done: called with the task id when a task is finished.
         on_lock_wait: called with the seconds a granted request waited.
+        on_last_resort: called with ``"yield"`` when the AGV backs off from the start of
+            its route to a waiting place, ``"drive_on"`` when it drives on past its
+            destination to come back later (docs/traffic.md).
         relocate: asked for another parking point when the idle AGV stands in someone's
             way, or when it must yield and its home is no waiting place (None: stay).
         central: grant locks through this central scheduler instead of asking the
@@ -158,6 +161,7 @@ class AgvController:
         on_task_started: Callable[[str], None] | None = None,
         on_task_done: Callable[[str], None] | None = None,
         on_lock_wait: Callable[[float], None] | None = None,
+        on_last_resort: Callable[[str], None] | None = None,
         relocate: Callable[[AgvController], str | None] | None = None,
         central: CentralScheduler | None = None,
     ) -> None:
@@ -169,6 +173,7 @@ class AgvController:
         self._on_task_started = on_task_started
         self._on_task_done = on_task_done
         self._on_lock_wait = on_lock_wait
+        self._on_last_resort = on_last_resort
         self._relocate = relocate
         self.clearance_m = clearance_for(spec.length_m, spec.width_m)
         self._followable = (
@@ -730,6 +735,8 @@ class AgvController:
         self._route_to(place)
         self.phase = phase
         self._resume = dest
+        if self._on_last_resort is not None:
+            self._on_last_resort("yield")
 
     def _must_drive_on(self, now: float, requester: Requester | CentralRequest) -> bool:
         """True if the AGV stands on its way, past its start, at the last resting place
@@ -777,6 +784,8 @@ class AgvController:
         self._key += 1
         self.book.set_locks(LockEntry(self._key, vehicle.s, vehicle.hull(), claims=standing))
         self._released_at_s = vehicle.s
+        if self._on_last_resort is not None:
+            self._on_last_resort("drive_on")
         return True
 
     def _onward(self, route: Route, dest: str) -> tuple[int, Route] | None:

@@ -27,6 +27,7 @@ import traceback
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from types import FrameType
+from typing import TYPE_CHECKING
 
 from tests.soak.invariants import (
     channels_complete,
@@ -45,7 +46,10 @@ from tests.soak.probes import AppFault
 from tests.soak.workload import Settle, Wait, generate
 from tests.soak.world import World
 
-__all__ = ["RunResult", "main", "parse_seeds", "replay_command", "run_seed"]
+if TYPE_CHECKING:
+    from rich.progress import Progress
+
+__all__ = ["RunResult", "main", "parse_seeds", "replay_command", "run_seed", "seed_progress"]
 
 SETTLE_STEP = 0.1
 """Virtual seconds between two looks at a settling world."""
@@ -231,23 +235,28 @@ def _print_failure(result: RunResult, out: Callable[[str], None]) -> None:
     out(f"  replay: {replay_command(result.seed)}")
 
 
-def _run_many(seeds: list[int], jobs: int, seed_timeout: int, budget: float | None) -> int:
+def seed_progress() -> Progress:
+    """The progress bar of a many-seed run, on stderr: what it says, a bar, seeds done
+    of all, time taken."""
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
 
-    console = Console(stderr=True)
-    started = time.perf_counter()
-    results: list[RunResult] = []
-    failed: list[RunResult] = []
     columns = (
         "[progress.description]{task.description}",
         BarColumn(),
         MofNCompleteColumn(),
         TimeElapsedColumn(),
     )
+    return Progress(*columns, console=Console(stderr=True))
+
+
+def _run_many(seeds: list[int], jobs: int, seed_timeout: int, budget: float | None) -> int:
+    started = time.perf_counter()
+    results: list[RunResult] = []
+    failed: list[RunResult] = []
     jobs_list = [(seed, seed_timeout) for seed in seeds]
     with (
-        Progress(*columns, console=console) as progress,
+        seed_progress() as progress,
         multiprocessing.get_context("fork").Pool(jobs, maxtasksperchild=200) as pool,
     ):
         task = progress.add_task("soak: 0 failed", total=len(seeds))

@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import dataclasses
 from pathlib import Path
-from typing import Any
 
 import pytest
 
@@ -14,7 +12,7 @@ from agv_app.layout.demo import demo_warehouse
 from agv_app.layout.generated import generated_warehouse
 from agv_app.layout.loop import long_loop
 from agv_app.traffic.deadlock import StopPlan, merge_branches
-from agv_app.vehicle import AgvController
+from tests.agv_app.vehicles import vehicle_with
 
 DEMO_01 = Path(__file__).resolve().parents[3] / "agv_app/data/opentcs/Demo-01.xml"
 
@@ -95,11 +93,6 @@ def test_the_branch_ends_in_a_zone_like_a_box() -> None:
     ).may_rest(20.0)
 
 
-def without_clear_merges(*args: Any, config: Any, **kwargs: Any) -> AgvController:
-    """An AGV component built as the fleet asks, but without ``clear_merges``."""
-    return AgvController(*args, config=dataclasses.replace(config, clear_merges=False), **kwargs)
-
-
 # Each run is 400 simulated seconds of 12 AGVs (a few seconds of CPU).
 @pytest.mark.slow
 @pytest.mark.parametrize("seed", [1, 2])
@@ -110,7 +103,7 @@ def test_a_floor_without_boxes_no_longer_locks_at_its_merges(seed: int) -> None:
     the other (the whole fleet behind them stood, 9 and 12 of 12 AGVs over 180 s)."""
     layout = generated_warehouse(12)
     config = FleetConfig(agvs=12, seed=seed, load=0.9, fail_on_violation=True)
-    locked = Fleet(layout, config, vehicle=without_clear_merges)
+    locked = Fleet(layout, config, vehicle=vehicle_with(clear_merges=False))
     locked.run(400.0)
     assert locked.summary()["deadlocks"] > 0
     fleet = Fleet(layout, config)

@@ -1,0 +1,186 @@
+"""Run seeds of random one-way floors with a fleet on each; replay one.
+
+```sh
+python -m tests.soak.floors --seeds 0-299 --jobs 2          # many seeds, with progress
+python -m tests.soak.floors --seed 126                      # replay one, with its AGVs
+python -m tests.soak.floors --seeds 0-299 --off keep_way_out --off drive_on_after
+```
+
+Seed ``n`` is the floor, fleet, load and task stream that
+``draw_floor_run(random.Random(n))`` draws (``tests/agv_app/one_way_floors.py``): a
+crowded one-way floor, tasks for 300 simulated seconds and 200 more to finish them.
+The safety monitor checks every step (a collision or a lock overlap ends the seed);
+at the end no AGV may have stalled past the stall limit and a task must be done.
+``--off RULE`` runs the fleet without a traffic rule (``clear_merges``,
+``keep_way_out``, ``drive_on_after``), to show what the rule is for. Every failing
+seed is printed with its replay command; the exit status is 1 when any seed failed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import multiprocessing
+import random
+import sys
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from agv_app.fleet import SafetyError
+from tests.agv_app.one_way_floors import FloorRun, draw_floor_run, run_floor
+from tests.agv_app.vehicles import vehicle_with
+from tests.soak.runner import parse_seeds, seed_progress
+
+__all__ = ["RULES", "FloorResult", "main", "replay_command", "run_floor_seed"]
+
+RULES: dict[str, Any] = {"clear_merges": False, "keep_way_out": False, "drive_on_after": None}
+"""The traffic rules ``--off`` can switch off, and the ``AgvConfig`` value that does."""
+
+
+@dataclass(frozen=True, slots=True)
+class FloorResult:
+    """The outcome of one seed.
+
+    Attributes:
+        seed: the seed.
+        run: what it drew.
+        tasks_done: tasks delivered.
+        stalls: waits past the stall limit (each AGV's wait counted once).
+        yields: times an AGV backed off from the start of its route.
+        drive_ons: times an AGV drove on past its destination to come back later.
+        standing: the AGVs still standing past the limit at the end, with their phase
+            and the point their route started from.
+        violation: the safety violation that ended the run, if any.
+        wall_seconds: how long it took.
+    """
+
+    seed: int
+    run: FloorRun
+    tasks_done: int
+    stalls: int
+    yields: int
+    drive_ons: int
+    standing: tuple[tuple[str, str, str], ...]
+    violation: str | None
+    wall_seconds: float
+
+    @property
+    def ok(self) -> bool:
+        """Safe, nothing stalled, something done."""
+        return self.violation is None and self.stalls == 0 and self.tasks_done > 0
+
+
+def replay_command(seed: int, off: Sequence[str] = ()) -> str:
+    """The command that replays ``seed`` (with the same rules off)."""
+    return " ".join(
+        ["python -m tests.soak.floors", f"--seed {seed}", *(f"--off {rule}" for rule in off)]
+    )
+
+
+def run_floor_seed(seed: int, off: Sequence[str] = ()) -> FloorResult:
+    """Run seed ``seed`` with the rules in ``off`` switched off."""
+    run = draw_floor_run(random.Random(seed))
+    started = time.perf_counter()
+    options = {"vehicle": vehicle_with(**{rule: RULES[rule] for rule in off})} if off else {}
+    try:
+        fleet = run_floor(run, **options)
+    except SafetyError as violation:
+        return FloorResult(seed, run, 0, 0, 0, 0, (), str(violation), time.perf_counter() - started)
+    figures = fleet.summary()
+    now, watch = fleet.net.now, fleet.stalls
+    standing = tuple(
+        (agv_id, agv.phase, agv.point)
+        for agv_id, agv in sorted(fleet.agvs.items())
+        if watch.stalled_for(agv_id, now) > watch.limit_s
+    )
+    return FloorResult(
+        seed,
+        run,
+        int(figures["tasks_completed"]),
+        int(figures["deadlocks"]),
+        int(figures["yields"]),
+        int(figures["drive_ons"]),
+        standing,
+        None,
+        time.perf_counter() - started,
+    )
+
+
+def _describe(result: FloorResult) -> str:
+    run = result.run
+    head = f"seed {result.seed}: {run.floor}, fleet seed {run.seed}, load {run.load}"
+    if result.violation is not None:
+        return f"{head}: {result.violation}"
+    resorts = f"{result.yields} yields, {result.drive_ons} drive-ons"
+    if result.stalls:
+        agvs = ", ".join(f"{a} ({phase} from {point})" for a, phase, point in result.standing)
+        return (
+            f"{head}: {result.tasks_done} tasks done, {resorts}, {result.stalls} waits past "
+            f"the stall limit; standing at the end: {agvs or 'none'}"
+        )
+    return f"{head}: {result.tasks_done} tasks done, {resorts}"
+
+
+def _worker(job: tuple[int, tuple[str, ...]]) -> FloorResult:
+    return run_floor_seed(*job)
+
+
+def _run_many(seeds: list[int], off: tuple[str, ...], jobs: int) -> int:
+    started = time.perf_counter()
+    failed: list[FloorResult] = []
+    done = tasks = yields = drive_ons = 0
+    with (
+        seed_progress() as progress,
+        multiprocessing.get_context("fork").Pool(jobs, maxtasksperchild=50) as pool,
+    ):
+        bar = progress.add_task("floors: 0 failed", total=len(seeds))
+        for result in pool.imap_unordered(_worker, [(seed, off) for seed in seeds]):
+            done += 1
+            tasks += result.tasks_done
+            yields += result.yields
+            drive_ons += result.drive_ons
+            if not result.ok:
+                failed.append(result)
+                progress.console.print(f"FAILED {_describe(result)}")
+            progress.update(bar, advance=1, description=f"floors: {len(failed)} failed")
+    rules = ", ".join(off) if off else "none"
+    print(
+        f"floors: {done} seeds run ({min(seeds)}-{max(seeds)} asked), rules off: {rules}, "
+        f"{len(failed)} failed, {tasks} tasks done, {yields} yields, {drive_ons} drive-ons, "
+        f"{time.perf_counter() - started:.1f}s wall"
+    )
+    for result in sorted(failed, key=lambda r: r.seed):
+        print(f"FAILED {_describe(result)}")
+        print(f"  {replay_command(result.seed, off)}")
+    return 1 if failed else 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """The command line; returns the exit status."""
+    parser = argparse.ArgumentParser(prog="python -m tests.soak.floors", description=__doc__)
+    which = parser.add_mutually_exclusive_group(required=True)
+    which.add_argument("--seed", type=int, help="replay one seed")
+    which.add_argument("--seeds", type=parse_seeds, help="seeds to run, e.g. 0-299")
+    parser.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
+    parser.add_argument(
+        "--off",
+        action="append",
+        default=[],
+        choices=sorted(RULES),
+        help="run without this traffic rule (may be given more than once)",
+    )
+    args = parser.parse_args(argv)
+    off = tuple(dict.fromkeys(args.off))
+    if args.seed is not None:
+        result = run_floor_seed(args.seed, off)
+        print(f"{_describe(result)} ({result.wall_seconds:.1f}s wall)")
+        if result.ok:
+            return 0
+        print(f"  {replay_command(result.seed, off)}")
+        return 1
+    return _run_many(args.seeds, off, max(1, args.jobs))
+
+
+if __name__ == "__main__":
+    sys.exit(main())

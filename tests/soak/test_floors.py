@@ -1,0 +1,49 @@
+"""The floor runner (``python -m tests.soak.floors``): seeds, replay commands, exit status."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import pytest
+
+from tests.soak.floors import RULES, main, replay_command, run_floor_seed
+
+
+def test_a_seed_draws_a_crowded_floor_and_gets_work_done_safely() -> None:
+    result = run_floor_seed(0)
+    assert result.ok, result
+    assert result.tasks_done > 0
+    assert result.run.floor.agvs >= 3
+    assert run_floor_seed(0).tasks_done == result.tasks_done  # a seed replays exactly
+
+
+def test_a_stall_or_a_violation_fails_the_seed() -> None:
+    ok = run_floor_seed(0)
+    assert not dataclasses.replace(ok, stalls=1).ok
+    assert not dataclasses.replace(ok, violation="collision").ok
+    assert not dataclasses.replace(ok, tasks_done=0).ok
+
+
+def test_the_replay_command_names_the_rules_switched_off() -> None:
+    assert replay_command(7) == "python -m tests.soak.floors --seed 7"
+    assert replay_command(7, ("keep_way_out", "drive_on_after")) == (
+        "python -m tests.soak.floors --seed 7 --off keep_way_out --off drive_on_after"
+    )
+
+
+def test_many_seeds_print_a_summary_and_exit_0(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["--seeds", "0-1"]) == 0
+    out = capsys.readouterr().out
+    assert "floors: 2 seeds run (0-1 asked), rules off: none, 0 failed" in out
+
+
+def test_an_unknown_rule_is_refused_with_the_known_ones(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--seed", "0", "--off", "brakes"])
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert "invalid choice: 'brakes'" in err
+    for rule in RULES:
+        assert rule in err
