@@ -22,6 +22,8 @@ from typing import Any
 
 from agv_app.geometry import Polyline
 from agv_app.layout.elements import Route
+from agv_app.traffic.central import CentralRequest
+from agv_app.traffic.collision import Requester
 from agv_app.traffic.deadlock import StopPlan
 from agv_app.vda5050.order import OrderBook, OrderRejected, Outcome, VdaError
 from agv_app.vehicle.controller import AgvController
@@ -162,6 +164,10 @@ class OrderAgv(AgvController):
     def _must_yield(self, now: float) -> bool:
         # The master control plans an order's path; the vehicle keeps to it.
         return not self._stretch and super()._must_yield(now)
+
+    def _must_drive_on(self, now: float, requester: Requester | CentralRequest) -> bool:
+        # The same: it waits on the order's path for as long as it takes.
+        return not self._stretch and super()._must_drive_on(now, requester)
 
     def step(self, dt: float) -> None:
         """Advance ``dt`` seconds: brake while paused, else drive as the controller does."""

@@ -97,3 +97,21 @@ def test_an_order_through_a_standing_vehicle_waits_until_it_has_gone() -> None:
     assert t.monitor.lock_overlaps == 0
     assert first.vehicle.hard_stops == 0
     assert t.closest < 5.0, "they did meet"
+
+
+def test_an_order_into_a_place_another_vehicle_holds_waits_there_and_does_not_drive_on() -> None:
+    """A vehicle of the fleet drives on after a minute at the end of its route (the
+    traffic rules' last resort); one following an order keeps to the master control's
+    path, however long it waits."""
+    t = TwoVehicles()
+    first, second = t.agvs["agv-01"], t.agvs["agv-02"]
+    path = list(t.layout.shortest_path(second.point, first.point))
+    end = t.layout.point(path[-1])
+    t.run(2.0)
+    t.order("agv-02", path, "into-the-other")
+    t.run(150)
+    assert not t.done("agv-02")
+    assert t.stalled["agv-02"] > 90.0, "well past the fleet's drive-on limit (60 s)"
+    assert second.vehicle.route.end == (end.x, end.y), "it still drives the order's path"
+    assert second.book_of_orders.active
+    assert t.monitor.collisions == t.monitor.lock_overlaps == 0
