@@ -1,14 +1,18 @@
-"""Run seeds of random one-way floors with a fleet on each; replay one.
+"""Run seeds of random floors with a fleet on each; replay one.
 
 ```sh
 python -m tests.soak.floors --seeds 0-299 --jobs 2          # many seeds, with progress
 python -m tests.soak.floors --seed 126                      # replay one, with its AGVs
 python -m tests.soak.floors --seeds 0-299 --off keep_way_out --off drive_on_after
+python -m tests.soak.floors --kind two-way --seeds 0-999 --jobs 2
 ```
 
-Seed ``n`` is the floor, fleet, load and task stream that
-``draw_floor_run(random.Random(n))`` draws (``tests/agv_app/one_way_floors.py``): a
-crowded one-way floor, tasks for 300 simulated seconds and 200 more to finish them.
+Seed ``n`` of ``--kind one-way`` (the default) is the floor, fleet, load and task
+stream that ``draw_floor_run(random.Random(n))`` draws
+(``tests/agv_app/one_way_floors.py``): a crowded one-way floor, tasks for 300
+simulated seconds and 200 more to finish them. ``--kind two-way`` draws small two-way
+layouts with dead-end docks and crossings instead
+(``tests/agv_app/two_way_floors.py``: tasks for 200 s, 200 more to finish them).
 The safety monitor checks every step (a collision or a lock overlap ends the seed);
 at the end no AGV may have stalled past the stall limit and a task must be done.
 ``--off RULE`` runs the fleet without a traffic rule (``clear_merges``,
@@ -23,19 +27,26 @@ import multiprocessing
 import random
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from agv_app.fleet import SafetyError
+from agv_app.fleet import Fleet, SafetyError
 from tests.agv_app.one_way_floors import FloorRun, draw_floor_run, run_floor
+from tests.agv_app.two_way_floors import TwoWayRun, draw_two_way_run, run_two_way
 from tests.agv_app.vehicles import vehicle_with
 from tests.soak.runner import parse_seeds, seed_progress
 
-__all__ = ["RULES", "FloorResult", "main", "replay_command", "run_floor_seed"]
+__all__ = ["KINDS", "RULES", "FloorResult", "main", "replay_command", "run_floor_seed"]
 
 RULES: dict[str, Any] = {"clear_merges": False, "keep_way_out": False, "drive_on_after": None}
 """The traffic rules ``--off`` can switch off, and the ``AgvConfig`` value that does."""
+
+KINDS: dict[str, tuple[Callable[[random.Random], Any], Callable[..., Fleet]]] = {
+    "one-way": (draw_floor_run, run_floor),
+    "two-way": (draw_two_way_run, run_two_way),
+}
+"""The floors ``--kind`` draws: how a seed's run is drawn, and how it is run."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -56,7 +67,7 @@ class FloorResult:
     """
 
     seed: int
-    run: FloorRun
+    run: FloorRun | TwoWayRun
     tasks_done: int
     stalls: int
     yields: int
@@ -71,20 +82,26 @@ class FloorResult:
         return self.violation is None and self.stalls == 0 and self.tasks_done > 0
 
 
-def replay_command(seed: int, off: Sequence[str] = ()) -> str:
-    """The command that replays ``seed`` (with the same rules off)."""
+def replay_command(seed: int, off: Sequence[str] = (), kind: str = "one-way") -> str:
+    """The command that replays ``seed`` (of the same kind, with the same rules off)."""
     return " ".join(
-        ["python -m tests.soak.floors", f"--seed {seed}", *(f"--off {rule}" for rule in off)]
+        [
+            "python -m tests.soak.floors",
+            *([f"--kind {kind}"] if kind != "one-way" else []),
+            f"--seed {seed}",
+            *(f"--off {rule}" for rule in off),
+        ]
     )
 
 
-def run_floor_seed(seed: int, off: Sequence[str] = ()) -> FloorResult:
-    """Run seed ``seed`` with the rules in ``off`` switched off."""
-    run = draw_floor_run(random.Random(seed))
+def run_floor_seed(seed: int, off: Sequence[str] = (), kind: str = "one-way") -> FloorResult:
+    """Run seed ``seed`` of ``kind`` with the rules in ``off`` switched off."""
+    draw, drive = KINDS[kind]
+    run = draw(random.Random(seed))
     started = time.perf_counter()
     options = {"vehicle": vehicle_with(**{rule: RULES[rule] for rule in off})} if off else {}
     try:
-        fleet = run_floor(run, **options)
+        fleet = drive(run, **options)
     except SafetyError as violation:
         return FloorResult(seed, run, 0, 0, 0, 0, (), str(violation), time.perf_counter() - started)
     figures = fleet.summary()
@@ -108,8 +125,7 @@ def run_floor_seed(seed: int, off: Sequence[str] = ()) -> FloorResult:
 
 
 def _describe(result: FloorResult) -> str:
-    run = result.run
-    head = f"seed {result.seed}: {run.floor}, fleet seed {run.seed}, load {run.load}"
+    head = f"seed {result.seed}: {result.run}"
     if result.violation is not None:
         return f"{head}: {result.violation}"
     resorts = f"{result.yields} yields, {result.drive_ons} drive-ons"
@@ -122,11 +138,11 @@ def _describe(result: FloorResult) -> str:
     return f"{head}: {result.tasks_done} tasks done, {resorts}"
 
 
-def _worker(job: tuple[int, tuple[str, ...]]) -> FloorResult:
+def _worker(job: tuple[int, tuple[str, ...], str]) -> FloorResult:
     return run_floor_seed(*job)
 
 
-def _run_many(seeds: list[int], off: tuple[str, ...], jobs: int) -> int:
+def _run_many(seeds: list[int], off: tuple[str, ...], kind: str, jobs: int) -> int:
     started = time.perf_counter()
     failed: list[FloorResult] = []
     done = tasks = yields = drive_ons = 0
@@ -135,7 +151,7 @@ def _run_many(seeds: list[int], off: tuple[str, ...], jobs: int) -> int:
         multiprocessing.get_context("fork").Pool(jobs, maxtasksperchild=50) as pool,
     ):
         bar = progress.add_task("floors: 0 failed", total=len(seeds))
-        for result in pool.imap_unordered(_worker, [(seed, off) for seed in seeds]):
+        for result in pool.imap_unordered(_worker, [(seed, off, kind) for seed in seeds]):
             done += 1
             tasks += result.tasks_done
             yields += result.yields
@@ -146,13 +162,13 @@ def _run_many(seeds: list[int], off: tuple[str, ...], jobs: int) -> int:
             progress.update(bar, advance=1, description=f"floors: {len(failed)} failed")
     rules = ", ".join(off) if off else "none"
     print(
-        f"floors: {done} seeds run ({min(seeds)}-{max(seeds)} asked), rules off: {rules}, "
+        f"floors: {done} {kind} seeds run ({min(seeds)}-{max(seeds)} asked), rules off: {rules}, "
         f"{len(failed)} failed, {tasks} tasks done, {yields} yields, {drive_ons} drive-ons, "
         f"{time.perf_counter() - started:.1f}s wall"
     )
     for result in sorted(failed, key=lambda r: r.seed):
         print(f"FAILED {_describe(result)}")
-        print(f"  {replay_command(result.seed, off)}")
+        print(f"  {replay_command(result.seed, off, kind)}")
     return 1 if failed else 0
 
 
@@ -164,6 +180,9 @@ def main(argv: list[str] | None = None) -> int:
     which.add_argument("--seeds", type=parse_seeds, help="seeds to run, e.g. 0-299")
     parser.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
     parser.add_argument(
+        "--kind", choices=sorted(KINDS), default="one-way", help="the floors to draw"
+    )
+    parser.add_argument(
         "--off",
         action="append",
         default=[],
@@ -173,13 +192,13 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     off = tuple(dict.fromkeys(args.off))
     if args.seed is not None:
-        result = run_floor_seed(args.seed, off)
+        result = run_floor_seed(args.seed, off, args.kind)
         print(f"{_describe(result)} ({result.wall_seconds:.1f}s wall)")
         if result.ok:
             return 0
-        print(f"  {replay_command(result.seed, off)}")
+        print(f"  {replay_command(result.seed, off, args.kind)}")
         return 1
-    return _run_many(args.seeds, off, max(1, args.jobs))
+    return _run_many(args.seeds, off, args.kind, max(1, args.jobs))
 
 
 if __name__ == "__main__":

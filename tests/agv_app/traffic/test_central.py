@@ -15,7 +15,7 @@ from agv_app.geometry import Area
 from agv_app.traffic import LockBook, LockEntry, RequestEntry
 from agv_app.traffic.central import CentralScheduler
 from objectplaces.cli import main
-from tests.agv_app.test_random_layouts import single_track, two_docks_one_lane
+from tests.agv_app.two_way_floors import single_track, two_docks_one_lane
 from tuplespace import ANY, TupleSpace
 
 

@@ -17,7 +17,7 @@ from agv_app.traffic.deadlock import (
     claims_conflict,
     followable_segments,
 )
-from tests.agv_app.test_random_layouts import two_docks_one_lane
+from tests.agv_app.two_way_floors import two_docks_one_lane
 from tuplespace import TupleSpace
 
 CORRIDOR = frozenset({"W-c1", "c1-c2", "c2-c3", "c3-E"})

@@ -29,7 +29,8 @@ from agv_app.traffic.reach import (
 )
 from agv_app.vehicle.controller import AgvConfig
 from agv_app.vehicle.kinematics import VehicleSpec
-from tests.agv_app.test_random_layouts import Floor, floors
+from tests.agv_app.test_random_layouts import floors
+from tests.agv_app.two_way_floors import Floor
 
 SPEC = VehicleSpec(2.0, 1.0)
 CLEARANCE = clearance_for(SPEC.length_m, SPEC.width_m)
