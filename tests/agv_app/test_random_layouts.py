@@ -7,7 +7,7 @@ same drawing.
 
 from __future__ import annotations
 
-import os
+import random
 
 import pytest
 from hypothesis import HealthCheck, Phase, example, given, settings
@@ -23,8 +23,6 @@ from tests.agv_app.two_way_floors import (
     single_track,
     two_docks_one_lane,
 )
-
-_CI = bool(os.environ.get("CI"))
 
 
 def test_two_agvs_at_the_two_docks_swap_them() -> None:
@@ -66,10 +64,14 @@ def runs() -> st.SearchStrategy[TwoWayRun]:
 
 
 # Settings for properties whose examples are fleet runs (here and in the one-way floors).
+# Derandomized everywhere: the suite replays the same draws on every machine, and the
+# floor runner (python -m tests.soak.floors, make soak-floors) explores more seeds,
+# each failure with its replay command. About 6 two-way draws in 1,000 still wait past
+# the stall limit (the strict expected failure below).
 FLEET_EXAMPLES = settings(
     max_examples=20,
     deadline=None,
-    derandomize=_CI,
+    derandomize=True,
     # A failing run is reported as drawn: shrinking a fleet run costs minutes.
     phases=(Phase.explicit, Phase.reuse, Phase.generate),
     suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
@@ -112,3 +114,31 @@ def test_spare_rest_points_are_never_on_a_two_way_lane() -> None:
     plan.claim("agv-2", "pb")
     # The junction j would be a hull diagonal from everything, but it is on the lane.
     assert plan.relocate("agv-1", "pa", at="da") is None
+
+
+# Seed 916 of ``python -m tests.soak.floors --kind two-way`` (one of 6 in seeds 0-999):
+# four AGVs on one two-way track 56 m long with docks at its ends, the tasks between
+# them. An AGV whose request is held up lets younger requests that overlap it go first
+# and ranks below them (stepping aside); on a track this busy it does so again and
+# again, and waits 186 and 203 s, though no circle ever holds it.
+_STEPPED_ASIDE = TwoWayRun(single_track(5, 14.0, "p1n p1s p2n p2s p3n p3s"), 8463, 60.0)
+
+
+def test_the_stepped_aside_run_is_seed_916_of_the_runner() -> None:
+    drawn = draw_two_way_run(random.Random(916))
+    assert (repr(drawn.floor), drawn.seed, drawn.interval) == (
+        repr(_STEPPED_ASIDE.floor),
+        _STEPPED_ASIDE.seed,
+        _STEPPED_ASIDE.interval,
+    )
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="a request that keeps stepping aside for younger ones on a busy single track "
+    'may wait past the stall limit (docs/traffic.md, "Limits")',
+)
+def test_a_request_that_keeps_stepping_aside_waits_less_than_the_stall_limit() -> None:
+    figures = run_two_way(_STEPPED_ASIDE).summary()
+    assert figures["collisions"] == figures["lock_overlaps"] == 0
+    assert figures["deadlocks"] == 0, f"the longest wait {figures['max_wait']} s"
