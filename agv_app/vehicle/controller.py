@@ -512,10 +512,17 @@ class AgvController:
         # Start exactly on the lead piece's end (its rounded length, not _LEAD_M): there
         # the vehicle still faces the old way, so its first lock is the hull it stands
         # in and the first request sweeps the turn.
-        self.vehicle.new_route(path, s=path.cumulative[1])
-        standing = self.book.claims()  # kept until the new route's first lock moves it
-        self._route_shift = path.cumulative[1]
-        self._plan = self._plan_for(route).shifted(self._route_shift)
+        self._follow(route, path, shift=path.cumulative[1], start_s=path.cumulative[1])
+
+    def _follow(self, route: Route, path: Polyline, *, shift: float, start_s: float) -> None:
+        """Drive ``route`` along ``path``, which has a lead piece of ``shift`` metres
+        before it, from ``start_s``: the first lock is the hull the vehicle stands in,
+        and the claims it holds are kept until that lock moves."""
+        standing = self.book.claims()
+        self.vehicle.new_route(path, s=start_s)
+        self._route = route
+        self._route_shift = shift
+        self._plan = self._plan_for(route).shifted(shift)
         self._key += 1
         self.book.set_locks(
             LockEntry(self._key, self.vehicle.s, self.vehicle.hull(), claims=standing)
@@ -768,22 +775,17 @@ class AgvController:
             self._no_drive_on_until = self.node.now() + self.config.drive_on_after
             return False
         ahead, onward = found
+        # The lead piece is the rest of the way to the route's next point: the vehicle
+        # starts at its beginning, where it stands.
         lead = vehicle.route.slice(vehicle.s, route.offsets[ahead] + self._route_shift)
         path = Polyline([*lead.coords, *onward.polyline.coords])
-        standing = self.book.claims()
-        vehicle.new_route(path, s=0.0)
-        self._plan = self._plan_for(onward).shifted(lead.length)
-        self._route = onward
-        self._route_shift = lead.length
+        self._follow(onward, path, shift=lead.length, start_s=0.0)
         self._dest = onward.end
         self._resume = dest
         self._stalled = False
         self._first_try = None
         self._advance = self.config.advance_m
         self._route_started_at = self.node.now()
-        self._key += 1
-        self.book.set_locks(LockEntry(self._key, vehicle.s, vehicle.hull(), claims=standing))
-        self._released_at_s = vehicle.s
         if self._on_last_resort is not None:
             self._on_last_resort("drive_on")
         return True

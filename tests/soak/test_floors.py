@@ -6,19 +6,24 @@ import dataclasses
 
 import pytest
 
-from tests.soak.floors import RULES, main, replay_command, run_floor_seed
+from tests.soak.floors import RULES, FloorResult, main, replay_command, run_floor_seed
 
 
-def test_a_seed_draws_a_crowded_floor_and_gets_work_done_safely() -> None:
-    result = run_floor_seed(0)
-    assert result.ok, result
-    assert result.tasks_done > 0
-    assert result.run.floor.agvs >= 3
-    assert run_floor_seed(0).tasks_done == result.tasks_done  # a seed replays exactly
+@pytest.fixture(scope="module")
+def seed_0() -> FloorResult:
+    """One-way seed 0, run once for the tests that read it."""
+    return run_floor_seed(0)
 
 
-def test_a_stall_or_a_violation_fails_the_seed() -> None:
-    ok = run_floor_seed(0)
+def test_a_seed_draws_a_crowded_floor_and_gets_work_done_safely(seed_0: FloorResult) -> None:
+    assert seed_0.ok, seed_0
+    assert seed_0.tasks_done > 0
+    assert seed_0.run.floor.agvs >= 3
+    assert run_floor_seed(0).tasks_done == seed_0.tasks_done  # a seed replays exactly
+
+
+def test_a_stall_or_a_violation_fails_the_seed(seed_0: FloorResult) -> None:
+    ok = seed_0
     assert not dataclasses.replace(ok, stalls=1).ok
     assert not dataclasses.replace(ok, violation="collision").ok
     assert not dataclasses.replace(ok, tasks_done=0).ok
