@@ -96,6 +96,8 @@ class FleetConfig:
         max_open_tasks: tasks on the floor at once, at most (handed to the stations and
             not yet done); the others wait at the desk, oldest first (None: no limit;
             :class:`~agv_app.tasks.desk.TaskDesk`).
+        one_at_a_time: a station calls one AGV at a time: it auctions its next task
+            once the last winner has reached it (:class:`~agv_app.tasks.station.Station`).
         deadlock_after: an AGV stalled this long counts as a deadlock.
         station_range: first auction range of the stations.
         dwell: seconds at a pick or drop station.
@@ -125,6 +127,7 @@ class FleetConfig:
     start_tasks: int | None = None
     task_until: float | None = None
     max_open_tasks: int | None = None
+    one_at_a_time: bool = True
     deadlock_after: float = STALL_LIMIT_S
     station_range: float = 30.0
     dwell: float = 5.0
@@ -226,6 +229,7 @@ class Fleet(FleetSourceBase):
                 tally=self.metrics_raw.tally,
                 on_created=self.free_flow.add,
                 max_open=cfg.max_open_tasks,
+                one_at_a_time=cfg.one_at_a_time,
             ),
         )
         self.agv_config = AgvConfig(t_update=cfg.t_update, dwell=cfg.dwell, broadcast=cfg.broadcast)

@@ -78,6 +78,7 @@ class TaskDesk:
             :class:`~agv_app.tasks.free_flow.FreeFlowBound`'s ``add``).
         max_open: tasks handed to the stations and not yet done, at most (None: no
             limit); the others wait at the desk, oldest first.
+        one_at_a_time: each station calls one AGV at a time (``Station``).
 
     Raises:
         ValueError: ``max_open`` is set and not a positive whole number.
@@ -94,6 +95,7 @@ class TaskDesk:
         history: int = DEFAULT_HISTORY,
         on_created: Callable[[TaskSpec, float], None] | None = None,
         max_open: int | None = None,
+        one_at_a_time: bool = True,
     ) -> None:
         if max_open is not None and (isinstance(max_open, bool) or max_open < 1):
             raise ValueError(f"max_open must be a whole number >= 1 or None, got {max_open!r}")
@@ -107,6 +109,7 @@ class TaskDesk:
         """The open stations, by station id."""
         self.on_created = on_created
         self.max_open = max_open
+        self.one_at_a_time = one_at_a_time
         self._drops = drop_stations(layout)
         self._open: set[str] = set()
         """Tasks handed to their stations and not yet done or cancelled."""
@@ -124,6 +127,7 @@ class TaskDesk:
             on_assigned=self._assigned,
             on_returned=self._returned,
             tally=self.tally,
+            one_at_a_time=self.one_at_a_time,
         )
         self.stations[station_id] = station
         return station

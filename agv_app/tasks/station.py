@@ -11,6 +11,13 @@ it. One heard again with another task (taken while it dwells at this task's drop
 station, before it reports this one done) gets another ``return_after``.
 Without a bid for ``widen_after`` seconds the auction restarts with twice the range,
 and finally with no range limit.
+
+A station calls one AGV at a time (``one_at_a_time``): it starts the auction of its
+next task only once every AGV it awarded a task has reached it (``reached_pick``, which
+an AGV publishes as it arrives at a pick station) or reported the task done. Two AGVs
+bound for one dock queue for it on the lanes in front of it, and at a dead-end dock
+the AGV that stands there leaves through the queue (docs/fleet.md, "A station calls
+one AGV at a time").
 """
 
 from __future__ import annotations
@@ -44,6 +51,8 @@ class Station:
             queue; a winner heard again by then with the task as its ``task`` keeps it,
             one with another task has one more ``return_after`` to report it done.
         tally: counts protocol messages.
+        one_at_a_time: auction the next task only once every winner reached the
+            station (or is done, or failed); False: one auction after the other.
     """
 
     def __init__(
@@ -59,8 +68,10 @@ class Station:
         on_returned: Callable[[TaskSpec, str], None] | None = None,
         return_after: float = 5.0,
         tally: MessageTally | None = None,
+        one_at_a_time: bool = True,
     ) -> None:
         self.node = node
+        self.one_at_a_time = one_at_a_time
         self.station_id = station_id
         self.position = position
         self.range_m = range_m
@@ -82,7 +93,7 @@ class Station:
         node.update_node_property("kind", STATION_KIND)
         node.update_node_property("position", position)
         node.register_node_departure_observer(self._departed)
-        node.register_node_property_observer(self._property, names=("last_done",))
+        node.register_node_property_observer(self._property, names=("last_done", "reached_pick"))
 
     @property
     def current(self) -> TaskSpec | None:
@@ -114,9 +125,22 @@ class Station:
             self._next()
         return True
 
+    @property
+    def approaching(self) -> tuple[str, ...]:
+        """The winners of this station's tasks that have not reached it yet (as this
+        node's view has them), in task order."""
+        view = self.node.view()
+        return tuple(
+            agv
+            for task_id, (_, agv) in sorted(self.assigned.items())
+            if view.get(agv, {}).get("reached_pick") != task_id
+        )
+
     def _next(self) -> None:
         if self._session is not None or not self.queue:
             return
+        if self.one_at_a_time and self.approaching:
+            return  # called again as the winner arrives (or is done, or fails)
         self._range = self.range_m
         self._start(self.queue[0])
 
@@ -151,10 +175,15 @@ class Station:
         self.node.call_later(0.0, self._next)
 
     def _property(self, node_id: str, name: str, value: Any) -> None:
-        if name == "last_done" and isinstance(value, str):
-            entry = self.assigned.get(value)
-            if entry is not None and entry[1] == node_id:
-                del self.assigned[value]
+        if not isinstance(value, str):
+            return
+        entry = self.assigned.get(value)
+        if entry is None or entry[1] != node_id:
+            return
+        if name == "last_done":
+            del self.assigned[value]
+        # Not from inside the view's update: the winner's other properties may follow.
+        self.node.call_later(0.0, self._next)
 
     def _departed(self, node_id: str, last: Mapping[str, Any]) -> None:
         done = last.get("last_done")

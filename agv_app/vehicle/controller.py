@@ -268,6 +268,7 @@ class AgvController:
         node.update_node_property("kind", AGV_KIND)
         node.update_node_property("task", None)
         node.update_node_property("last_done", self.last_done)
+        node.update_node_property("reached_pick", None)
         self.publish()
 
     def _blockers(self) -> frozenset[str]:
@@ -843,15 +844,22 @@ class AgvController:
             if self._dest is not None:
                 self.publish()
                 return
-        if self.phase == "to_pick":
-            self.phase = "at_pick"
-            self._dwell_until = now + self.config.dwell
-        elif self.phase == "to_drop":
-            self.phase = "at_drop"
-            self._dwell_until = now + self.config.dwell
+        if self.phase in ("to_pick", "to_drop"):
+            self._dwell(now)
         else:
             self.phase = "home"
         self.publish()
+
+    def _dwell(self, now: float) -> None:
+        """Stand at the station of the task's leg for ``dwell``; at the pick station, tell
+        the station the AGV is there (``reached_pick``: it calls the next AGV)."""
+        if self.phase == "to_pick":
+            self.phase = "at_pick"
+            if self.task is not None:
+                self.node.update_node_property("reached_pick", self.task.id)
+        else:
+            self.phase = "at_drop"
+        self._dwell_until = now + self.config.dwell
 
     def _idle(self, now: float) -> None:
         resting = self.phase == "home" and self.point == self.home
@@ -886,9 +894,7 @@ class AgvController:
         elif self.phase != "home" or self.point != self.home:
             self._go_home()
         if self._dest is None and self.phase in ("to_pick", "to_drop"):
-            # Already standing there.
-            self.phase = "at_pick" if self.phase == "to_pick" else "at_drop"
-            self._dwell_until = now + self.config.dwell
+            self._dwell(now)  # already standing there
         self.publish()
 
     def _departure_lead(self) -> float:

@@ -16,7 +16,8 @@ layouts with dead-end docks and crossings instead
 The safety monitor checks every step (a collision or a lock overlap ends the seed);
 at the end no AGV may have stalled past the stall limit and a task must be done.
 ``--off RULE`` runs the fleet without a traffic rule (``clear_merges``,
-``keep_way_out``, ``drive_on_after``), to show what the rule is for. Every failing
+``keep_way_out``, ``drive_on_after``) or with stations that call every winner at once
+(``one_at_a_time``), to show what the rule is for. Every failing
 seed is printed with its replay command; the exit status is 1 when any seed failed.
 """
 
@@ -37,10 +38,21 @@ from tests.agv_app.two_way_floors import TwoWayRun, draw_two_way_run, run_two_wa
 from tests.agv_app.vehicles import vehicle_with
 from tests.soak.runner import parse_seeds, seed_progress
 
-__all__ = ["KINDS", "RULES", "FloorResult", "main", "replay_command", "run_floor_seed"]
+__all__ = [
+    "FLEET_RULES",
+    "KINDS",
+    "RULES",
+    "FloorResult",
+    "main",
+    "replay_command",
+    "run_floor_seed",
+]
 
 RULES: dict[str, Any] = {"clear_merges": False, "keep_way_out": False, "drive_on_after": None}
 """The traffic rules ``--off`` can switch off, and the ``AgvConfig`` value that does."""
+
+FLEET_RULES: dict[str, Any] = {"one_at_a_time": False}
+"""The fleet's rules ``--off`` can switch off, and the ``FleetConfig`` value that does."""
 
 KINDS: dict[str, tuple[Callable[[random.Random], Any], Callable[..., Fleet]]] = {
     "one-way": (draw_floor_run, run_floor),
@@ -99,7 +111,9 @@ def run_floor_seed(seed: int, off: Sequence[str] = (), kind: str = "one-way") ->
     draw, drive = KINDS[kind]
     run = draw(random.Random(seed))
     started = time.perf_counter()
-    options = {"vehicle": vehicle_with(**{rule: RULES[rule] for rule in off})} if off else {}
+    vehicle = {rule: RULES[rule] for rule in off if rule in RULES}
+    options: dict[str, Any] = {"vehicle": vehicle_with(**vehicle)} if vehicle else {}
+    options.update({rule: FLEET_RULES[rule] for rule in off if rule in FLEET_RULES})
     try:
         fleet = drive(run, **options)
     except SafetyError as violation:
@@ -186,8 +200,8 @@ def main(argv: list[str] | None = None) -> int:
         "--off",
         action="append",
         default=[],
-        choices=sorted(RULES),
-        help="run without this traffic rule (may be given more than once)",
+        choices=sorted(RULES.keys() | FLEET_RULES.keys()),
+        help="run without this rule (may be given more than once)",
     )
     args = parser.parse_args(argv)
     off = tuple(dict.fromkeys(args.off))

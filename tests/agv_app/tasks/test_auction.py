@@ -11,11 +11,16 @@ from objectplaces.sim import SimulatedNetwork
 
 
 class Agent:
-    """A fake AGV: bids a fixed cost while idle; publishes what the fleet's AGV does."""
+    """A fake AGV: bids a fixed cost while idle; publishes what the fleet's AGV does.
 
-    def __init__(self, node: RoleActivator, x: float, cost: float) -> None:
+    With ``arrives`` it reaches the pick station as it takes a task (``reached_pick``);
+    without, only when told (:meth:`arrive`).
+    """
+
+    def __init__(self, node: RoleActivator, x: float, cost: float, *, arrives: bool = True) -> None:
         self.node = node
         self.cost = cost
+        self.arrives = arrives
         self.taken: list[TaskSpec] = []
         node.update_node_property("kind", "agv")
         node.update_node_property("status", "idle")
@@ -29,13 +34,20 @@ class Agent:
         self.taken.append(task)
         self.node.update_node_property("status", "busy")
         self.node.update_node_property("task", task.id)
+        if self.arrives:
+            self.arrive()
+
+    def arrive(self) -> None:
+        self.node.update_node_property("reached_pick", self.taken[-1].id)
 
     def finish(self) -> None:
         self.node.update_node_property("last_done", self.taken[-1].id)
         self.node.update_node_property("status", "idle")
 
 
-def setup(seed: int = 1, **kw: Any) -> tuple[SimulatedNetwork, Station, list[TaskSpec]]:
+def setup(
+    seed: int = 1, *, one_at_a_time: bool = True, **kw: Any
+) -> tuple[SimulatedNetwork, Station, list[TaskSpec]]:
     net = SimulatedNetwork(seed=seed, property_interval=0.5, **kw)
     awarded: list[TaskSpec] = []
     station = Station(
@@ -44,6 +56,7 @@ def setup(seed: int = 1, **kw: Any) -> tuple[SimulatedNetwork, Station, list[Tas
         (0.0, 0.0),
         range_m=20.0,
         on_assigned=lambda t, a: awarded.append(t),
+        one_at_a_time=one_at_a_time,
     )
     return net, station, awarded
 
@@ -196,3 +209,55 @@ def test_a_winner_heard_again_with_another_task_that_never_reports_this_one_retu
     net.run_for(5.0)
     assert station.returned == 1
     assert [t.id for t in station.queue] == ["t1"]
+
+
+def _two_tasks_for_two_slow_agvs(
+    one_at_a_time: bool,
+) -> tuple[SimulatedNetwork, Station, Agent, Agent]:
+    net, station, _ = setup(one_at_a_time=one_at_a_time)
+    near = Agent(net.add_node("near"), 1.0, 1.0, arrives=False)
+    far = Agent(net.add_node("far"), 9.0, 9.0, arrives=False)
+    net.run_for(0.5)
+    station.add_task(TaskSpec("t1", "st", "x"))
+    station.add_task(TaskSpec("t2", "st", "x"))
+    net.run_for(10.0)
+    return net, station, near, far
+
+
+def test_a_station_calls_the_next_agv_once_the_last_one_reached_it() -> None:
+    net, station, near, far = _two_tasks_for_two_slow_agvs(one_at_a_time=True)
+    assert [t.id for t in near.taken] == ["t1"]
+    assert far.taken == []
+    assert station.approaching == ("near",)
+    near.arrive()
+    net.run_for(5.0)
+    assert [t.id for t in far.taken] == ["t2"]
+    assert station.approaching == ("far",)
+    far.arrive()
+    net.run_for(1.0)
+    assert not station.approaching
+
+
+def test_a_station_not_one_at_a_time_sends_both_at_once() -> None:
+    _, station, near, far = _two_tasks_for_two_slow_agvs(one_at_a_time=False)
+    assert [t.id for t in near.taken + far.taken] == ["t1", "t2"]
+    assert station.approaching == ("near", "far")
+
+
+def test_a_winner_done_without_saying_it_arrived_lets_the_next_one_come() -> None:
+    net, _, near, far = _two_tasks_for_two_slow_agvs(one_at_a_time=True)
+    near.finish()
+    net.run_for(5.0)
+    assert [t.id for t in far.taken] == ["t2"]
+
+
+def test_a_winner_that_fails_on_its_way_does_not_hold_the_station_up() -> None:
+    net, station, _, far = _two_tasks_for_two_slow_agvs(one_at_a_time=True)
+    net.remove_node("near")
+    net.run_for(12.0)  # failure timeout, return_after; t1 goes back first in line
+    assert station.returned == 1
+    assert [t.id for t in far.taken] == ["t1"]
+    far.arrive()
+    late = Agent(net.add_node("late"), 3.0, 3.0)
+    net.run_for(5.0)
+    assert [t.id for t in late.taken] == ["t2"]

@@ -102,7 +102,9 @@ def test_a_floor_without_boxes_no_longer_locks_at_its_merges(seed: int) -> None:
     behind it on the lane pulled up into the room its turn needs, and each waited for
     the other (the whole fleet behind them stood, 9 and 12 of 12 AGVs over 180 s)."""
     layout = generated_warehouse(12)
-    config = FleetConfig(agvs=12, seed=seed, load=0.9, fail_on_violation=True)
+    # As found: stations calling every winner at once, the queues at the docks the hard
+    # case the rule must hold in.
+    config = FleetConfig(agvs=12, seed=seed, load=0.9, one_at_a_time=False, fail_on_violation=True)
     locked = Fleet(layout, config, vehicle=vehicle_with(clear_merges=False))
     locked.run(400.0)
     assert locked.summary()["deadlocks"] > 0
