@@ -479,12 +479,14 @@ class AgvController:
         if task is None or self.phase != "to_home" or self._resume is not None:
             return
         turn = self._turn_point(self.layout.station(task.pick).point)
-        if turn is None or self._plan is None:
+        if turn is None or self._plan is None or self._route is None:
             return
         point, s, _ = turn
         self.vehicle.shorten_route(s)
         self._plan = self._plan.cut(s)
-        self._route = None
+        # The route ends there too: driving on (``_drive_on``) sets out from its points.
+        points = self._route.points
+        self._route = self.layout.route_through(points[: points.index(point) + 1])
         self._dest = point
 
     # -- driving ------------------------------------------------------------------------

@@ -59,3 +59,20 @@ def test_an_agv_awarded_a_task_on_its_way_home_turns_off_at_the_first_good_point
     assert turned, "it never stopped to turn off"
     assert turned[0].startswith("N")  # on the N lane, past aisle A5
     assert turned[0] != "N0800n"
+
+
+def test_a_way_home_cut_short_for_a_task_is_a_route_to_the_turn_point() -> None:
+    """The plan, the vehicle's path and the route all end at the turn point, so an AGV
+    held up there may drive on from the route's points (``_drive_on`` read a route
+    that had been dropped, and failed, on 50 AGVs at saturation)."""
+    fleet, agv = one_agv()
+    fleet.create_task("pick-A1-1", "drop-A5-3")
+    run_until(fleet, lambda: agv.phase == "to_home")
+    fleet.step()
+    fleet.create_task("pick-A6-1", "drop-A6-3")
+    run_until(fleet, lambda: agv.pending_task is not None)
+    route, plan = agv._route, agv._plan
+    assert route is not None
+    assert plan is not None
+    assert route.end == agv._dest != "N0800n"
+    assert route.length + agv._route_shift == plan.length == agv.vehicle.route.length
