@@ -178,6 +178,9 @@ class TaskDesk:
         finished = self.book.finish(task_id, now=now)
         if finished:
             self._open.discard(task_id)
+            # Done before it left the desk (its book record was assigned directly):
+            # it no longer waits.
+            self._waiting = deque(t for t in self._waiting if t.id != task_id)
             self._hand_out()
         return finished
 

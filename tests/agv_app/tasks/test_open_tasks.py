@@ -7,7 +7,7 @@ import random
 from collections.abc import Callable
 
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from agv_app.fleet import Fleet, FleetConfig
@@ -101,6 +101,8 @@ _STATIONS = ("dock-in-1", "dock-in-2", "pick-A1-1")
         max_size=40,
     ),
 )
+# A task finished while it still waited at the desk stayed in its queue.
+@example(limit=1, ops=[("create", 0), ("create", 0), ("finish", 1)])
 def test_the_limit_holds_and_tasks_go_out_in_creation_order(
     limit: int, ops: list[tuple[str, int]]
 ) -> None:
