@@ -97,7 +97,8 @@ class FleetConfig:
             not yet done); the others wait at the desk, oldest first (None: no limit;
             :class:`~agv_app.tasks.desk.TaskDesk`).
         one_at_a_time: a station calls one AGV at a time: it auctions its next task
-            once the last winner has reached it (:class:`~agv_app.tasks.station.Station`).
+            once the last winner has reached it and no AGV is bound to drop there
+            (:class:`~agv_app.tasks.station.Station`).
         deadlock_after: an AGV stalled this long counts as a deadlock.
         station_range: first auction range of the stations.
         dwell: seconds at a pick or drop station.

@@ -14,10 +14,11 @@ and finally with no range limit.
 
 A station calls one AGV at a time (``one_at_a_time``): it starts the auction of its
 next task only once every AGV it awarded a task has reached it (``reached_pick``, which
-an AGV publishes as it arrives at a pick station) or reported the task done. Two AGVs
-bound for one dock queue for it on the lanes in front of it, and at a dead-end dock
-the AGV that stands there leaves through the queue (docs/fleet.md, "A station calls
-one AGV at a time").
+an AGV publishes as it arrives at a pick station) or reported the task done, and no
+AGV is on its way to drop a load here (``dropping_at``, the drop station an AGV
+publishes as it picks up, cleared as it arrives). Two AGVs bound for one dock queue
+for it on the lanes in front of it, and at a dead-end dock the AGV that stands there
+leaves through the queue (docs/fleet.md, "A station calls one AGV at a time").
 """
 
 from __future__ import annotations
@@ -52,7 +53,8 @@ class Station:
             one with another task has one more ``return_after`` to report it done.
         tally: counts protocol messages.
         one_at_a_time: auction the next task only once every winner reached the
-            station (or is done, or failed); False: one auction after the other.
+            station (or is done, or failed) and no AGV is bound to drop here; False:
+            one auction after the other.
     """
 
     def __init__(
@@ -93,7 +95,9 @@ class Station:
         node.update_node_property("kind", STATION_KIND)
         node.update_node_property("position", position)
         node.register_node_departure_observer(self._departed)
-        node.register_node_property_observer(self._property, names=("last_done", "reached_pick"))
+        node.register_node_property_observer(
+            self._property, names=("last_done", "reached_pick", "dropping_at")
+        )
 
     @property
     def current(self) -> TaskSpec | None:
@@ -127,13 +131,18 @@ class Station:
 
     @property
     def approaching(self) -> tuple[str, ...]:
-        """The winners of this station's tasks that have not reached it yet (as this
-        node's view has them), in task order."""
+        """The AGVs on their way here, as this node's view has them: the winners of
+        this station's tasks that have not reached it yet, in task order, then the
+        AGVs bound to drop here."""
         view = self.node.view()
-        return tuple(
+        winners = tuple(
             agv
             for task_id, (_, agv) in sorted(self.assigned.items())
             if view.get(agv, {}).get("reached_pick") != task_id
+        )
+        me = self.station_id
+        return winners + tuple(
+            sorted(n for n, props in view.items() if props.get("dropping_at") == me)
         )
 
     def _next(self) -> None:
@@ -175,6 +184,9 @@ class Station:
         self.node.call_later(0.0, self._next)
 
     def _property(self, node_id: str, name: str, value: Any) -> None:
+        if name == "dropping_at":
+            self.node.call_later(0.0, self._next)
+            return
         if not isinstance(value, str):
             return
         entry = self.assigned.get(value)

@@ -269,6 +269,7 @@ class AgvController:
         node.update_node_property("task", None)
         node.update_node_property("last_done", self.last_done)
         node.update_node_property("reached_pick", None)
+        node.update_node_property("dropping_at", None)
         self.publish()
 
     def _blockers(self) -> frozenset[str]:
@@ -853,14 +854,18 @@ class AgvController:
         self.publish()
 
     def _dwell(self, now: float) -> None:
-        """Stand at the station of the task's leg for ``dwell``; at the pick station, tell
-        the station the AGV is there (``reached_pick``: it calls the next AGV)."""
+        """Stand at the station of the task's leg for ``dwell``. The stations hear where
+        the AGV is bound (a station calls its next AGV when none is on its way to it):
+        at the pick station ``reached_pick`` and the drop station (``dropping_at``),
+        at the drop station that it is there."""
         if self.phase == "to_pick":
             self.phase = "at_pick"
             if self.task is not None:
                 self.node.update_node_property("reached_pick", self.task.id)
+                self.node.update_node_property("dropping_at", self.task.drop)
         else:
             self.phase = "at_drop"
+            self.node.update_node_property("dropping_at", None)
         self._dwell_until = now + self.config.dwell
 
     def _idle(self, now: float) -> None:

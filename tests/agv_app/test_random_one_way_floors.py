@@ -159,3 +159,24 @@ def test_an_agv_held_up_before_its_dock_drives_on_and_the_queue_behind_it_clears
         assert (after.x, after.y) == pytest.approx((before.x, before.y)), agv
         assert place in parking, agv
         assert back == left, agv
+
+
+# The same floor locks with the default stations (each calls one AGV at a time and
+# counts the AGVs bound to drop there), in a circle of two locks. An AGV bound for a
+# dock off an aisle waits at the head of the aisle, just past its turn off the
+# west-bound lane, the back of its hull 0.25 m into the lane, and the AGV behind it on
+# the lane waits for that lock. After 60 s the first drives on, and its way on runs
+# down the aisle and round the block, back west along the lane through the second's
+# place: each waits on the other's lock, and neither steps aside (docs/traffic.md,
+# "Limits": "Resting just past a turn off a lane").
+@pytest.mark.slow
+@pytest.mark.timeout(300)
+@pytest.mark.xfail(
+    strict=True,
+    reason="an AGV may rest with its back in the lane it turned off, and a request "
+    'round the block waits on the lane behind it (docs/traffic.md, "Limits")',
+)
+def test_the_queued_floor_does_not_lock_with_the_default_stations() -> None:
+    figures = run_floor(_QUEUED).summary()
+    assert figures["collisions"] == figures["lock_overlaps"] == 0
+    assert figures["deadlocks"] == 0, f"the longest wait {figures['max_wait']} s"

@@ -261,3 +261,19 @@ def test_a_winner_that_fails_on_its_way_does_not_hold_the_station_up() -> None:
     late = Agent(net.add_node("late"), 3.0, 3.0)
     net.run_for(5.0)
     assert [t.id for t in late.taken] == ["t2"]
+
+
+def test_a_station_waits_for_an_agv_bound_to_drop_there() -> None:
+    net, station, _ = setup()
+    carrier = net.add_node("carrier")  # carries another station's task here
+    carrier.update_node_property("kind", "agv")
+    carrier.update_node_property("dropping_at", "st")
+    idle = Agent(net.add_node("idle"), 1.0, 1.0)
+    net.run_for(0.5)
+    station.add_task(TaskSpec("t1", "st", "x"))
+    net.run_for(5.0)
+    assert idle.taken == []
+    assert station.approaching == ("carrier",)
+    carrier.update_node_property("dropping_at", None)
+    net.run_for(5.0)
+    assert [t.id for t in idle.taken] == ["t1"]
