@@ -41,12 +41,19 @@ ROOT = Path(__file__).resolve().parent.parent
 GOALS = {100: 10.0, 200: 3.0}
 """Simulated seconds per CPU second asked for (issue 11), by fleet size."""
 
+EVERY_WINNER = "demo, every winner called at once (beat 1 s)"
+"""The rows the goals are judged on: stations call every winner at once, as before they
+called one AGV at a time, so every AGV the load asks for is on the floor; the default
+fleet keeps most of a large fleet at home on this floor (docs/sim-speed.md)."""
+
 _MEASURE = """
 import json, sys, time
 from agv_app.fleet import Fleet, FleetConfig
 from agv_app.layout import load_any
 agvs, seconds, layout_path, options = json.loads(sys.argv[1])
 layout = load_any(layout_path) if layout_path else None
+# A tree that predates an option runs the way the option's other value describes.
+options = {k: v for k, v in options.items() if k in FleetConfig.__dataclass_fields__}
 fleet = Fleet(layout, FleetConfig(agvs=agvs, seed=1, **options))
 started = time.process_time()
 fleet.run(seconds)
@@ -104,9 +111,12 @@ def _jobs(
 ) -> list[tuple[str, int, float, str | None, dict[str, Any]]]:
     """``(label, agvs, seconds, layout file, options)`` of every run, in order."""
     jobs: list[tuple[str, int, float, str | None, dict[str, Any]]] = []
-    for heartbeat in (None, 10.0):
-        options = {} if heartbeat is None else {"heartbeat": heartbeat}
-        label = "demo, defaults (beat 1 s)" if heartbeat is None else "demo, heartbeat 10 s"
+    configs: list[tuple[str, dict[str, Any]]] = [
+        ("demo, defaults (beat 1 s)", {}),
+        ("demo, heartbeat 10 s", {"heartbeat": 10.0}),
+        (EVERY_WINNER, {"one_at_a_time": False}),
+    ]
+    for label, options in configs:
         for agvs, secs in zip(sizes, seconds, strict=True):
             jobs.append((label, agvs, secs, None, options))
     if large:
@@ -150,7 +160,7 @@ def main(argv: list[str] | None = None) -> None:
             layout = str(Path(tmp) / f"generated-{args.large}.json")
             save_layout(generated_warehouse(args.large), layout)
         rows: list[list[object]] = []
-        met: dict[int, tuple[float, float]] = {}
+        met: dict[int, list[tuple[str, float]]] = {}
         for label, agvs, secs, path, options in _jobs(
             sizes, seconds, args.large, args.large_seconds, layout
         ):
@@ -163,24 +173,27 @@ def main(argv: list[str] | None = None) -> None:
                 old = _speed(secs, before["cpu"])
                 same = "yes" if before["summary"] == s else "no"
                 row += [old, round(speed / old, 2), same]
-            row += [s["messages"], s["collisions"], s["lock_overlaps"]]
+            row += [
+                round(1.0 - s["idle_share"], 2),
+                s["messages"],
+                s["collisions"],
+                s["lock_overlaps"],
+            ]
             rows.append(row)
             print(row, file=sys.stderr, flush=True)
             if agvs in GOALS:
-                best = max(met.get(agvs, (0.0, 0.0))[0], speed)
-                met[agvs] = (best, GOALS[agvs])
+                met.setdefault(agvs, []).append((label, speed))
     header = ["fleet", "AGVs", "sim s", "sim s per CPU s"]
     if args.against is not None:
         header += ["before", "now / before", "same metrics"]
-    header += ["frames sent", "collisions", "lock overlaps"]
-    goal_rows = [
-        [
-            f"{agvs} AGVs >= {goal:g}x real time",
-            f"{best:g}x (best configuration)",
-            "yes" if best >= goal else "no",
-        ]
-        for agvs, (best, goal) in sorted(met.items())
-    ]
+    header += ["busy share", "frames sent", "collisions", "lock overlaps"]
+    goal_rows = []
+    for agvs, speeds in sorted(met.items()):
+        goal = GOALS[agvs]
+        judged = [speed for label, speed in speeds if label == EVERY_WINNER]
+        measured = "; ".join(f"{label}: {speed:g}x" for label, speed in speeds)
+        verdict = "yes" if judged and min(judged) >= goal else "no"
+        goal_rows.append([f"{agvs} AGVs >= {goal:g}x real time", measured, verdict])
     command = ".venv/bin/python -m bench.sim_speed " + " ".join(
         argv if argv is not None else sys.argv[1:]
     )
@@ -193,7 +206,10 @@ def main(argv: list[str] | None = None) -> None:
         "(a few bytes), every property is republished every 60 s; heartbeat 10 s: beats "
         "every 10 s. Before: the tree given with --against, run side by side; same "
         "metrics: whether both trees gave the same figures (a pure speedup must; a change "
-        "of what the fleet sends must not).\n\n"
+        "of what the fleet sends must not). Busy share: the AGVs' time with a task. The "
+        "goals are judged on the rows with every winner called at once: the default "
+        "stations call one AGV at a time and keep most of a large fleet at home on this "
+        "floor, which simulates faster by doing less.\n\n"
         + markdown_table(header, rows)
         + "\n\n"
         + markdown_table(["goal", "measured", "met"], goal_rows)
