@@ -203,6 +203,8 @@ class Station:
             del self.assigned[done]
         if any(agv == node_id for _, agv in self.assigned.values()):
             self.node.call_later(self.return_after, lambda: self._return_if_gone(node_id))
+        # It is on its way here no more (a winner done, or one bound to drop here).
+        self.node.call_later(0.0, self._next)
 
     def _return_if_gone(self, node_id: str, *, patient: bool = True) -> None:
         """Put back the tasks of ``node_id`` unless it is heard again carrying them.

@@ -277,3 +277,19 @@ def test_a_station_waits_for_an_agv_bound_to_drop_there() -> None:
     carrier.update_node_property("dropping_at", None)
     net.run_for(5.0)
     assert [t.id for t in idle.taken] == ["t1"]
+
+
+def test_an_agv_bound_to_drop_there_that_fails_does_not_hold_the_station_up() -> None:
+    net, station, _ = setup()
+    carrier = net.add_node("carrier")
+    carrier.update_node_property("kind", "agv")
+    carrier.update_node_property("dropping_at", "st")
+    idle = Agent(net.add_node("idle"), 1.0, 1.0)
+    net.run_for(0.5)
+    station.add_task(TaskSpec("t1", "st", "x"))
+    net.run_for(2.0)
+    assert idle.taken == []
+    net.remove_node("carrier")
+    net.run_for(5.0)  # failure timeout 1.5 s: gone from the view, and from the way here
+    assert not station.approaching
+    assert [t.id for t in idle.taken] == ["t1"]
