@@ -263,15 +263,24 @@ def test_a_winner_that_fails_on_its_way_does_not_hold_the_station_up() -> None:
     assert [t.id for t in late.taken] == ["t2"]
 
 
-def test_a_station_waits_for_an_agv_bound_to_drop_there() -> None:
+def _a_task_and_a_carrier_bound_here(
+    held_for: float,
+) -> tuple[SimulatedNetwork, Station, RoleActivator, Agent]:
+    """A station with a task, an idle AGV, and an AGV carrying another station's task
+    here (``dropping_at``); run for ``held_for`` seconds after the task appears."""
     net, station, _ = setup()
-    carrier = net.add_node("carrier")  # carries another station's task here
+    carrier = net.add_node("carrier")
     carrier.update_node_property("kind", "agv")
     carrier.update_node_property("dropping_at", "st")
     idle = Agent(net.add_node("idle"), 1.0, 1.0)
     net.run_for(0.5)
     station.add_task(TaskSpec("t1", "st", "x"))
-    net.run_for(5.0)
+    net.run_for(held_for)
+    return net, station, carrier, idle
+
+
+def test_a_station_waits_for_an_agv_bound_to_drop_there() -> None:
+    net, station, carrier, idle = _a_task_and_a_carrier_bound_here(5.0)
     assert idle.taken == []
     assert station.approaching == ("carrier",)
     carrier.update_node_property("dropping_at", None)
@@ -280,14 +289,7 @@ def test_a_station_waits_for_an_agv_bound_to_drop_there() -> None:
 
 
 def test_an_agv_bound_to_drop_there_that_fails_does_not_hold_the_station_up() -> None:
-    net, station, _ = setup()
-    carrier = net.add_node("carrier")
-    carrier.update_node_property("kind", "agv")
-    carrier.update_node_property("dropping_at", "st")
-    idle = Agent(net.add_node("idle"), 1.0, 1.0)
-    net.run_for(0.5)
-    station.add_task(TaskSpec("t1", "st", "x"))
-    net.run_for(2.0)
+    net, station, _, idle = _a_task_and_a_carrier_bound_here(2.0)
     assert idle.taken == []
     net.remove_node("carrier")
     net.run_for(5.0)  # failure timeout 1.5 s: gone from the view, and from the way here
