@@ -58,6 +58,7 @@ __all__ = [
     "clearance_for",
     "followable_segments",
     "merge_branches",
+    "turn_offs",
     "way_out",
 ]
 
@@ -169,6 +170,41 @@ def merge_branches(layout: Layout) -> frozenset[str]:
 
 
 @functools.lru_cache(maxsize=4)
+def turn_offs(layout: Layout) -> frozenset[tuple[str, str]]:
+    """The turns off a one-way lane: pairs ``(lane segment, segment turned into)``
+    where the lane goes on straight past the junction and the other segment leaves it
+    at a wider angle than a branch meets its way on.
+
+    An AGV at rest just after such a turn still has the back of its hull in the lane;
+    the next AGV along the lane waits for it, and if the first one's way on comes
+    round to that place, each waits for the other for ever (docs/traffic.md,
+    "Resting just past a turn off a lane"). Its route gets a no-rest zone from the
+    junction to the clearance beyond it (:meth:`StopPlan.for_route`), as a merge
+    gets one before it. A two-way lane needs none: its zone reaches the clearance
+    beyond its end already.
+    """
+    pairs: set[tuple[str, str]] = set()
+    for lane in layout.segments.values():
+        if lane.bidirectional:
+            continue
+        arrive = _heading(layout.segment_coords(lane.id), at_end=True)
+        straight: list[str] = []
+        turning: list[str] = []
+        for target in layout.successors(lane.end):
+            out = layout.segment_between(lane.end, target)
+            if out is None or out == lane.id:
+                continue
+            coords = layout.segment_coords(out)
+            if layout.segment(out).end == lane.end:
+                coords = coords[::-1]
+            bend = abs(math.remainder(_heading(coords, at_end=False) - arrive, math.tau))
+            (turning if bend > _TURN_RAD else straight).append(out)
+        if straight:
+            pairs.update((lane.id, out) for out in turning)
+    return frozenset(pairs)
+
+
+@functools.lru_cache(maxsize=4)
 def _ways_out(layout: Layout) -> dict[str, frozenset[str]]:
     """The ways out found so far on ``layout``, by point (filled by :func:`way_out`)."""
     return {}
@@ -269,6 +305,7 @@ class StopPlan:
         followable: frozenset[str] = frozenset(),
         merges: frozenset[str] = frozenset(),
         merge_box_m: float = 0.0,
+        turns: frozenset[tuple[str, str]] = frozenset(),
         way_out_reach_m: float | None = None,
     ) -> StopPlan:
         """Compute the no-rest zones of ``route`` on ``layout`` and the direction claims
@@ -276,7 +313,9 @@ class StopPlan:
 
         A segment of the route in ``merges`` (:func:`merge_branches`) ends in a zone as
         a keep-clear box of ``merge_box_m`` would: from ``merge_box_m`` plus the
-        clearance before its junction to the clearance beyond it.
+        clearance before its junction to the clearance beyond it. A turn of the route
+        in ``turns`` (:func:`turn_offs`) starts one: from its junction to the clearance
+        beyond it.
 
         With ``way_out_reach_m`` (how far a request reaches), a segment of the
         destination's :func:`way_out` is a zone too, widened by the clearance at both
@@ -292,6 +331,8 @@ class StopPlan:
         spans: list[tuple[str, float, float]] = []
         for i, seg_id in enumerate(route.segments):
             segment = layout.segment(seg_id)
+            if i and (route.segments[i - 1], seg_id) in turns:
+                raw.append((route.offsets[i], route.offsets[i] + clearance_m, []))
             if seg_id in merges:
                 junction = route.offsets[i + 1]
                 raw.append((junction - merge_box_m - clearance_m, junction + clearance_m, []))

@@ -44,6 +44,7 @@ from agv_app.traffic.deadlock import (
     clearance_for,
     followable_segments,
     merge_branches,
+    turn_offs,
 )
 from agv_app.traffic.lockbook import LockBook, LockEntry, RequestEntry, StaleRecord
 from agv_app.vehicle.kinematics import Vehicle, VehicleSpec
@@ -97,6 +98,10 @@ class AgvConfig:
             enters a crossing, as if it ended in a keep-clear box
             (:func:`~agv_app.traffic.deadlock.merge_branches`; docs/traffic.md,
             "Merges").
+        clear_turn_offs: never rest just past a turn off a one-way lane, with the
+            back of the hull still in the lane
+            (:func:`~agv_app.traffic.deadlock.turn_offs`; docs/traffic.md, "Resting
+            just past a turn off a lane").
         keep_way_out: never rest on the way out of the route's destination
             (:func:`~agv_app.traffic.deadlock.way_out`) where a request would reach
             the destination from there: the AGV standing there leaves by it
@@ -119,6 +124,7 @@ class AgvConfig:
     queue_patience: float | None = 30.0
     direction_claims: bool = True
     clear_merges: bool = True
+    clear_turn_offs: bool = True
     keep_way_out: bool = True
     drive_on_after: float | None = 60.0
 
@@ -180,6 +186,7 @@ class AgvController:
             followable_segments(layout) if self.config.direction_claims else frozenset()
         )
         self._merges = merge_branches(layout) if self.config.clear_merges else frozenset()
+        self._turns = turn_offs(layout) if self.config.clear_turn_offs else frozenset()
         # The hull clear of the lane a branch joins: half its length plus half a width.
         self._merge_box_m = (spec.length_m + spec.width_m) / 2
         self.point = home if start is None else start
@@ -542,6 +549,7 @@ class AgvController:
             followable=self._followable,
             merges=self._merges,
             merge_box_m=self._merge_box_m,
+            turns=self._turns,
             way_out_reach_m=self.config.advance_m if self.config.keep_way_out else None,
         )
 

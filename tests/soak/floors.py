@@ -16,8 +16,8 @@ layouts with dead-end docks and crossings instead
 The safety monitor checks every step (a collision or a lock overlap ends the seed);
 at the end no AGV may have stalled past the stall limit and a task must be done.
 ``--off RULE`` runs the fleet without a traffic rule (``clear_merges``,
-``keep_way_out``, ``drive_on_after``) or with stations that call every winner at once
-(``one_at_a_time``), to show what the rule is for. Every failing
+``clear_turn_offs``, ``keep_way_out``, ``drive_on_after``) or with stations that call
+every winner at once (``one_at_a_time``), to show what the rule is for. Every failing
 seed is printed with its replay command; the exit status is 1 when any seed failed.
 """
 
@@ -48,7 +48,12 @@ __all__ = [
     "run_floor_seed",
 ]
 
-RULES: dict[str, Any] = {"clear_merges": False, "keep_way_out": False, "drive_on_after": None}
+RULES: dict[str, Any] = {
+    "clear_merges": False,
+    "clear_turn_offs": False,
+    "keep_way_out": False,
+    "drive_on_after": None,
+}
 """The traffic rules ``--off`` can switch off, and the ``AgvConfig`` value that does."""
 
 FLEET_RULES: dict[str, Any] = {"one_at_a_time": False}

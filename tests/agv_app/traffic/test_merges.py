@@ -95,12 +95,15 @@ def test_the_branch_ends_in_a_zone_like_a_box() -> None:
 
 # Each run is 400 simulated seconds of 12 AGVs (a few seconds of CPU).
 @pytest.mark.slow
-@pytest.mark.parametrize("seed", [1, 2])
+@pytest.mark.parametrize("seed", [5, 7])
 def test_a_floor_without_boxes_no_longer_locks_at_its_merges(seed: int) -> None:
     """The generated warehouse has no keep-clear boxes. Before, an AGV came to rest
     where an aisle turns into the M lane, its hull still facing down the aisle; the AGV
     behind it on the lane pulled up into the room its turn needs, and each waited for
-    the other (the whole fleet behind them stood, 9 and 12 of 12 AGVs over 180 s)."""
+    the other (the whole fleet behind them stood). Without the merge rule seeds 1, 2,
+    5, 6, 7 and 10 of 1-10 lock; with the turn-off rule alone (no AGV rests just past
+    a turn off a lane, ``test_turn_offs.py``) seeds 5 and 7 still do (10 and 12 of 12
+    AGVs over 180 s)."""
     layout = generated_warehouse(12)
     # As found: stations calling every winner at once, the queues at the docks the hard
     # case the rule must hold in.
