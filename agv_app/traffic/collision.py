@@ -34,7 +34,8 @@ Fairness and the wait for locks (docs/traffic.md, "Why no cycle of waits can for
   up with a lock inherits its priority (``("blocking", ...)``: the AGV's next request
   ranks just above it), and the waiting AGV *steps aside* for that lock's owner only:
   its voter allows the owner's request, withdraws its own and asks again at once,
-  ranked below the owner's.
+  ranked below the owner's (at most once per ``recheck``: the node's ``blockers``
+  name nobody meanwhile, and the voter defers for priority until its next recheck).
 * A request held up by an *older request* for ``queue_patience`` withdraws and retries
   (same age): the last resort that lets a younger AGV whose allow ranks another AGV's
   request above its own be overtaken.

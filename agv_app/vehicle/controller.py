@@ -214,6 +214,7 @@ class AgvController:
         self._first_try: tuple[float, float] | None = None
         self._route_started_at = 0.0
         self._asking_again = False
+        self._aside_at = -math.inf
         self._advance = self.config.advance_m
         """How far the next request reaches beyond the locks (shorter while held up)."""
         self._resume: str | None = None
@@ -265,7 +266,7 @@ class AgvController:
                 view=self.node.view,
                 recheck=self.config.t_update / 2,
                 blockers=self._blockers,
-                step_aside=self._ask_again,
+                step_aside=self._step_aside,
                 tally=self.tally,
             ),
         )
@@ -280,8 +281,20 @@ class AgvController:
         self.publish()
 
     def _blockers(self) -> frozenset[str]:
+        """The nodes whose locks hold up our pending request, that a voter of ours steps
+        aside for; none for ``t_update / 2`` after we stepped aside: a circle of AGVs
+        each holding up the next would otherwise step aside round it at every round
+        trip, each step a new request to its whole group."""
         requester = self._requester
-        return frozenset() if requester is None else requester.blocked_by
+        if requester is None or self.node.now() < self._aside_at + self.config.t_update / 2:
+            return frozenset()
+        return requester.blocked_by
+
+    def _step_aside(self) -> None:
+        """A voter of ours allowed the request of a node whose lock holds up ours: ask
+        again, ranked below it."""
+        self._aside_at = self.node.now()
+        self._ask_again()
 
     def _ask_again(self) -> None:
         """Withdraw the pending request and make a new one at once (no gap in which
