@@ -178,7 +178,7 @@ def turn_offs(layout: Layout) -> frozenset[tuple[str, str]]:
     An AGV at rest just after such a turn still has the back of its hull in the lane;
     the next AGV along the lane waits for it, and if the first one's way on comes
     round to that place, each waits for the other for ever (docs/traffic.md,
-    "Resting just past a turn off a lane"). Its route gets a no-rest zone from the
+    "Turning off a one-way lane"). Its route gets a no-rest zone from the
     junction to the clearance beyond it (:meth:`StopPlan.for_route`), as a merge
     gets one before it. A two-way lane needs none: its zone reaches the clearance
     beyond its end already.

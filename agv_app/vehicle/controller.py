@@ -100,8 +100,8 @@ class AgvConfig:
             "Merges").
         clear_turn_offs: never rest just past a turn off a one-way lane, with the
             back of the hull still in the lane
-            (:func:`~agv_app.traffic.deadlock.turn_offs`; docs/traffic.md, "Resting
-            just past a turn off a lane").
+            (:func:`~agv_app.traffic.deadlock.turn_offs`; docs/traffic.md, "Turning
+            off a one-way lane").
         keep_way_out: never rest on the way out of the route's destination
             (:func:`~agv_app.traffic.deadlock.way_out`) where a request would reach
             the destination from there: the AGV standing there leaves by it
