@@ -19,13 +19,25 @@ from agv_app.layout.elements import LayoutError
 from agv_app.layout.generated import generated_warehouse, parse_generated
 from agv_app.layout.graph import Layout
 from agv_app.layout.json_format import load_any
-from agv_app.tasks.load import DEFAULT_LOAD, LANE_M_PER_OPEN_TASK, carried_tasks
+from agv_app.tasks.admission import LANE_M_PER_OPEN_TASK, carried_tasks
+from agv_app.tasks.load import DEFAULT_LOAD
 
 __all__ = ["DEFAULT_AGVS", "SAFETY_KEYS", "fleet_size", "register", "run_sim"]
 
 SAFETY_KEYS = ("collisions", "lock_overlaps", "deadlocks")
 """Figures that must all be zero for a run to pass."""
 DEFAULT_AGVS = 20
+
+
+def _max_open(text: str) -> int | str:
+    """``--max-open-tasks``: a whole number (at least 1, checked with the other
+    arguments) or ``auto``."""
+    if text == "auto":
+        return text
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"a whole number or 'auto', got {text!r}") from None
 
 
 def fleet_size(layout: Layout | None, asked: int | None) -> int:
@@ -102,9 +114,10 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
     )
     p.add_argument(
         "--max-open-tasks",
-        type=int,
+        type=_max_open,
         help="tasks on the floor at once, at most; newer ones wait at the task desk, oldest "
-        "first (default: no limit)",
+        "first; 'auto': a limit that starts at what the floor's lanes carry, is cut at "
+        "every wait over a minute and grows while the floor delivers (default: no limit)",
     )
     p.add_argument(
         "--heartbeat",
@@ -140,7 +153,7 @@ def run_sim(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         return 2
-    if args.max_open_tasks is not None and args.max_open_tasks < 1:
+    if isinstance(args.max_open_tasks, int) and args.max_open_tasks < 1:
         print(
             f"objectplaces sim: --max-open-tasks must be at least 1; got {args.max_open_tasks}",
             file=sys.stderr,
@@ -188,6 +201,12 @@ def run_sim(args: argparse.Namespace) -> int:
     width = max(len(k) for k in figures)
     for key, value in figures.items():
         print(f"{key:<{width}}  {value}")
+    admission = fleet.desk.admission
+    if admission is not None:
+        print(
+            f"{'open_tasks_limit':<{width}}  {admission.limit} at the end (auto: lowest "
+            f"{admission.lowest}, {admission.cuts} cuts)"
+        )
     for violation in fleet.monitor.violations:
         print(f"VIOLATION {violation}", file=sys.stderr)
     if figures["deadlocks"] and args.max_open_tasks is None:
@@ -198,7 +217,8 @@ def run_sim(args: argparse.Namespace) -> int:
             f"objectplaces sim: {figures['deadlocks']:.0f} waits passed "
             f"{fleet.stalls.limit_s:.0f} s. A fleet larger than its floor carries fills the "
             "lanes: --max-open-tasks K keeps K tasks on the floor and the rest at the task "
-            f'desk{about} (docs/fleet.md, "More AGVs than the floor carries")',
+            f"desk{about}; --max-open-tasks auto finds the number as the fleet runs "
+            '(docs/fleet.md, "More AGVs than the floor carries")',
             file=sys.stderr,
         )
     if args.json_path:

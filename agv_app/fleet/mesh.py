@@ -117,11 +117,12 @@ class MeshFleet(FleetSourceBase):
         poll_interval: on Zenoh, the AGV processes hand received frames on every this
             many seconds (0: each at once; ``agv_app.fleet.agv_process``).
         max_open_tasks: tasks on the floor at once, at most; the others wait at the
-            task desk (None: no limit; :class:`~agv_app.tasks.desk.TaskDesk`).
+            task desk (None: no limit; ``"auto"``: a limit that follows the floor's
+            long waits; :class:`~agv_app.tasks.desk.TaskDesk`).
 
     Raises:
         ValueError: ``agvs`` < 1, ``start_tasks`` < 0, more AGVs than parking spots,
-            an unknown ``zenoh_mode``, or ``max_open_tasks`` < 1.
+            an unknown ``zenoh_mode``, or ``max_open_tasks`` neither >= 1 nor "auto".
     """
 
     def __init__(
@@ -145,7 +146,7 @@ class MeshFleet(FleetSourceBase):
         publish_interval: float | None = None,
         republish_beats: int = REPUBLISH_BEATS,
         poll_interval: float = POLL_INTERVAL_S,
-        max_open_tasks: int | None = None,
+        max_open_tasks: int | str | None = None,
     ) -> None:
         if agvs < 1:
             raise ValueError(f"agvs must be at least 1, got {agvs!r}")
@@ -202,6 +203,7 @@ class MeshFleet(FleetSourceBase):
                 max_open=max_open_tasks,
             ),
         )
+        self.stalls.on_long_wait = lambda _agv, now: self.desk.long_wait(now)
         self.processes = AgvProcesses(python=python, capture_output=capture_output)
         self.vda5050 = vda5050
         self.broker_monitor = None if vda5050 is None else BrokerMonitor(parse_broker_url(vda5050))

@@ -95,10 +95,14 @@ class FleetConfig:
         task_until: no new tasks after this time (None: never).
         max_open_tasks: tasks on the floor at once, at most (handed to the stations and
             not yet done); the others wait at the desk, oldest first (None: no limit;
+            ``"auto"``: a limit that follows the floor's long waits,
+            :class:`~agv_app.tasks.admission.AdaptiveLimit`;
             :class:`~agv_app.tasks.desk.TaskDesk`).
         one_at_a_time: a station calls one AGV at a time: it auctions its next task
             once the last winner has reached it and no AGV is bound to drop there
             (:class:`~agv_app.tasks.station.Station`).
+        wait_for_drop: with ``one_at_a_time``, a station holds a task whose drop
+            station an AGV is bound for already.
         deadlock_after: an AGV stalled this long counts as a deadlock.
         station_range: first auction range of the stations.
         dwell: seconds at a pick or drop station.
@@ -127,8 +131,9 @@ class FleetConfig:
     task_interval: float | None = None
     start_tasks: int | None = None
     task_until: float | None = None
-    max_open_tasks: int | None = None
+    max_open_tasks: int | str | None = None
     one_at_a_time: bool = True
+    wait_for_drop: bool = True
     deadlock_after: float = STALL_LIMIT_S
     station_range: float = 30.0
     dwell: float = 5.0
@@ -231,8 +236,10 @@ class Fleet(FleetSourceBase):
                 on_created=self.free_flow.add,
                 max_open=cfg.max_open_tasks,
                 one_at_a_time=cfg.one_at_a_time,
+                wait_for_drop=cfg.wait_for_drop,
             ),
         )
+        self.stalls.on_long_wait = lambda _agv, now: self.desk.long_wait(now)
         self.agv_config = AgvConfig(t_update=cfg.t_update, dwell=cfg.dwell, broadcast=cfg.broadcast)
         self.interest_radius = self._interest_radius()
         """The AGV nodes' interest radius (None: they hear every node)."""

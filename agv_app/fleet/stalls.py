@@ -11,6 +11,8 @@ the longest single wait.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 __all__ = ["LONG_WAIT_S", "STALL_LIMIT_S", "StallWatch"]
 
 STALL_LIMIT_S = 180.0
@@ -26,11 +28,20 @@ class StallWatch:
     Args:
         limit_s: seconds of waiting that count as a deadlock.
         long_wait_s: seconds of waiting that count as a long wait.
+        on_long_wait: told of each wait as it passes ``long_wait_s``: the AGV, the time
+            (the task desk's limit that follows the floor listens).
     """
 
-    def __init__(self, *, limit_s: float = STALL_LIMIT_S, long_wait_s: float = LONG_WAIT_S) -> None:
+    def __init__(
+        self,
+        *,
+        limit_s: float = STALL_LIMIT_S,
+        long_wait_s: float = LONG_WAIT_S,
+        on_long_wait: Callable[[str, float], None] | None = None,
+    ) -> None:
         self.limit_s = limit_s
         self.long_wait_s = long_wait_s
+        self.on_long_wait = on_long_wait
         self.deadlocks = 0
         """Stalls that lasted longer than the limit."""
         self.long_waits = 0
@@ -54,6 +65,8 @@ class StallWatch:
         if waited > self.long_wait_s and agv_id not in self._long:
             self._long.add(agv_id)
             self.long_waits += 1
+            if self.on_long_wait is not None:
+                self.on_long_wait(agv_id, now)
         if waited > self.limit_s and agv_id not in self._counted:
             self._counted.add(agv_id)
             self.deadlocks += 1

@@ -4,6 +4,11 @@ book that follows every task, and the desk that creates them.
 
 from __future__ import annotations
 
+from agv_app.tasks.admission import (
+    LANE_M_PER_OPEN_TASK,
+    AdaptiveLimit,
+    carried_tasks,
+)
 from agv_app.tasks.auction import (
     Bidder,
     TaskAgent,
@@ -31,9 +36,7 @@ from agv_app.tasks.free_flow import (
 )
 from agv_app.tasks.load import (
     DEFAULT_LOAD,
-    LANE_M_PER_OPEN_TASK,
     TaskArrivals,
-    carried_tasks,
     check_load,
     initial_tasks,
     task_interval_for_load,
@@ -47,6 +50,7 @@ __all__ = [
     "DEFAULT_LOAD",
     "LANE_M_PER_OPEN_TASK",
     "TASK_STATES",
+    "AdaptiveLimit",
     "Bidder",
     "FreeFlowBound",
     "FreeFlowTimer",

@@ -11,7 +11,9 @@ while that many are open (handed to their stations and not yet done) waits at th
 desk and goes to its station, in the order created, when one is done or cancelled.
 A floor carries only so many moving AGVs: past that, more tasks at once only fill its
 lanes and each AGV waits longer than it drives (docs/fleet.md, "More AGVs than the
-floor carries"); held at the desk, they wait without taking a lane.
+floor carries"); held at the desk, they wait without taking a lane. ``max_open="auto"``
+lets the limit follow the floor (:class:`~agv_app.tasks.admission.AdaptiveLimit`): the
+fleet tells the desk of every long wait (:meth:`TaskDesk.long_wait`).
 """
 
 from __future__ import annotations
@@ -22,12 +24,19 @@ from collections.abc import Callable, Iterable
 
 from agv_app.layout.graph import Layout
 from agv_app.protocol import MessageTally
+from agv_app.tasks.admission import AdaptiveLimit, carried_tasks
 from agv_app.tasks.auction import TaskSpec
 from agv_app.tasks.book import DEFAULT_HISTORY, TaskBook
 from agv_app.tasks.station import Station
 from objectplaces import RoleActivator
 
-__all__ = ["TaskDesk", "drop_stations", "pick_stations", "require_task_stations"]
+__all__ = [
+    "TaskDesk",
+    "check_max_open",
+    "drop_stations",
+    "pick_stations",
+    "require_task_stations",
+]
 
 
 def pick_stations(layout: Layout) -> list[str]:
@@ -64,6 +73,22 @@ def require_task_stations(layout: Layout) -> None:
     )
 
 
+_UNLIMITED = 1_000_000
+"""The first automatic limit of a floor without lanes to measure: none, until a cut."""
+
+
+def check_max_open(max_open: object) -> None:
+    """Check a desk's ``max_open``: None, ``"auto"`` or a whole number >= 1.
+
+    Raises:
+        ValueError: it is none of these.
+    """
+    if max_open is None or max_open == "auto":
+        return
+    if isinstance(max_open, bool) or not isinstance(max_open, int) or max_open < 1:
+        raise ValueError(f"max_open must be a whole number >= 1, 'auto' or None, got {max_open!r}")
+
+
 class TaskDesk:
     """Creates a fleet's tasks at its stations and keeps them in one book.
 
@@ -77,11 +102,16 @@ class TaskDesk:
         on_created: told of every task created, with the time (e.g. a
             :class:`~agv_app.tasks.free_flow.FreeFlowBound`'s ``add``).
         max_open: tasks handed to the stations and not yet done, at most (None: no
-            limit); the others wait at the desk, oldest first.
+            limit; ``"auto"``: a limit that starts at what the floor's lanes carry and
+            follows the long waits, ``admission``); the others wait at the desk,
+            oldest first.
         one_at_a_time: each station calls one AGV at a time (``Station``).
+        wait_for_drop: with ``one_at_a_time``, a station holds a task whose drop
+            station an AGV is bound for already (``Station``).
 
     Raises:
-        ValueError: ``max_open`` is set and not a positive whole number.
+        ValueError: ``max_open`` is set and neither a positive whole number nor
+            ``"auto"``.
     """
 
     def __init__(
@@ -94,11 +124,11 @@ class TaskDesk:
         tally: MessageTally | None = None,
         history: int = DEFAULT_HISTORY,
         on_created: Callable[[TaskSpec, float], None] | None = None,
-        max_open: int | None = None,
+        max_open: int | str | None = None,
         one_at_a_time: bool = True,
+        wait_for_drop: bool = True,
     ) -> None:
-        if max_open is not None and (isinstance(max_open, bool) or max_open < 1):
-            raise ValueError(f"max_open must be a whole number >= 1 or None, got {max_open!r}")
+        check_max_open(max_open)
         self.layout = layout
         self.rng = rng
         self.clock = clock
@@ -108,8 +138,13 @@ class TaskDesk:
         self.stations: dict[str, Station] = {}
         """The open stations, by station id."""
         self.on_created = on_created
-        self.max_open = max_open
+        self.admission: AdaptiveLimit | None = None
+        """The limit that follows the floor (``max_open="auto"``; None otherwise)."""
+        if max_open == "auto":
+            self.admission = AdaptiveLimit(carried_tasks(layout) or _UNLIMITED)
+        self.max_open = max_open if isinstance(max_open, int) else None
         self.one_at_a_time = one_at_a_time
+        self.wait_for_drop = wait_for_drop
         self._drops = drop_stations(layout)
         self._open: set[str] = set()
         """Tasks handed to their stations and not yet done or cancelled."""
@@ -128,6 +163,7 @@ class TaskDesk:
             on_returned=self._returned,
             tally=self.tally,
             one_at_a_time=self.one_at_a_time,
+            wait_for_drop=self.wait_for_drop,
         )
         self.stations[station_id] = station
         return station
@@ -177,6 +213,8 @@ class TaskDesk:
         task waiting at the desk. False if the book holds no such open task."""
         finished = self.book.finish(task_id, now=now)
         if finished:
+            if self.admission is not None:
+                self.admission.delivered(held_back=bool(self._waiting), now=now)
             self._open.discard(task_id)
             # Done before it left the desk (its book record was assigned directly):
             # it no longer waits.
@@ -184,9 +222,20 @@ class TaskDesk:
             self._hand_out()
         return finished
 
+    def long_wait(self, now: float) -> None:
+        """An AGV that wants to move has waited over a minute (the fleet's stall watch
+        says so): the limit that follows the floor is cut (nothing without one)."""
+        if self.admission is not None:
+            self.admission.long_wait(len(self._open), now)
+
+    @property
+    def limit(self) -> int | None:
+        """Tasks the desk lets onto the floor at once now (None: no limit)."""
+        return self.max_open if self.admission is None else self.admission.limit
+
     def _hand_out(self) -> None:
-        """Give waiting tasks to their stations while fewer than ``max_open`` are open."""
-        limit = self.max_open
+        """Give waiting tasks to their stations while fewer than ``limit`` are open."""
+        limit = self.limit
         while self._waiting and (limit is None or len(self._open) < limit):
             task = self._waiting.popleft()
             self._open.add(task.id)

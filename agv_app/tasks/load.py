@@ -17,13 +17,10 @@ import random
 from agv_app.layout.graph import Layout
 from agv_app.tasks.desk import drop_stations, pick_stations
 from agv_app.tasks.free_flow import FreeFlowTimer, mean_task_seconds
-from agv_app.traffic.deadlock import followable_segments
 
 __all__ = [
     "DEFAULT_LOAD",
-    "LANE_M_PER_OPEN_TASK",
     "TaskArrivals",
-    "carried_tasks",
     "check_load",
     "initial_tasks",
     "task_interval_for_load",
@@ -35,28 +32,6 @@ DEFAULT_LOAD = 0.7
 The demo warehouse carries it without a stall (no wait over 180 s, 12 AGVs, seeds 1-5,
 30 simulated minutes; docs/fleet.md gives the figures), and a demo starts with about
 ``0.7 * N`` tasks, so most AGVs move within seconds."""
-
-
-LANE_M_PER_OPEN_TASK = 20.0
-"""Metres of lane a floor needs for each task on it at once, about, once its lanes
-fill: measured, not derived (docs/fleet.md, "More AGVs than the floor carries"). The
-demo warehouse (434 m of one-way lane) delivered most with about 20 tasks on the floor,
-the generated warehouse for 100 AGVs (304 m) with about 15. A floor whose lanes do not
-fill (long tasks on the long loop) carries more."""
-
-
-def carried_tasks(layout: Layout) -> int | None:
-    """About how many tasks ``layout`` carries at once: its lanes (one-way segments and
-    two-way ones that routes drive through) over :data:`LANE_M_PER_OPEN_TASK`; None
-    for a floor without such lanes (every two-way run ends in a dead end)."""
-    through = followable_segments(layout)
-    lanes = sum(
-        layout.segment_length(seg.id)
-        for seg in layout.segments.values()
-        if not seg.bidirectional or seg.id in through
-    )
-    carried = math.floor(lanes / LANE_M_PER_OPEN_TASK)
-    return carried if carried >= 1 else None
 
 
 def check_load(load: float) -> float:

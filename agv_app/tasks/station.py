@@ -19,6 +19,11 @@ AGV is on its way to drop a load here (``dropping_at``, the drop station an AGV
 publishes as it picks up, cleared as it arrives). Two AGVs bound for one dock queue
 for it on the lanes in front of it, and at a dead-end dock the AGV that stands there
 leaves through the queue (docs/fleet.md, "A station calls one AGV at a time").
+
+Nor does it call an AGV for a task whose drop station an AGV is bound for already
+(``wait_for_drop``): loads sent to one drop station by several stations queued for it
+in its aisle, and the queue reached back onto the lanes the others need (docs/fleet.md,
+"A drop station takes one load at a time").
 """
 
 from __future__ import annotations
@@ -55,6 +60,8 @@ class Station:
         one_at_a_time: auction the next task only once every winner reached the
             station (or is done, or failed) and no AGV is bound to drop here; False:
             one auction after the other.
+        wait_for_drop: with ``one_at_a_time``, also hold the next task while an AGV is
+            bound to drop at that task's drop station.
     """
 
     def __init__(
@@ -71,9 +78,11 @@ class Station:
         return_after: float = 5.0,
         tally: MessageTally | None = None,
         one_at_a_time: bool = True,
+        wait_for_drop: bool = True,
     ) -> None:
         self.node = node
         self.one_at_a_time = one_at_a_time
+        self.wait_for_drop = wait_for_drop
         self.station_id = station_id
         self.position = position
         self.range_m = range_m
@@ -145,11 +154,17 @@ class Station:
             sorted(n for n, props in view.items() if props.get("dropping_at") == me)
         )
 
+    def _drop_taken(self, drop: str) -> bool:
+        """True if this node's view has an AGV bound to drop at ``drop``."""
+        return any(props.get("dropping_at") == drop for props in self.node.view().values())
+
     def _next(self) -> None:
         if self._session is not None or not self.queue:
             return
         if self.one_at_a_time and self.approaching:
             return  # called again as the winner arrives (or is done, or fails)
+        if self.one_at_a_time and self.wait_for_drop and self._drop_taken(self.queue[0].drop):
+            return  # called again as that AGV arrives (its ``dropping_at`` clears)
         self._range = self.range_m
         self._start(self.queue[0])
 

@@ -110,16 +110,23 @@ def draw_floor_run(rng: random.Random) -> FloorRun:
     return FloorRun(floor, rng.randint(0, 10_000), rng.choice([0.7, 0.9, 1.0]))
 
 
-def run_floor(run: FloorRun, *, one_at_a_time: bool = True, **options: Any) -> Fleet:
+def run_floor(
+    run: FloorRun,
+    *,
+    one_at_a_time: bool = True,
+    wait_for_drop: bool = True,
+    **options: Any,
+) -> Fleet:
     """Tasks for 300 s, then 200 s more to finish them; every step checked for safety
-    (a collision or a lock overlap raises). ``one_at_a_time`` as in
-    :class:`FleetConfig`; ``options`` go to :class:`Fleet`."""
+    (a collision or a lock overlap raises). ``one_at_a_time`` and ``wait_for_drop`` as
+    in :class:`FleetConfig`; ``options`` go to :class:`Fleet`."""
     cfg = FleetConfig(
         agvs=run.floor.agvs,
         seed=run.seed,
         load=run.load,
         task_until=300.0,
         one_at_a_time=one_at_a_time,
+        wait_for_drop=wait_for_drop,
         fail_on_violation=True,
     )
     fleet = Fleet(run.floor.layout, cfg, **options)

@@ -139,10 +139,16 @@ def draw_two_way_run(rng: random.Random) -> TwoWayRun:
     return TwoWayRun(floor, rng.randint(0, 10_000), rng.choice([20.0, 40.0, 60.0]))
 
 
-def run_two_way(run: TwoWayRun, *, one_at_a_time: bool = True, **options: Any) -> Fleet:
+def run_two_way(
+    run: TwoWayRun,
+    *,
+    one_at_a_time: bool = True,
+    wait_for_drop: bool = True,
+    **options: Any,
+) -> Fleet:
     """Tasks for 200 s, then 200 s more to finish them; every step checked for safety
-    (a collision or a lock overlap raises). ``one_at_a_time`` as in
-    :class:`FleetConfig`; ``options`` go to :class:`Fleet`."""
+    (a collision or a lock overlap raises). ``one_at_a_time`` and ``wait_for_drop`` as
+    in :class:`FleetConfig`; ``options`` go to :class:`Fleet`."""
     cfg = FleetConfig(
         agvs=run.floor.agvs,
         seed=run.seed,
@@ -150,6 +156,7 @@ def run_two_way(run: TwoWayRun, *, one_at_a_time: bool = True, **options: Any) -
         start_tasks=run.floor.agvs,
         task_until=200.0,
         one_at_a_time=one_at_a_time,
+        wait_for_drop=wait_for_drop,
         fail_on_violation=True,
     )
     fleet = Fleet(run.floor.layout, cfg, **options)

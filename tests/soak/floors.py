@@ -17,7 +17,8 @@ The safety monitor checks every step (a collision or a lock overlap ends the see
 at the end no AGV may have stalled past the stall limit and a task must be done.
 ``--off RULE`` runs the fleet without a traffic rule (``clear_merges``,
 ``clear_turn_offs``, ``keep_way_out``, ``drive_on_after``) or with stations that call
-every winner at once (``one_at_a_time``), to show what the rule is for. Every failing
+every winner at once (``one_at_a_time``) or that call an AGV whose drop station another
+is bound for (``wait_for_drop``), to show what the rule is for. Every failing
 seed is printed with its replay command; the exit status is 1 when any seed failed.
 """
 
@@ -56,7 +57,7 @@ RULES: dict[str, Any] = {
 }
 """The traffic rules ``--off`` can switch off, and the ``AgvConfig`` value that does."""
 
-FLEET_RULES: dict[str, Any] = {"one_at_a_time": False}
+FLEET_RULES: dict[str, Any] = {"one_at_a_time": False, "wait_for_drop": False}
 """The fleet's rules ``--off`` can switch off, and the ``FleetConfig`` value that does."""
 
 KINDS: dict[str, tuple[Callable[[random.Random], Any], Callable[..., Fleet]]] = {

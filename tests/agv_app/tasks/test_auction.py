@@ -46,7 +46,7 @@ class Agent:
 
 
 def setup(
-    seed: int = 1, *, one_at_a_time: bool = True, **kw: Any
+    seed: int = 1, *, one_at_a_time: bool = True, wait_for_drop: bool = True, **kw: Any
 ) -> tuple[SimulatedNetwork, Station, list[TaskSpec]]:
     net = SimulatedNetwork(seed=seed, property_interval=0.5, **kw)
     awarded: list[TaskSpec] = []
@@ -57,6 +57,7 @@ def setup(
         range_m=20.0,
         on_assigned=lambda t, a: awarded.append(t),
         one_at_a_time=one_at_a_time,
+        wait_for_drop=wait_for_drop,
     )
     return net, station, awarded
 
@@ -294,4 +295,48 @@ def test_an_agv_bound_to_drop_there_that_fails_does_not_hold_the_station_up() ->
     net.remove_node("carrier")
     net.run_for(5.0)  # failure timeout 1.5 s: gone from the view, and from the way here
     assert not station.approaching
+    assert [t.id for t in idle.taken] == ["t1"]
+
+
+def _a_task_to_a_drop_another_agv_is_bound_for(
+    wait_for_drop: bool,
+) -> tuple[SimulatedNetwork, RoleActivator, Agent]:
+    """A station with a task to drop station "x", an idle AGV, and an AGV carrying
+    another station's load to "x" (``dropping_at``); 5 s after the task appears."""
+    net, station, _ = setup(wait_for_drop=wait_for_drop)
+    carrier = net.add_node("carrier")
+    carrier.update_node_property("kind", "agv")
+    carrier.update_node_property("dropping_at", "x")
+    idle = Agent(net.add_node("idle"), 1.0, 1.0)
+    net.run_for(0.5)
+    station.add_task(TaskSpec("t1", "st", "x"))
+    net.run_for(5.0)
+    return net, carrier, idle
+
+
+def test_a_station_holds_a_task_whose_drop_station_another_agv_is_bound_for() -> None:
+    """Found on the generated warehouse for 100 AGVs (seed 1, 30 minutes): three AGVs
+    bound to drop at one station, sent by three stations, queued in its aisle back onto
+    the lanes, and the floor locked (50 waits over 180 s)."""
+    net, carrier, idle = _a_task_to_a_drop_another_agv_is_bound_for(wait_for_drop=True)
+    assert idle.taken == []
+    carrier.update_node_property("dropping_at", None)  # it arrived
+    net.run_for(5.0)
+    assert [t.id for t in idle.taken] == ["t1"]
+
+
+def test_without_the_rule_the_task_goes_at_once() -> None:
+    _, _, idle = _a_task_to_a_drop_another_agv_is_bound_for(wait_for_drop=False)
+    assert [t.id for t in idle.taken] == ["t1"]
+
+
+def test_an_agv_bound_for_another_drop_station_holds_nothing() -> None:
+    net, station, _ = setup()
+    carrier = net.add_node("carrier")
+    carrier.update_node_property("kind", "agv")
+    carrier.update_node_property("dropping_at", "y")
+    idle = Agent(net.add_node("idle"), 1.0, 1.0)
+    net.run_for(0.5)
+    station.add_task(TaskSpec("t1", "st", "x"))
+    net.run_for(5.0)
     assert [t.id for t in idle.taken] == ["t1"]
