@@ -20,24 +20,21 @@ from agv_app.layout.generated import generated_warehouse, parse_generated
 from agv_app.layout.graph import Layout
 from agv_app.layout.json_format import load_any
 from agv_app.tasks.admission import LANE_M_PER_OPEN_TASK, carried_tasks
+from agv_app.tasks.desk import parse_max_open
 from agv_app.tasks.load import DEFAULT_LOAD
 
-__all__ = ["DEFAULT_AGVS", "SAFETY_KEYS", "fleet_size", "register", "run_sim"]
+__all__ = [
+    "DEFAULT_AGVS",
+    "SAFETY_KEYS",
+    "fleet_size",
+    "max_open_argument",
+    "register",
+    "run_sim",
+]
 
 SAFETY_KEYS = ("collisions", "lock_overlaps", "deadlocks")
 """Figures that must all be zero for a run to pass."""
 DEFAULT_AGVS = 20
-
-
-def _max_open(text: str) -> int | str:
-    """``--max-open-tasks``: a whole number (at least 1, checked with the other
-    arguments) or ``auto``."""
-    if text == "auto":
-        return text
-    try:
-        return int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"a whole number or 'auto', got {text!r}") from None
 
 
 def fleet_size(layout: Layout | None, asked: int | None) -> int:
@@ -63,6 +60,14 @@ def fleet_size(layout: Layout | None, asked: int | None) -> int:
             "fewer, or add parking stations"
         )
     return asked
+
+
+def max_open_argument(text: str) -> int | str:
+    """``--max-open-tasks``: :func:`~agv_app.tasks.desk.parse_max_open`, for argparse."""
+    try:
+        return parse_max_open(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -114,7 +119,7 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
     )
     p.add_argument(
         "--max-open-tasks",
-        type=_max_open,
+        type=max_open_argument,
         help="tasks on the floor at once, at most; newer ones wait at the task desk, oldest "
         "first; 'auto': a limit that starts at what the floor's lanes carry, is cut at "
         "every wait over a minute and grows while the floor delivers (default: no limit)",

@@ -45,6 +45,12 @@ def is_loopback(host: str) -> bool:
         return False
 
 
+def _max_open_tasks(text: str) -> int | str:
+    """``--max-open-tasks``: a whole number or ``auto``, read as ``objectplaces sim``
+    reads it."""
+    return importlib.import_module("agv_app.cli").max_open_argument(text)  # type: ignore[no-any-return]
+
+
 def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the ``demo`` subcommand to the ``objectplaces`` command line."""
     parser = subcommands.add_parser(
@@ -73,10 +79,11 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
     )
     parser.add_argument(
         "--max-open-tasks",
-        type=int,
+        type=_max_open_tasks,
         default=None,
         help="tasks on the floor at once, at most; newer ones wait at the task desk, oldest "
-        "first (default: no limit; for fleets larger than the floor carries)",
+        "first; 'auto': a limit that follows the floor's long waits (default: no limit; for "
+        "fleets larger than the floor carries)",
     )
     parser.add_argument(
         "--processes",
@@ -130,7 +137,7 @@ def build_source(args: argparse.Namespace) -> FleetSource:
         if getattr(args, "transport", "websocket") != "websocket":
             extra["transport"] = args.transport
         limit = getattr(args, "max_open_tasks", None)
-        extra_limit: dict[str, int] = {} if limit is None else {"max_open_tasks": limit}
+        extra_limit: dict[str, int | str] = {} if limit is None else {"max_open_tasks": limit}
         return make(
             agvs=args.agvs,
             seed=args.seed,
@@ -203,7 +210,7 @@ def run_demo(args: argparse.Namespace, *, builder: SourceBuilder = build_source)
         )
         return 2
     limit = getattr(args, "max_open_tasks", None)
-    if limit is not None and limit < 1:
+    if isinstance(limit, int) and limit < 1:
         print(
             f"objectplaces demo: --max-open-tasks must be at least 1, got {limit}", file=sys.stderr
         )

@@ -34,6 +34,7 @@ __all__ = [
     "TaskDesk",
     "check_max_open",
     "drop_stations",
+    "parse_max_open",
     "pick_stations",
     "require_task_stations",
 ]
@@ -87,6 +88,21 @@ def check_max_open(max_open: object) -> None:
         return
     if isinstance(max_open, bool) or not isinstance(max_open, int) or max_open < 1:
         raise ValueError(f"max_open must be a whole number >= 1, 'auto' or None, got {max_open!r}")
+
+
+def parse_max_open(text: str) -> int | str:
+    """A command line's limit on open tasks: ``"auto"`` or a whole number (checked to
+    be at least 1 with :func:`check_max_open`).
+
+    Raises:
+        ValueError: neither.
+    """
+    if text == "auto":
+        return text
+    try:
+        return int(text)
+    except ValueError:
+        raise ValueError(f"a whole number or 'auto', got {text!r}") from None
 
 
 class TaskDesk:

@@ -114,6 +114,14 @@ def test_the_limit_on_open_tasks_reaches_the_fleet() -> None:
     assert free.desk.waiting == 0  # type: ignore[attr-defined]
 
 
+def test_the_automatic_limit_reaches_the_fleet(capsys: pytest.CaptureFixture[str]) -> None:
+    auto = build_source(parse("--seed", "2", "--max-open-tasks", "auto"))
+    assert auto.desk.admission is not None  # type: ignore[attr-defined]
+    with pytest.raises(SystemExit):
+        parse("--max-open-tasks", "often")
+    assert "a whole number or 'auto', got 'often'" in capsys.readouterr().err
+
+
 def test_a_limit_below_one_is_refused(capsys: pytest.CaptureFixture[str]) -> None:
     def builder(args: argparse.Namespace):
         raise AssertionError("must not build a fleet")

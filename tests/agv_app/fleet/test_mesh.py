@@ -159,5 +159,11 @@ def test_dashboard_shows_the_agv_processes() -> None:
 def test_the_task_desk_of_a_mesh_fleet_takes_the_limit() -> None:
     assert MeshFleet(agvs=2, seed=1, max_open_tasks=4).desk.max_open == 4
     assert MeshFleet(agvs=2, seed=1).desk.max_open is None
+    automatic = MeshFleet(agvs=2, seed=1, max_open_tasks="auto")
+    assert automatic.desk.admission is not None
+    # The fleet's stall watch tells the desk of a wait over a minute.
+    automatic.stalls.observe("agv-1", stalled=True, now=0.0)
+    automatic.stalls.observe("agv-1", stalled=True, now=61.0)
+    assert automatic.desk.admission.cuts == 1
     with pytest.raises(ValueError, match="max_open must be a whole number >= 1"):
         MeshFleet(agvs=2, seed=1, max_open_tasks=0)
