@@ -21,9 +21,10 @@ for it on the lanes in front of it, and at a dead-end dock the AGV that stands t
 leaves through the queue (docs/fleet.md, "A station calls one AGV at a time").
 
 Nor does it call an AGV for a task whose drop station an AGV is bound for already
-(``wait_for_drop``): loads sent to one drop station by several stations queued for it
-in its aisle, and the queue reached back onto the lanes the others need (docs/fleet.md,
-"A drop station takes one load at a time").
+(``wait_for_drop``): it auctions the oldest task whose drop station is free. Loads sent
+to one drop station by several stations queued for it in its aisle, and the queue
+reached back onto the lanes the others need (docs/fleet.md, "A drop station takes one
+load at a time").
 """
 
 from __future__ import annotations
@@ -60,8 +61,8 @@ class Station:
         one_at_a_time: auction the next task only once every winner reached the
             station (or is done, or failed) and no AGV is bound to drop here; False:
             one auction after the other.
-        wait_for_drop: with ``one_at_a_time``, also hold the next task while an AGV is
-            bound to drop at that task's drop station.
+        wait_for_drop: with ``one_at_a_time``, auction the oldest task whose drop
+            station no AGV is bound for (none: wait).
     """
 
     def __init__(
@@ -154,19 +155,26 @@ class Station:
             sorted(n for n, props in view.items() if props.get("dropping_at") == me)
         )
 
-    def _drop_taken(self, drop: str) -> bool:
-        """True if this node's view has an AGV bound to drop at ``drop``."""
-        return any(props.get("dropping_at") == drop for props in self.node.view().values())
+    def _drops_taken(self) -> set[Any]:
+        """The drop stations this node's view has an AGV bound for."""
+        return {props.get("dropping_at") for props in self.node.view().values()}
 
     def _next(self) -> None:
         if self._session is not None or not self.queue:
             return
         if self.one_at_a_time and self.approaching:
             return  # called again as the winner arrives (or is done, or fails)
-        if self.one_at_a_time and self.wait_for_drop and self._drop_taken(self.queue[0].drop):
-            return  # called again as that AGV arrives (its ``dropping_at`` clears)
+        task = self.queue[0]
+        if self.one_at_a_time and self.wait_for_drop:
+            taken = self._drops_taken()
+            # The oldest task whose drop station is free; none: called again as an AGV
+            # bound for one arrives (its ``dropping_at`` clears).
+            free = next((t for t in self.queue if t.drop not in taken), None)
+            if free is None:
+                return
+            task = free
         self._range = self.range_m
-        self._start(self.queue[0])
+        self._start(task)
 
     def _start(self, task: TaskSpec) -> None:
         announcer = TaskAnnouncer(

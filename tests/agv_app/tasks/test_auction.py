@@ -340,3 +340,23 @@ def test_an_agv_bound_for_another_drop_station_holds_nothing() -> None:
     station.add_task(TaskSpec("t1", "st", "x"))
     net.run_for(5.0)
     assert [t.id for t in idle.taken] == ["t1"]
+
+
+def test_a_task_whose_drop_station_is_free_goes_before_an_older_one_held() -> None:
+    net, station, _ = setup()
+    carrier = net.add_node("carrier")
+    carrier.update_node_property("kind", "agv")
+    carrier.update_node_property("dropping_at", "x")
+    first = Agent(net.add_node("first"), 1.0, 1.0)
+    net.run_for(0.5)
+    station.add_task(TaskSpec("t1", "st", "x"))
+    station.add_task(TaskSpec("t2", "st", "y"))
+    net.run_for(5.0)
+    assert [t.id for t in first.taken] == ["t2"]
+    first.finish()
+    second = Agent(net.add_node("second"), 2.0, 2.0)
+    net.run_for(5.0)
+    assert second.taken == []  # t1 still waits for "x"
+    carrier.update_node_property("dropping_at", None)
+    net.run_for(5.0)
+    assert [t.id for t in second.taken + first.taken[1:]] == ["t1"]
