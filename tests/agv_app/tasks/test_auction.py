@@ -264,15 +264,21 @@ def test_a_winner_that_fails_on_its_way_does_not_hold_the_station_up() -> None:
     assert [t.id for t in late.taken] == ["t2"]
 
 
+def _carrier(net: SimulatedNetwork, drop: str) -> RoleActivator:
+    """An AGV node carrying a load to station ``drop`` (``dropping_at``)."""
+    carrier = net.add_node("carrier")
+    carrier.update_node_property("kind", "agv")
+    carrier.update_node_property("dropping_at", drop)
+    return carrier
+
+
 def _a_task_and_a_carrier_bound_here(
     held_for: float,
 ) -> tuple[SimulatedNetwork, Station, RoleActivator, Agent]:
     """A station with a task, an idle AGV, and an AGV carrying another station's task
     here (``dropping_at``); run for ``held_for`` seconds after the task appears."""
     net, station, _ = setup()
-    carrier = net.add_node("carrier")
-    carrier.update_node_property("kind", "agv")
-    carrier.update_node_property("dropping_at", "st")
+    carrier = _carrier(net, "st")
     idle = Agent(net.add_node("idle"), 1.0, 1.0)
     net.run_for(0.5)
     station.add_task(TaskSpec("t1", "st", "x"))
@@ -299,14 +305,12 @@ def test_an_agv_bound_to_drop_there_that_fails_does_not_hold_the_station_up() ->
 
 
 def _a_task_to_a_drop_another_agv_is_bound_for(
-    wait_for_drop: bool,
+    wait_for_drop: bool, bound_for: str = "x"
 ) -> tuple[SimulatedNetwork, RoleActivator, Agent]:
     """A station with a task to drop station "x", an idle AGV, and an AGV carrying
-    another station's load to "x" (``dropping_at``); 5 s after the task appears."""
+    another station's load to ``bound_for``; 5 s after the task appears."""
     net, station, _ = setup(wait_for_drop=wait_for_drop)
-    carrier = net.add_node("carrier")
-    carrier.update_node_property("kind", "agv")
-    carrier.update_node_property("dropping_at", "x")
+    carrier = _carrier(net, bound_for)
     idle = Agent(net.add_node("idle"), 1.0, 1.0)
     net.run_for(0.5)
     station.add_task(TaskSpec("t1", "st", "x"))
@@ -331,22 +335,13 @@ def test_without_the_rule_the_task_goes_at_once() -> None:
 
 
 def test_an_agv_bound_for_another_drop_station_holds_nothing() -> None:
-    net, station, _ = setup()
-    carrier = net.add_node("carrier")
-    carrier.update_node_property("kind", "agv")
-    carrier.update_node_property("dropping_at", "y")
-    idle = Agent(net.add_node("idle"), 1.0, 1.0)
-    net.run_for(0.5)
-    station.add_task(TaskSpec("t1", "st", "x"))
-    net.run_for(5.0)
+    _, _, idle = _a_task_to_a_drop_another_agv_is_bound_for(wait_for_drop=True, bound_for="y")
     assert [t.id for t in idle.taken] == ["t1"]
 
 
 def test_a_task_whose_drop_station_is_free_goes_before_an_older_one_held() -> None:
     net, station, _ = setup()
-    carrier = net.add_node("carrier")
-    carrier.update_node_property("kind", "agv")
-    carrier.update_node_property("dropping_at", "x")
+    carrier = _carrier(net, "x")
     first = Agent(net.add_node("first"), 1.0, 1.0)
     net.run_for(0.5)
     station.add_task(TaskSpec("t1", "st", "x"))
