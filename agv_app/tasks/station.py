@@ -21,8 +21,9 @@ for it on the lanes in front of it, and at a dead-end dock the AGV that stands t
 leaves through the queue (docs/fleet.md, "A station calls one AGV at a time").
 
 Nor does it call an AGV for a task whose drop station an AGV is bound for already
-(``wait_for_drop``): it auctions the oldest task whose drop station is free. Loads sent
-to one drop station by several stations queued for it in its aisle, and the queue
+(``wait_for_drop``), and its next task is its oldest: a station that auctioned a
+newer task around a busy drop station sent more AGVs onto lanes that were full. Loads
+sent to one drop station by several stations queued for it in its aisle, and the queue
 reached back onto the lanes the others need (docs/fleet.md, "A drop station takes one
 load at a time").
 """
@@ -61,8 +62,8 @@ class Station:
         one_at_a_time: auction the next task only once every winner reached the
             station (or is done, or failed) and no AGV is bound to drop here; False:
             one auction after the other.
-        wait_for_drop: with ``one_at_a_time``, auction the oldest task whose drop
-            station no AGV is bound for (none: wait).
+        wait_for_drop: with ``one_at_a_time``, also hold the next task while an AGV is
+            bound to drop at that task's drop station.
     """
 
     def __init__(
@@ -155,26 +156,19 @@ class Station:
             sorted(n for n, props in view.items() if props.get("dropping_at") == me)
         )
 
-    def _drops_taken(self) -> set[Any]:
-        """The drop stations this node's view has an AGV bound for."""
-        return {props.get("dropping_at") for props in self.node.view().values()}
+    def _drop_taken(self, drop: str) -> bool:
+        """True if this node's view has an AGV bound to drop at ``drop``."""
+        return any(props.get("dropping_at") == drop for props in self.node.view().values())
 
     def _next(self) -> None:
         if self._session is not None or not self.queue:
             return
         if self.one_at_a_time and self.approaching:
             return  # called again as the winner arrives (or is done, or fails)
-        task = self.queue[0]
-        if self.one_at_a_time and self.wait_for_drop:
-            taken = self._drops_taken()
-            # The oldest task whose drop station is free; none: called again as an AGV
-            # bound for one arrives (its ``dropping_at`` clears).
-            free = next((t for t in self.queue if t.drop not in taken), None)
-            if free is None:
-                return
-            task = free
+        if self.one_at_a_time and self.wait_for_drop and self._drop_taken(self.queue[0].drop):
+            return  # called again as that AGV arrives (its ``dropping_at`` clears)
         self._range = self.range_m
-        self._start(task)
+        self._start(self.queue[0])
 
     def _start(self, task: TaskSpec) -> None:
         announcer = TaskAnnouncer(

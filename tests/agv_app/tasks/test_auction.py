@@ -339,7 +339,10 @@ def test_an_agv_bound_for_another_drop_station_holds_nothing() -> None:
     assert [t.id for t in idle.taken] == ["t1"]
 
 
-def test_a_task_whose_drop_station_is_free_goes_before_an_older_one_held() -> None:
+def test_a_task_held_for_its_drop_station_holds_the_newer_ones_too() -> None:
+    """The station's next task is its oldest: auctioning newer tasks around a busy
+    drop station sent more AGVs onto full lanes, and the generated warehouse for 100
+    AGVs locked again (seed 1, 30 minutes: 47 waits over 180 s)."""
     net, station, _ = setup()
     carrier = _carrier(net, "x")
     first = Agent(net.add_node("first"), 1.0, 1.0)
@@ -347,11 +350,7 @@ def test_a_task_whose_drop_station_is_free_goes_before_an_older_one_held() -> No
     station.add_task(TaskSpec("t1", "st", "x"))
     station.add_task(TaskSpec("t2", "st", "y"))
     net.run_for(5.0)
-    assert [t.id for t in first.taken] == ["t2"]
-    first.finish()
-    second = Agent(net.add_node("second"), 2.0, 2.0)
-    net.run_for(5.0)
-    assert second.taken == []  # t1 still waits for "x"
+    assert first.taken == []
     carrier.update_node_property("dropping_at", None)
     net.run_for(5.0)
-    assert [t.id for t in second.taken + first.taken[1:]] == ["t1"]
+    assert [t.id for t in first.taken] == ["t1"]
