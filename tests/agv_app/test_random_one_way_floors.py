@@ -56,9 +56,14 @@ _LOCKED = [
 
 @pytest.mark.slow
 def test_without_the_rule_these_floors_lock() -> None:
-    """What the examples below replay: each of them locks without the rule."""
+    """What the examples below replay: each of them locks without the rule (and
+    without the turn-off rule, which keeps seed 625's AGV off the lane as well)."""
     for run in _LOCKED:
-        fleet = run_floor(run, one_at_a_time=False, vehicle=vehicle_with(clear_merges=False))
+        fleet = run_floor(
+            run,
+            one_at_a_time=False,
+            vehicle=vehicle_with(clear_merges=False, clear_turn_offs=False),
+        )
         assert fleet.summary()["deadlocks"] > 0, run
 
 
@@ -95,7 +100,10 @@ _DOCK_WAITS = [
 @pytest.mark.timeout(300)
 @pytest.mark.parametrize("run", _DOCK_WAITS)
 def test_an_agv_waiting_for_a_dock_stays_off_the_way_out(run: FloorRun) -> None:
-    locked = run_floor(run, one_at_a_time=False, vehicle=vehicle_with(keep_way_out=False))
+    # Found before the turn-off rule, which keeps these AGVs off the lane too.
+    locked = run_floor(
+        run, one_at_a_time=False, vehicle=vehicle_with(keep_way_out=False, clear_turn_offs=False)
+    )
     assert locked.summary()["deadlocks"] > 0
     figures = run_floor(run, one_at_a_time=False).summary()
     assert figures["deadlocks"] == figures["collisions"] == figures["lock_overlaps"] == 0
@@ -141,12 +149,17 @@ class _DrivingOn(AgvController):
 @pytest.mark.slow
 @pytest.mark.timeout(300)
 def test_an_agv_held_up_before_its_dock_drives_on_and_the_queue_behind_it_clears() -> None:
+    # Found before the turn-off rule, which keeps the first AGV off the lane too.
     locked = run_floor(
-        _QUEUED, one_at_a_time=False, vehicle=vehicle_with(drive_on_after=None)
+        _QUEUED,
+        one_at_a_time=False,
+        vehicle=vehicle_with(drive_on_after=None, clear_turn_offs=False),
     ).summary()
     assert locked["deadlocks"] > 0
     _DrivingOn.log.clear()
-    fleet = run_floor(_QUEUED, one_at_a_time=False, vehicle=_DrivingOn)
+    fleet = run_floor(
+        _QUEUED, one_at_a_time=False, vehicle=vehicle_with(_DrivingOn, clear_turn_offs=False)
+    )
     figures = fleet.summary()
     assert figures["deadlocks"] == figures["collisions"] == figures["lock_overlaps"] == 0
     assert figures["tasks_completed"] > 1.5 * locked["tasks_completed"]
@@ -173,7 +186,10 @@ def test_an_agv_held_up_before_its_dock_drives_on_and_the_queue_behind_it_clears
 @pytest.mark.slow
 @pytest.mark.timeout(300)
 def test_the_queued_floor_no_longer_locks_just_past_a_turn_off_the_lane() -> None:
-    locked = run_floor(_QUEUED, vehicle=vehicle_with(clear_turn_offs=False)).summary()
+    # As found: before drop stations took one load at a time, which avoids it too.
+    locked = run_floor(
+        _QUEUED, wait_for_drop=False, vehicle=vehicle_with(clear_turn_offs=False)
+    ).summary()
     assert locked["deadlocks"] > 0
     figures = run_floor(_QUEUED).summary()
     assert figures["collisions"] == figures["lock_overlaps"] == 0

@@ -14,11 +14,12 @@ VehicleFactory = Callable[..., AgvController]
 """What ``Fleet(vehicle=...)`` takes: builds one AGV component."""
 
 
-def vehicle_with(**changes: Any) -> VehicleFactory:
-    """An AGV component built as the fleet asks, with these ``AgvConfig`` fields changed
-    (e.g. ``keep_way_out=False``: the fleet without a rule, to show what it does)."""
+def vehicle_with(controller: type[AgvController] = AgvController, **changes: Any) -> VehicleFactory:
+    """An AGV component (``controller``, or a subclass that records what it does) built
+    as the fleet asks, with these ``AgvConfig`` fields changed (e.g.
+    ``keep_way_out=False``: the fleet without a rule, to show what it does)."""
 
     def build(*args: Any, config: Any, **kwargs: Any) -> AgvController:
-        return AgvController(*args, config=dataclasses.replace(config, **changes), **kwargs)
+        return controller(*args, config=dataclasses.replace(config, **changes), **kwargs)
 
     return build

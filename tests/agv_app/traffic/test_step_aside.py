@@ -37,7 +37,13 @@ def _gaps(vehicle: type[_Logged]) -> list[float]:
     circle: 50 AGVs on the demo warehouse, a heartbeat every 10 s, 125 s."""
     vehicle.log.clear()
     config = FleetConfig(
-        agvs=50, seed=1, load=0.7, scoped=True, heartbeat=10.0, fail_on_violation=True
+        agvs=50,
+        seed=1,
+        load=0.7,
+        scoped=True,
+        heartbeat=10.0,
+        wait_for_drop=False,  # as found: the queues the rule now holds back formed the ring
+        fail_on_violation=True,
     )
     fleet = Fleet(demo_warehouse(), config, vehicle=vehicle)
     fleet.run(125.0)
