@@ -10,6 +10,7 @@ from typing import Any
 
 import httpx
 import pytest
+from playwright.sync_api import TimeoutError as PlaywrightTimeoutError
 
 from agv_app.fleet import Fleet, FleetConfig
 from tests.dashboard.browser import BROWSER_MARKS, chromium_page, load_dashboard
@@ -64,25 +65,43 @@ def served() -> Iterator[Served]:
         yield served
 
 
+def _live_session(served: Served) -> str:
+    """The newest session that is live and has members now (the fleet runs on: one
+    listed a moment ago may have ended since)."""
+    deadline = time.monotonic() + 30
+    while True:
+        listed = httpx.get(f"{served.url}/api/membership", timeout=5).json()
+        live = [s for s in listed if s["ended_at"] is None and s["members"]]
+        if live:
+            return str(max(live, key=lambda s: s["started_at"])["id"])
+        assert time.monotonic() < deadline, "no live session with members"
+        time.sleep(0.2)  # polling a live server, not an assertion
+
+
 def fill_panels(page: Any, served: Served) -> None:
     driving = next(
         (v for v in httpx.get(f"{served.url}/api/vehicles", timeout=5).json() if v["task"]),
         None,
     )
     page.evaluate("id => window.__vehiclePanel.select(id)", driving["id"] if driving else "agv-01")
-    listed = httpx.get(f"{served.url}/api/membership", timeout=5).json()
-    sid = next(s["id"] for s in listed if s["joins"])
-    page.wait_for_function(
-        "sid => [...document.querySelectorAll('#groups-session option')]"
-        ".some(o => o.value === sid)",
-        arg=sid,
-        timeout=10_000,
-    )
-    page.select_option("#groups-session", sid)
-    page.fill("#groups-definition", json.dumps({"type": "within", "distance": 1000}))
-    page.click("#groups-show")
+    for attempt in range(3):
+        sid = _live_session(served)
+        page.wait_for_function(
+            "sid => [...document.querySelectorAll('#groups-session option')]"
+            ".some(o => o.value === sid)",
+            arg=sid,
+            timeout=10_000,
+        )
+        page.select_option("#groups-session", sid)
+        page.fill("#groups-definition", json.dumps({"type": "within", "distance": 1000}))
+        page.click("#groups-show")
+        try:
+            page.wait_for_function("window.__groupsPanel.members.length > 0", timeout=5_000)
+            break
+        except PlaywrightTimeoutError:
+            if attempt == 2:
+                raise  # three live sessions in a row ended before the panel showed them
     page.wait_for_function(f"({FILLED})().length === 0", timeout=15_000)
-    page.wait_for_function("window.__groupsPanel.members.length > 0", timeout=5_000)
 
 
 @pytest.mark.parametrize(("width", "height"), [(1400, 900), (1920, 1080)])
