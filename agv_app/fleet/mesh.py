@@ -190,7 +190,8 @@ class MeshFleet(FleetSourceBase):
         self.metrics_raw = FleetMetrics()
         self.monitor = SafetyMonitor()
         self.overlaps = LastingOverlaps(self.monitor, min_s=2 * t_update)
-        self.stalls = StallWatch()
+        # The desk is made below; the watch tells it of long waits once the fleet runs.
+        self.stalls = StallWatch(on_long_wait=lambda _agv, now: self.desk.long_wait(now))
         super().__init__(
             self.layout,
             TaskDesk(
@@ -203,7 +204,6 @@ class MeshFleet(FleetSourceBase):
                 max_open=max_open_tasks,
             ),
         )
-        self.stalls.on_long_wait = lambda _agv, now: self.desk.long_wait(now)
         self.processes = AgvProcesses(python=python, capture_output=capture_output)
         self.vda5050 = vda5050
         self.broker_monitor = None if vda5050 is None else BrokerMonitor(parse_broker_url(vda5050))

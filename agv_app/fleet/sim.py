@@ -205,7 +205,10 @@ class Fleet(FleetSourceBase):
         self.rng = random.Random(cfg.seed)
         self.metrics_raw = FleetMetrics()
         self.monitor = SafetyMonitor()
-        self.stalls = StallWatch(limit_s=cfg.deadlock_after)
+        # The desk is made below; the watch tells it of long waits once the fleet runs.
+        self.stalls = StallWatch(
+            limit_s=cfg.deadlock_after, on_long_wait=lambda _agv, now: self.desk.long_wait(now)
+        )
         self.step_count = 0
         self._speed = 1.0
         self._carry = 0.0
@@ -239,7 +242,6 @@ class Fleet(FleetSourceBase):
                 wait_for_drop=cfg.wait_for_drop,
             ),
         )
-        self.stalls.on_long_wait = lambda _agv, now: self.desk.long_wait(now)
         self.agv_config = AgvConfig(t_update=cfg.t_update, dwell=cfg.dwell, broadcast=cfg.broadcast)
         self.interest_radius = self._interest_radius()
         """The AGV nodes' interest radius (None: they hear every node)."""
