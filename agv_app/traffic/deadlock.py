@@ -286,6 +286,9 @@ class StopPlan:
         spans: each claim with the arc lengths ``(lo, hi)`` where the hull covers its
             segment (widened by the clearance).
         clearance: the clearance the zones are widened by.
+        hard: the parts of zones that carry no claim (a spur or lane that ends in a
+            dead end, a keep-clear box, a turn off a lane, a way out), merged: no AGV
+            rests inside them, following or not.
     """
 
     length: float
@@ -294,6 +297,7 @@ class StopPlan:
     through: tuple[bool, ...] = ()
     spans: tuple[tuple[Claim, float, float], ...] = ()
     clearance: float = 0.0
+    hard: tuple[tuple[float, float], ...] = ()
 
     @classmethod
     def for_route(
@@ -352,6 +356,7 @@ class StopPlan:
                 (seg_id, route.offsets[i] - clearance_m, route.offsets[i + 1] + clearance_m)
             )
         merged = _merged(raw)
+        leaving_near: list[tuple[float, float]] = []
         if way_out_reach_m is not None:
             reach = 1.25 * way_out_reach_m + clearance_m
             while leaving:
@@ -360,6 +365,7 @@ class StopPlan:
                 if not near:
                     break
                 leaving = [span for span in leaving if span not in near]
+                leaving_near += near
                 merged = _merged(merged + [(lo, hi, []) for lo, hi in near])
         through = tuple(bool(zone) and hi < route.length - 1e-9 for _, hi, zone in merged)
         per_zone = tuple(
@@ -367,6 +373,8 @@ class StopPlan:
             for (_, _, zone), leaves in zip(merged, through, strict=True)
         )
         kind = {c[0]: c for zone in per_zone for c in zone}
+        unclaimed = [(lo, hi) for lo, hi, claims in raw if not claims] + leaving_near
+        hard = _merged([(lo, hi, list[Claim]()) for lo, hi in unclaimed])
         return cls(
             route.length,
             tuple((lo, hi) for lo, hi, _ in merged),
@@ -374,6 +382,7 @@ class StopPlan:
             through,
             tuple((kind[seg], lo, hi) for seg, lo, hi in spans),
             clearance_m,
+            tuple((lo, hi) for lo, hi, _ in hard),
         )
 
     def shifted(self, ds: float) -> StopPlan:
@@ -385,6 +394,7 @@ class StopPlan:
             self.through,
             tuple((c, lo + ds, hi + ds) for c, lo, hi in self.spans),
             self.clearance,
+            tuple((lo + ds, hi + ds) for lo, hi in self.hard),
         )
 
     def cut(self, length: float) -> StopPlan:
@@ -398,6 +408,7 @@ class StopPlan:
             tuple(self.through[k] for k in keep if k < len(self.through)),
             tuple(span for span in self.spans if span[1] < length),
             self.clearance,
+            tuple(part for part in self.hard if part[0] < length),
         )
 
     def claims_between(self, s0: float, s1: float) -> frozenset[Claim]:
@@ -424,11 +435,21 @@ class StopPlan:
             return True
         return not any(lo < s < hi for lo, hi in self.zones)
 
+    def _past_hard(self, s: float) -> float:
+        """``s``, or the end of the part of :attr:`hard` it lies in."""
+        for lo, hi in self.hard:
+            if lo < s < hi:
+                return hi
+        return s
+
     def next_stop(self, from_s: float, advance_m: float, *, follow: bool = False) -> float:
         """The first resting place at or beyond ``from_s + advance_m`` (capped at the end).
 
-        With ``follow``, a zone the route drives through is a resting place too: the
-        request carries its direction claims (:meth:`claims_between`). A stop that
+        With ``follow``, a zone the route drives through is a resting place too (the
+        request carries its direction claims, :meth:`claims_between`), outside its
+        :attr:`hard` parts: at a dead-end start the spur and the box at its mouth make
+        one zone with the run, and a stop just past the zone's start would leave the
+        hull across the lane it joins. A stop that
         would leave less than ``advance_m / 4`` to the route end is moved to the end,
         so the last request does not cover a sliver.
         """
@@ -437,10 +458,10 @@ class StopPlan:
             if not lo < target < hi:
                 continue
             # Following, the AGV may wait inside a run it drives through, but only with
-            # its hull clear of both ends' junctions (not in a short keep-clear box).
+            # its hull clear of both ends' junctions and of every part without a claim.
             first, last = lo + 2 * self.clearance + 0.01, hi - 2 * self.clearance
             if follow and k < len(self.through) and self.through[k] and first < last:
-                target = max(target, first)
+                target = self._past_hard(max(target, first))
                 if target < last:
                     continue
             target = hi

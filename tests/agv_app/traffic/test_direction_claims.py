@@ -10,6 +10,7 @@ import shapely
 from agv_app.fleet import Fleet, FleetConfig
 from agv_app.geometry import Area
 from agv_app.layout import Layout, Point, Segment, Station
+from agv_app.layout.demo import demo_warehouse
 from agv_app.traffic import LockBook, LockEntry, RequestEntry, decide_vote
 from agv_app.traffic.deadlock import (
     DEFAULT_CLEARANCE_M,
@@ -147,3 +148,29 @@ def test_agvs_follow_through_the_corridor_and_never_hold_it_both_ways() -> None:
     assert figures["collisions"] == figures["lock_overlaps"] == figures["deadlocks"] == 0
     assert followed > 0  # two AGVs in the corridor at once: only by following
     assert figures["tasks_completed"] >= 6
+
+
+def test_a_follower_leaving_a_dead_end_spur_never_waits_across_the_lane_it_joins() -> None:
+    # From the station A3-3e (a 2.5 m two-way spur east of aisle A3) the route runs up
+    # the aisle to the N lane. The spur, the aisle and its keep-clear box make one zone
+    # the route drives through; a follower may wait in it, but only beyond the spur
+    # and its clearance: just past the zone's start the hull lies across the aisle.
+    fleet = Fleet(
+        demo_warehouse(),
+        FleetConfig(agvs=1, seed=1, task_interval=1e9, start_tasks=0),
+        homes=["N5300n"],
+        starts=["A3-3e"],
+    )
+    agv = fleet.agvs["agv-01"]
+    route = agv._route_for("N5300n")
+    plan = agv._plan_for(route)
+    assert route.points[:2] == ("A3-3e", "A3-3")
+    spur_clear = route.offsets[1] + plan.clearance
+    assert plan.through[0]
+    assert plan.zones[0][0] < 0.0 < spur_clear < plan.zones[0][1]
+    assert plan.hard[0] == (plan.zones[0][0], spur_clear)
+    for advance in (1.25, 2.0, 3.0, 4.0):
+        stop = plan.next_stop(0.0, advance, follow=True)
+        assert stop >= spur_clear - 1e-9, (advance, stop)
+        assert not any(lo < stop < hi for lo, hi in plan.hard)
+    assert plan.next_stop(0.0, 5.0, follow=True) == 5.0  # beyond it, as before
