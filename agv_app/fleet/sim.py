@@ -35,7 +35,7 @@ from agv_app.traffic.central import CentralScheduler
 from agv_app.traffic.monitor import SafetyMonitor, SafetyViolation
 from agv_app.traffic.reach import dissemination_margin, interest_radius
 from agv_app.traffic.stale_relay import StaleListener, StaleRelay
-from agv_app.vehicle.controller import AgvConfig, AgvController
+from agv_app.vehicle.controller import DEFAULT_ADVANCE_M, AgvConfig, AgvController
 from agv_app.vehicle.kinematics import VehicleSpec
 from objectplaces import RoleActivator
 from objectplaces.runtime.sim import collections_spaced
@@ -106,6 +106,8 @@ class FleetConfig:
         deadlock_after: an AGV stalled this long counts as a deadlock.
         station_range: first auction range of the stations.
         dwell: seconds at a pick or drop station.
+        advance_m: how far beyond its locks an AGV's request reaches at least
+            (``AgvConfig.advance_m``; the interest radius follows it).
         fail_on_violation: raise at the first safety violation.
     """
 
@@ -137,6 +139,7 @@ class FleetConfig:
     deadlock_after: float = STALL_LIMIT_S
     station_range: float = 30.0
     dwell: float = 5.0
+    advance_m: float = DEFAULT_ADVANCE_M
     fail_on_violation: bool = False
 
     def __post_init__(self) -> None:
@@ -242,7 +245,12 @@ class Fleet(FleetSourceBase):
                 wait_for_drop=cfg.wait_for_drop,
             ),
         )
-        self.agv_config = AgvConfig(t_update=cfg.t_update, dwell=cfg.dwell, broadcast=cfg.broadcast)
+        self.agv_config = AgvConfig(
+            t_update=cfg.t_update,
+            dwell=cfg.dwell,
+            broadcast=cfg.broadcast,
+            advance_m=cfg.advance_m,
+        )
         self.interest_radius = self._interest_radius()
         """The AGV nodes' interest radius (None: they hear every node)."""
         self.footprint_margin = self._footprint_margin()

@@ -52,13 +52,17 @@ from objectplaces import RoleActivator
 from objectplaces.groups import GroupDefinition
 from tuplespace import ANY
 
-__all__ = ["AgvConfig", "AgvController"]
+__all__ = ["DEFAULT_ADVANCE_M", "AgvConfig", "AgvController"]
 
 _LEAD_M = 0.01  # a short piece in the old heading, so the first turn is swept and locked
 _MIN_ADVANCE_M = 1.25  # the shortest stretch a request held up by a lock shrinks to
 _DEPART_SLACK_S = 0.2  # a request before departure starts this much before the safe time
 
 _SHRINK_WORTH_M = 5.0  # a circle this much smaller is worth a publication to every listener
+
+DEFAULT_ADVANCE_M = 3.0
+"""How far beyond its locks a request reaches at least, by default (docs/traffic.md,
+"Request length")."""
 
 _Announced = tuple[float, Area, frozenset[Claim]]
 """Since when a published circle covers a request, its area and direction claims."""
@@ -114,7 +118,7 @@ class AgvConfig:
     """
 
     t_update: float = 1.0
-    advance_m: float = 5.0
+    advance_m: float = DEFAULT_ADVANCE_M
     dwell: float = 5.0
     retry: float = 0.2
     hull_margin_m: float = 0.05

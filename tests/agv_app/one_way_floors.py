@@ -24,6 +24,7 @@ from typing import Any
 from agv_app.fleet import Fleet, FleetConfig
 from agv_app.layout import Layout
 from agv_app.layout.builder import LayoutBuilder
+from agv_app.vehicle.controller import DEFAULT_ADVANCE_M
 
 __all__ = [
     "FloorRun",
@@ -115,11 +116,12 @@ def run_floor(
     *,
     one_at_a_time: bool = True,
     wait_for_drop: bool = True,
+    advance_m: float = DEFAULT_ADVANCE_M,
     **options: Any,
 ) -> Fleet:
     """Tasks for 300 s, then 200 s more to finish them; every step checked for safety
-    (a collision or a lock overlap raises). ``one_at_a_time`` and ``wait_for_drop`` as
-    in :class:`FleetConfig`; ``options`` go to :class:`Fleet`."""
+    (a collision or a lock overlap raises). ``one_at_a_time``, ``wait_for_drop`` and
+    ``advance_m`` as in :class:`FleetConfig`; ``options`` go to :class:`Fleet`."""
     cfg = FleetConfig(
         agvs=run.floor.agvs,
         seed=run.seed,
@@ -127,6 +129,7 @@ def run_floor(
         task_until=300.0,
         one_at_a_time=one_at_a_time,
         wait_for_drop=wait_for_drop,
+        advance_m=advance_m,
         fail_on_violation=True,
     )
     fleet = Fleet(run.floor.layout, cfg, **options)

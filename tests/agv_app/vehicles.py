@@ -8,7 +8,12 @@ from typing import Any
 
 from agv_app.vehicle import AgvController
 
-__all__ = ["VehicleFactory", "vehicle_with"]
+__all__ = ["FOUND_AT_ADVANCE_M", "VehicleFactory", "vehicle_with"]
+
+FOUND_AT_ADVANCE_M = 5.0
+"""The request length (``FleetConfig.advance_m``) the fleets that the before-and-after
+tests replay were found with: with shorter requests their dynamics differ, and most of
+them no longer lock without the rule they show."""
 
 VehicleFactory = Callable[..., AgvController]
 """What ``Fleet(vehicle=...)`` takes: builds one AGV component."""

@@ -6,12 +6,20 @@ from collections.abc import Callable
 
 from agv_app.fleet import Fleet, FleetConfig
 from agv_app.layout.demo import demo_warehouse
-from agv_app.vehicle.controller import AgvController
+from agv_app.vehicle.controller import DEFAULT_ADVANCE_M, AgvController
 
 
-def one_agv() -> tuple[Fleet, AgvController]:
-    """One AGV resting at the N lane's parking spot N0800n, no tasks of its own."""
-    cfg = FleetConfig(agvs=1, seed=1, task_interval=1e9, start_tasks=0, fail_on_violation=True)
+def one_agv(advance_m: float = DEFAULT_ADVANCE_M) -> tuple[Fleet, AgvController]:
+    """One AGV resting at the N lane's parking spot N0800n, no tasks of its own, its
+    requests ``advance_m`` long."""
+    cfg = FleetConfig(
+        agvs=1,
+        seed=1,
+        task_interval=1e9,
+        start_tasks=0,
+        advance_m=advance_m,
+        fail_on_violation=True,
+    )
     fleet = Fleet(demo_warehouse(), cfg, homes=["N0800n"])
     return fleet, fleet.agvs["agv-01"]
 
