@@ -33,7 +33,7 @@ from pathlib import Path
 from agv_app.fleet import Fleet, FleetConfig
 from agv_app.layout.json_format import load_any
 from agv_app.tasks import check_load
-from agv_app.vehicle.controller import AgvController
+from agv_app.vehicle.controller import DEFAULT_ADVANCE_M, AgvController
 from bench.report import markdown_table, publish
 
 __all__ = ["Goal", "activity", "collected", "goals", "main", "run_one", "time_shares"]
@@ -51,14 +51,16 @@ def run_one(
     load: float,
     layout: str | None = None,
     report_every: float = 5.0,
+    advance_m: float = DEFAULT_ADVANCE_M,
 ) -> dict[str, float]:
     """Run one fleet and return its figures (sim speed from this process's CPU time).
 
     Every ``report_every`` simulated minutes it prints the figures so far as one JSON
     line, so a run cut short on a busy machine still shows what it measured.
+    ``advance_m``: the AGVs' request length (``FleetConfig.advance_m``), in both modes.
     """
     floor = load_any(layout) if layout else None
-    cfg = FleetConfig(agvs=agvs, seed=seed, load=load, traffic=traffic)
+    cfg = FleetConfig(agvs=agvs, seed=seed, load=load, traffic=traffic, advance_m=advance_m)
     fleet = Fleet(floor, cfg)
     started = time.process_time()
     done = 0.0
@@ -180,6 +182,12 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--seeds", default="1,2,3,4,5")
     parser.add_argument("--layout", help="layout file (.json or openTCS .xml); default: demo")
     parser.add_argument(
+        "--advance",
+        type=float,
+        default=DEFAULT_ADVANCE_M,
+        help=f"request length in both modes, m (default {DEFAULT_ADVANCE_M:g})",
+    )
+    parser.add_argument(
         "--jobs", type=int, default=os.cpu_count() or 1, help="runs in parallel, one core each"
     )
     parser.add_argument(
@@ -200,6 +208,8 @@ def main(argv: list[str] | None = None) -> None:
     except ValueError as exc:
         raise SystemExit(f"bench.fleet: --load: {exc}") from exc
     seeds = [int(s) for s in args.seeds.split(",") if s]
+    if args.advance <= 0:
+        raise SystemExit(f"bench.fleet: --advance must be positive, not {args.advance:g}")
     if args.time_shares:
         for seed in seeds:
             print(f"seed {seed}, {args.agvs} AGVs, load {args.load:g}, {args.minutes:g} min:")
@@ -233,10 +243,16 @@ def _run_all(args: argparse.Namespace, seeds: list[int]) -> dict[tuple[int, str]
     runs: dict[tuple[int, str], dict[str, float]] = {}
     with ProcessPoolExecutor(max_workers=args.jobs) as pool:
         futures = {
-            pool.submit(run_one, args.agvs, args.minutes, seed, mode, args.load, args.layout): (
+            pool.submit(
+                run_one,
+                args.agvs,
+                args.minutes,
                 seed,
                 mode,
-            )
+                args.load,
+                args.layout,
+                advance_m=args.advance,
+            ): (seed, mode)
             for seed in seeds
             for mode in MODES
         }
@@ -279,7 +295,8 @@ def _publish(
     )
     body = (
         f"{args.agvs} AGVs on {where}, load {args.load:g}, {args.minutes:g} simulated minutes "
-        f"per run{short}, seeds {args.seeds}; t_update 1 s, 5 ms delay. Each seed runs twice "
+        f"per run{short}, seeds {args.seeds}; t_update 1 s, 5 ms delay, requests reaching "
+        f"{args.advance:g} m beyond the locks. Each seed runs twice "
         "on the same layout, vehicles, task stream and seed: `protocol` is the AGVs' own traffic "
         "protocol (collision groups, the longest-waiting request first, direction claims), "
         "`central` the baseline "
@@ -295,6 +312,7 @@ def _publish(
         f".venv/bin/python -m bench.fleet --agvs {args.agvs} --load {args.load:g} "
         f"--minutes {args.minutes:g} --seeds {args.seeds}"
         + (f" --layout {args.layout}" if args.layout else "")
+        + (f" --advance {args.advance:g}" if args.advance != DEFAULT_ADVANCE_M else "")
     )
     publish("fleet", "AGV fleet at load: the protocol against a central scheduler", body, command)
 
