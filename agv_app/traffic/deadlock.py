@@ -132,7 +132,11 @@ def merge_branches(layout: Layout) -> frozenset[str]:
     these branches get the same no-rest zone from the layout's shape, so a floor drawn
     without boxes (an openTCS plant, a generated warehouse) is safe too. The lane a
     branch joins goes straight on: an AGV resting there waits only on the lane ahead.
+    A two-way spur that ends in a dead end is no way on: a branch that goes straight
+    into one (an aisle ending on a lane, a parking spur opposite) still turns into
+    the lane.
     """
+    ways_through = followable_segments(layout)
     entering: dict[str, list[str]] = {}
     one_way_in: dict[str, int] = {}
     leaving: dict[str, list[tuple[str, bool]]] = {}
@@ -162,6 +166,7 @@ def merge_branches(layout: Layout) -> frozenset[str]:
                 abs(math.remainder(_heading(coords, at_end=False) - arrive, math.tau)) > _TURN_RAD
                 for out, forward in outs
                 if out != sid
+                and (not layout.segment(out).bidirectional or out in ways_through)
                 for coords in [layout.segment_coords(out)[:: 1 if forward else -1]]
             )
             if crossing or turns:

@@ -56,6 +56,20 @@ def test_a_branch_turning_into_a_lane_is_a_merge_branch_and_the_lane_is_not() ->
     assert merge_branches(tee()) == {"nj"}
 
 
+def test_a_branch_going_straight_into_a_dead_end_spur_still_turns_into_the_lane() -> None:
+    # The generated warehouse: aisle A3 ends on the N lane at N02050, where a two-way
+    # parking spur leaves straight ahead. The spur is no way on; an AGV resting at the
+    # aisle's end with its front in the lane and one on the lane locked (seed 1, 100
+    # AGVs, 3 m requests, after 18 minutes).
+    layout = tee()
+    spur = Layout(
+        [*layout.points.values(), Point("js", 20, -2.5)],
+        [*layout.segments.values(), Segment("j-js", "j", "js", bidirectional=True)],
+    )
+    assert merge_branches(spur) == {"nj"}
+    assert "b1-A3-3>b1-N02050" in merge_branches(generated_warehouse(100))
+
+
 def test_a_keep_clear_box_already_keeps_the_branch_clear() -> None:
     assert merge_branches(tee(box=True)) == frozenset()
 
