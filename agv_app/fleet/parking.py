@@ -88,7 +88,10 @@ class ParkingPlan:
                 )
             # Spread the fleet over the spots rather than packing one corner.
             self.homes = [points[(k * len(points)) // agvs] for k in range(agvs)]
-            spare = self._rest_points(self.homes, max(4, agvs // 4)) if rest_elsewhere else []
+            # The spots no AGV calls home come first, then a few points elsewhere.
+            spare = [p for p in points if p not in self.homes]
+            if rest_elsewhere:
+                spare += self._rest_points(self.homes, max(4, agvs // 4))
             self._pool = self.homes + spare
         self._resting: dict[str, str] = {}
         """Rest point -> the AGV that owns it."""
@@ -113,14 +116,20 @@ class ParkingPlan:
         return best
 
     def _rest_points(self, taken: list[str], n: int) -> list[str]:
-        """Up to ``n`` more points to rest on, a hull diagonal from each other and from
-        stations: dead ends first, then points on lanes."""
+        """Up to ``n`` more points to rest on, a hull diagonal from each other, from
+        stations and from junctions: dead ends first, then points on lanes.
+
+        An AGV resting on a junction, or with its hull reaching into one, blocks every
+        way through it; one that must leave across a way another AGV waits on locks
+        with it.
+        """
         layout = self.layout
         usable = {layout.station(s).point for s in layout.usable_stations()}
         reach = layout.distances_from(min(usable)) if usable else {}
         gap = math.hypot(self.spec.length_m, self.spec.width_m) + 0.5
         chosen: list[str] = []
-        occupied = [layout.point(p) for p in sorted({*taken, *usable})]
+        junctions = {p for p in layout.points if len(layout.neighbours(p)) > 2}
+        occupied = [layout.point(p) for p in sorted({*taken, *usable, *junctions})]
         candidates = sorted(
             (
                 p
