@@ -165,8 +165,7 @@ def merge_branches(layout: Layout) -> frozenset[str]:
             turns = all(
                 abs(math.remainder(_heading(coords, at_end=False) - arrive, math.tau)) > _TURN_RAD
                 for out, forward in outs
-                if out != sid
-                and (not layout.segment(out).bidirectional or out in ways_through)
+                if out != sid and (not layout.segment(out).bidirectional or out in ways_through)
                 for coords in [layout.segment_coords(out)[:: 1 if forward else -1]]
             )
             if crossing or turns:
