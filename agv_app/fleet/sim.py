@@ -150,7 +150,7 @@ class FleetConfig:
             self.task_interval > 0 and math.isfinite(self.task_interval)
         ):
             raise ValueError(f"task_interval must be a positive number, got {self.task_interval!r}")
-        for name in ("interest_radius", "heartbeat", "republish"):
+        for name in ("interest_radius", "heartbeat", "republish", "advance_m"):
             value = getattr(self, name)
             if value is not None and not (value > 0 and math.isfinite(value)):
                 raise ValueError(f"{name} must be a positive number, got {value!r}")

@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import dataclasses
 import gc
+import math
 import os
+from typing import Any
 
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -111,3 +114,13 @@ def test_a_run_spaces_the_collector_across_its_steps_and_restores_it(
     fleet.run(0.3)
     assert seen == [max(before[0], GC_ALLOCATIONS)] * 3
     assert gc.get_threshold() == before
+
+
+@pytest.mark.parametrize("name", ["advance_m", "heartbeat", "republish", "interest_radius"])
+@pytest.mark.parametrize("value", [0.0, -1.0, math.inf, math.nan])
+def test_a_length_or_interval_that_is_not_a_positive_number_is_refused(
+    name: str, value: float
+) -> None:
+    changes: dict[str, Any] = {name: value}
+    with pytest.raises(ValueError, match=f"{name} must be a positive number"):
+        dataclasses.replace(FleetConfig(), **changes)
