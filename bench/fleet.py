@@ -207,9 +207,11 @@ def main(argv: list[str] | None = None) -> None:
         check_load(args.load)
     except ValueError as exc:
         raise SystemExit(f"bench.fleet: --load: {exc}") from exc
+    try:
+        FleetConfig(advance_m=args.advance)  # the fleet's own check, before any run
+    except ValueError as exc:
+        raise SystemExit(f"bench.fleet: --advance: {exc}") from exc
     seeds = [int(s) for s in args.seeds.split(",") if s]
-    if args.advance <= 0:
-        raise SystemExit(f"bench.fleet: --advance must be positive, not {args.advance:g}")
     if args.time_shares:
         for seed in seeds:
             print(f"seed {seed}, {args.agvs} AGVs, load {args.load:g}, {args.minutes:g} min:")
