@@ -14,7 +14,7 @@ import time
 from pathlib import Path
 
 from agv_app.fleet.parking import parking_capacity
-from agv_app.fleet.sim import TRAFFIC_MODES, Fleet, FleetConfig
+from agv_app.fleet.sim import REST_BEAT_S, TRAFFIC_MODES, Fleet, FleetConfig
 from agv_app.layout.elements import LayoutError
 from agv_app.layout.generated import generated_warehouse, parse_generated
 from agv_app.layout.graph import Layout
@@ -68,6 +68,16 @@ def max_open_argument(text: str) -> int | str:
         return parse_max_open(text)
     except ValueError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def rest_beat_argument(text: str) -> float | None:
+    """``--rest-beat``: seconds, or ``none`` (no rest), for argparse."""
+    if text.strip().lower() == "none":
+        return None
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected seconds or 'none', got {text!r}") from None
 
 
 def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -131,6 +141,14 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
         "sends a beat of a few bytes, every property is republished every sixty; a node "
         "unheard for three heartbeats counts as failed",
     )
+    p.add_argument(
+        "--rest-beat",
+        type=rest_beat_argument,
+        default=REST_BEAT_S,
+        help=f"an AGV parked at home with no task beats only this often (default "
+        f"{REST_BEAT_S:g} s, or the heartbeat when longer; 'none': as often as the others); "
+        "it counts as failed after three of these",
+    )
     p.add_argument("--json", dest="json_path", help="write the metrics to this JSON file")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run_sim)
@@ -181,6 +199,7 @@ def run_sim(args: argparse.Namespace) -> int:
             task_interval=args.task_interval,
             max_open_tasks=args.max_open_tasks,
             heartbeat=args.heartbeat,
+            rest_beat=args.rest_beat,
         )
         fleet = Fleet(layout, config)
     except (LayoutError, ValueError, OSError) as exc:

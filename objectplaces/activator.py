@@ -125,6 +125,13 @@ class RoleActivator:
         self._machine.update_property(name, value, self._clock())
         self._wake()
 
+    def set_at_rest(self, at_rest: bool) -> None:
+        """Say whether this node is at rest (standing still with nothing to publish): it
+        then beats less often, if its configuration has a ``rest_beat_interval``
+        (``NodeMachine.set_at_rest``)."""
+        self._machine.set_at_rest(at_rest, self._clock())
+        self._wake()
+
     def register_node_property_observer(
         self, observer: Callable[[str, str, Any], Any], *, names: Iterable[str] | None = None
     ) -> ObserverHandle:

@@ -123,6 +123,8 @@ class SimulatedNetwork:
         property_interval: default republication interval of new nodes (None: off).
         beat_interval: default liveness beat interval of new nodes (None: no beats;
             ``NodeConfig`` says what a beat is).
+        rest_beat_interval: default beat interval of new nodes at rest (None: no rest;
+            ``NodeConfig.rest_beat_interval``).
         failure_timeout: default failure timeout of new nodes (None: 3 intervals).
         retransmit_timeout: first retransmission delay of session channel frames.
     """
@@ -140,6 +142,7 @@ class SimulatedNetwork:
         cell_size: float = 25.0,
         property_interval: float | None = None,
         beat_interval: float | None = None,
+        rest_beat_interval: float | None = None,
         failure_timeout: float | None = None,
         retransmit_timeout: float = 0.2,
     ) -> None:
@@ -154,6 +157,7 @@ class SimulatedNetwork:
         self._defaults = NodeConfig(
             property_interval=property_interval,
             beat_interval=beat_interval,
+            rest_beat_interval=rest_beat_interval,
             failure_timeout=failure_timeout,
             cell_size=cell_size,
             retransmit_timeout=retransmit_timeout,
@@ -181,6 +185,7 @@ class SimulatedNetwork:
         footprint_margin: float | None = None,
         property_interval: float | None = _UNSET,
         beat_interval: float | None = _UNSET,
+        rest_beat_interval: float | None = _UNSET,
         failure_timeout: float | None = _UNSET,
         space: TupleSpace | None = None,
     ) -> RoleActivator:
@@ -193,6 +198,7 @@ class SimulatedNetwork:
                 node's radius plus this margin (``NodeConfig.footprint_margin``).
             property_interval: overrides the network's default.
             beat_interval: overrides the network's default.
+            rest_beat_interval: overrides the network's default.
             failure_timeout: overrides the network's default.
             space: the node's tuplespace (a new one on the virtual clock by default).
 
@@ -209,6 +215,9 @@ class SimulatedNetwork:
                 defaults.property_interval if property_interval is _UNSET else property_interval
             ),
             beat_interval=defaults.beat_interval if beat_interval is _UNSET else beat_interval,
+            rest_beat_interval=(
+                defaults.rest_beat_interval if rest_beat_interval is _UNSET else rest_beat_interval
+            ),
             failure_timeout=(
                 defaults.failure_timeout if failure_timeout is _UNSET else failure_timeout
             ),

@@ -76,7 +76,7 @@ CORE_LAYERS = [
     {"messages", "events", "values"},
     {"codec", "outbox", "roles", "groups"},
     {"channel", "config"},
-    {"timers", "observers", "intake"},
+    {"timers", "observers", "intake", "rest"},
     {"own", "channels"},
     {"plumbing", "liveness"},
     {"view", "session_state"},

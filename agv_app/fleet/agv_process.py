@@ -133,7 +133,7 @@ def dissemination_radius(
     # A loaded machine delays frames by up to the largest step lag. The demo floor
     # lies within this radius, so no failure needs relaying (traffic/stale_relay.py).
     radius = interest_radius(
-        layout, spec, config, delay_s=_MAX_LAG_S, failure_timeout_s=3 * config.t_update
+        layout, spec, config, delay_s=_MAX_LAG_S, failure_detection_s=4 * config.t_update
     )
     # Every node on such a floor lies within the radius of every other: scoping would
     # leave nobody out, and one subscription to everything costs a receiver less than a

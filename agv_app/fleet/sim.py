@@ -38,13 +38,17 @@ from agv_app.traffic.stale_relay import StaleListener, StaleRelay
 from agv_app.vehicle.controller import DEFAULT_ADVANCE_M, AgvConfig, AgvController
 from agv_app.vehicle.kinematics import VehicleSpec
 from objectplaces import RoleActivator
+from objectplaces.core.config import NodeConfig
 from objectplaces.runtime.sim import collections_spaced
 from objectplaces.sim import SimulatedNetwork
 
-__all__ = ["TRAFFIC_MODES", "Fleet", "FleetConfig", "SafetyError"]
+__all__ = ["REST_BEAT_S", "TRAFFIC_MODES", "Fleet", "FleetConfig", "SafetyError"]
 
 _REPUBLISH_BEATS = 60
 """Heartbeats between two republications of every property, by default."""
+
+REST_BEAT_S = 5.0
+"""How often an AGV parked idle beats, by default (its heartbeat when that is longer)."""
 
 TRAFFIC_MODES = ("protocol", "central")
 """How locks are granted: by the AGVs' collision groups, or by one central scheduler."""
@@ -85,6 +89,10 @@ class FleetConfig:
         republish: seconds between republications of every property, the last resort
             against lost updates (None: sixty heartbeats; a loss is found by the next
             frame of the node, publications being numbered without gaps).
+        rest_beat: an AGV parked at its home with no task is at rest and beats only this
+            often (``NodeConfig.rest_beat_interval``; its heartbeat when that is longer);
+            its peers count it failed after three of these. None: no rest. The interest
+            radius allows for the longer wait (docs/traffic.md, "Idle AGVs").
         beats: False: no beats; every node republishes every property each heartbeat
             instead (how the fleet ran before beats; ``republish`` is then ignored).
         load: target share of busy AGVs, in (0, 1]; the task rate follows from it and
@@ -128,6 +136,7 @@ class FleetConfig:
     footprints: bool = True
     heartbeat: float | None = None
     republish: float | None = None
+    rest_beat: float | None = REST_BEAT_S
     beats: bool = True
     load: float = DEFAULT_LOAD
     task_interval: float | None = None
@@ -150,7 +159,7 @@ class FleetConfig:
             self.task_interval > 0 and math.isfinite(self.task_interval)
         ):
             raise ValueError(f"task_interval must be a positive number, got {self.task_interval!r}")
-        for name in ("interest_radius", "heartbeat", "republish", "advance_m"):
+        for name in ("interest_radius", "heartbeat", "republish", "rest_beat", "advance_m"):
             value = getattr(self, name)
             if value is not None and not (value > 0 and math.isfinite(value)):
                 raise ValueError(f"{name} must be a positive number, got {value!r}")
@@ -191,8 +200,7 @@ class Fleet(FleetSourceBase):
         self.layout = layout or demo_warehouse()
         self.config = cfg = config or FleetConfig()
         self.spec = spec or VehicleSpec(DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M)
-        heartbeat = cfg.t_update if cfg.heartbeat is None else cfg.heartbeat
-        republish = heartbeat * _REPUBLISH_BEATS if cfg.republish is None else cfg.republish
+        liveness = self._liveness()
         self.net = SimulatedNetwork(
             cfg.seed,
             delay=cfg.delay,
@@ -201,9 +209,10 @@ class Fleet(FleetSourceBase):
             loss=cfg.loss,
             reorder=cfg.reorder,
             duplicate=cfg.duplicate,
-            property_interval=republish if cfg.beats else heartbeat,
-            beat_interval=heartbeat if cfg.beats else None,
-            failure_timeout=3 * heartbeat,
+            property_interval=liveness.property_interval,
+            beat_interval=liveness.beat_interval,
+            rest_beat_interval=liveness.rest_beat_interval,
+            failure_timeout=liveness.failure_timeout,
         )
         self.rng = random.Random(cfg.seed)
         self.metrics_raw = FleetMetrics()
@@ -316,13 +325,30 @@ class Fleet(FleetSourceBase):
         # Half the margin on each side: the interest radius carries the other half.
         return dissemination_margin(self.spec, self.agv_config, **self._timing()) / 2
 
+    def _liveness(self) -> NodeConfig:
+        """The nodes' liveness settings: heartbeat, republication, rest, timeout."""
+        cfg = self.config
+        heartbeat = cfg.t_update if cfg.heartbeat is None else cfg.heartbeat
+        if not cfg.beats:
+            return NodeConfig(property_interval=heartbeat, failure_timeout=3 * heartbeat)
+        rest = cfg.rest_beat
+        return NodeConfig(
+            property_interval=heartbeat * _REPUBLISH_BEATS
+            if cfg.republish is None
+            else cfg.republish,
+            beat_interval=heartbeat,
+            rest_beat_interval=None if rest is None else max(rest, heartbeat),
+            failure_timeout=3 * heartbeat,
+        )
+
     def _timing(self) -> dict[str, float]:
-        """The network delay and failure timeout the dissemination margin allows for."""
+        """The network delay and failure detection the dissemination margin allows for."""
         cfg = self.config
         # A held-back frame waits up to four more delays (SimulatedNetwork's reorder).
         worst_delay = (cfg.delay + cfg.jitter) * (5 if cfg.reorder else 1)
-        heartbeat = cfg.t_update if cfg.heartbeat is None else cfg.heartbeat
-        return {"delay_s": worst_delay, "failure_timeout_s": 3 * heartbeat}
+        detection = self._liveness().failure_detection_bound
+        assert detection is not None  # the fleet's nodes always detect failures
+        return {"delay_s": worst_delay, "failure_detection_s": detection}
 
     def _relocate(self, agv: AgvController) -> str | None:
         """A free rest point for an idle AGV that stands in the way (nearest ahead).

@@ -148,25 +148,25 @@ def dissemination_margin(
     config: AgvConfig,
     *,
     delay_s: float = 0.0,
-    failure_timeout_s: float = 0.0,
+    failure_detection_s: float = 0.0,
 ) -> float:
     """How much further than two circles' reach an AGV must hear the other, metres.
 
     The distance two AGVs may close while one update interval and two network delays
     pass (both at top speed), plus the distance an AGV covers towards a crashed one
-    before the failure is detected and relayed (:mod:`agv_app.traffic.stale_relay`): a
-    failure is found at most four thirds of the timeout after the node was last heard
-    (liveness is checked every third of it).
+    before the failure is detected and relayed (:mod:`agv_app.traffic.stale_relay`).
 
     Args:
         spec: the vehicles' size and speed.
         config: the AGV component's tunables (``t_update``).
         delay_s: the largest one-way network delay.
-        failure_timeout_s: the nodes' failure timeout (0: no crash to relay).
+        failure_detection_s: the longest from a node's last frame until its failure is
+            found (``NodeConfig.failure_detection_bound``: four thirds of the timeout,
+            more for a node at rest); 0: no crash to relay.
     """
     speed = spec.max_speed_m_s
     movement = 2 * speed * (config.t_update + 2 * delay_s)
-    detection = speed * (4 / 3 * failure_timeout_s + 2 * delay_s) if failure_timeout_s else 0.0
+    detection = speed * (failure_detection_s + 2 * delay_s) if failure_detection_s else 0.0
     return movement + detection
 
 
@@ -176,7 +176,7 @@ def interest_radius(
     config: AgvConfig,
     *,
     delay_s: float = 0.0,
-    failure_timeout_s: float = 0.0,
+    failure_detection_s: float = 0.0,
     footprints: bool = False,
 ) -> float:
     """The interest radius of an AGV node: every possible collider of its requests, and
@@ -193,11 +193,11 @@ def interest_radius(
         spec: the vehicles' size and speed.
         config: the AGV component's tunables (``t_update``, ``advance_m``).
         delay_s: the largest one-way network delay.
-        failure_timeout_s: the nodes' failure timeout (0: no crash to relay).
+        failure_detection_s: the longest until a crash is found (0: no crash to relay).
         footprints: the nodes publish to their footprints.
     """
     margin = dissemination_margin(
-        spec, config, delay_s=delay_s, failure_timeout_s=failure_timeout_s
+        spec, config, delay_s=delay_s, failure_detection_s=failure_detection_s
     )
     largest = largest_hull_length(layout, spec, config)
     return largest + margin / 2 if footprints else 2 * largest + margin

@@ -260,6 +260,7 @@ class AgvController:
         self.node = node
         self.failed = False
         self._requester = None
+        self._at_rest = False  # a new node beats as usual until the AGV parks
         book = self.book
         book.clear()
         self._key += 1
@@ -601,6 +602,21 @@ class AgvController:
         else:
             self._stalled = False
             self._idle(now)
+        self._rest_when_parked()
+
+    def _rest_when_parked(self) -> None:
+        """Tell the node when the AGV parks at its home with no task, and when it stops:
+        parked, it has nothing to say but that it lives, and beats less often."""
+        at_rest = (
+            self._dest is None
+            and self.phase == "home"
+            and self.point == self.home
+            and self.task is None
+            and self.pending_task is None
+        )
+        if at_rest != self._at_rest:
+            self._at_rest = at_rest
+            self.node.set_at_rest(at_rest)
 
     def _review_request(self, now: float) -> None:
         """Withdraw the pending request to yield (see ``_must_yield``), or ask again if
@@ -631,6 +647,12 @@ class AgvController:
             and self.vehicle.speed == 0.0
             and self._advance > _MIN_ADVANCE_M
         )
+
+    @property
+    def at_rest(self) -> bool:
+        """True while the AGV is parked at its home with no task (its node beats less
+        often then: ``FleetConfig.rest_beat``)."""
+        return self._at_rest
 
     @property
     def stalled(self) -> bool:

@@ -7,8 +7,8 @@ Its modules, bottom up (each imports only lower ones; tests/test_architecture.py
   what the machine asks its driver to do, what a value may be;
 * ``codec``, ``outbox``, ``roles``: the wire format, the driver-bound queue, role classes;
 * ``channel``, ``config``: one reliable channel with flow control; the tunables;
-* ``timers``, ``observers``, ``intake``: typed timers, application observers, frames
-  refused at the boundary;
+* ``timers``, ``observers``, ``intake``, ``rest``: typed timers, application
+  observers, frames refused at the boundary, the longer wait granted a peer at rest;
 * ``own``, ``channels``, ``plumbing``, ``liveness``: this node's properties; channel
   frames on the wire; what every part shares; the heartbeat and the liveness beat;
 * ``view``: the others' properties, liveness, index, scope and completeness;

@@ -11,7 +11,8 @@ Frame layouts (type code first)::
     8  [8]                                                send me all your properties
     9  like 1                                             property snapshot (all of them)
     10 like 2                                             property snapshot, compact
-    11 [11, seq]                                          beat: alive, latest publication
+    11 [11, seq(, rest_ms)]                               beat: alive, latest publication
+                                                          (and the beat interval at rest)
     4  [4, session, epoch, seq, kind, payload]            channel data, to participant
     5  [5, session, epoch, seq, kind, payload]            channel data, to initiator
     6  [6, session, epoch, ack]                           ack of the to-participant stream
@@ -78,6 +79,9 @@ FIRST_TRANSPORT_TYPE: Final = 32
 MAX_COUNTER: Final = 2**53
 """Sequence, session, epoch and ack numbers are below this (exact as a float, and far
 beyond any real run); a larger one is a hostile or broken peer's, refused on decode."""
+MAX_REST_MS: Final = 86_400_000
+"""The longest beat interval at rest a beat may declare, in milliseconds (a day); a
+receiver caps what it grants further still (``NodeConfig.rest_beat_interval``)."""
 
 _PROPS, _COMPACT, _LEAVE, _TO_PART, _TO_INIT, _ACK_PART, _ACK_INIT = 1, 2, 3, 4, 5, 6, 7
 _REQUEST, _PROPS_FULL, _COMPACT_FULL, _BEAT = 8, 9, 10, 11
@@ -173,8 +177,8 @@ def encode(message: Message) -> bytes:
         case ChannelAck(of_participant_stream, session, epoch, ack):
             code = _ACK_INIT if of_participant_stream else _ACK_PART
             frame = [code, session, epoch, ack]
-        case Beat(seq):
-            frame = [_BEAT, seq]
+        case Beat(seq, rest):
+            frame = [_BEAT, seq] if rest is None else [_BEAT, seq, _rest_ms(rest)]
         case Leave():
             frame = [_LEAVE]
         case PropertyRequest():
@@ -207,6 +211,14 @@ def message_kind(data: bytes) -> str:
 
 def _reject_ext(code: int, data: bytes) -> Any:
     raise DecodeError(f"msgpack extension type {code} is not allowed")
+
+
+def _rest_ms(rest: float) -> int:
+    """A beat interval at rest as the whole milliseconds a beat carries."""
+    ms = round(rest * _MM) if is_finite_number(rest) else 0
+    if not 0 < ms <= MAX_REST_MS:
+        raise InvalidValueError(f"a beat's rest interval must be in (0, 1 day], got {rest!r}")
+    return ms
 
 
 def _uint(value: Any, what: str) -> int:
@@ -326,9 +338,14 @@ def decode(data: bytes, *, max_size: int = DEFAULT_MAX_FRAME) -> Message:
                 raise DecodeError(f"frame of type {frame[0]} has {len(frame)} fields, expected 1")
             return Leave() if frame[0] == _LEAVE else PropertyRequest()
         case 11:
-            if len(frame) != 2:
-                raise DecodeError(f"beat frame has {len(frame)} fields, expected 2")
-            return Beat(_uint(frame[1], "seq"))
+            if len(frame) == 2:
+                return Beat(_uint(frame[1], "seq"))
+            if len(frame) != 3:
+                raise DecodeError(f"beat frame has {len(frame)} fields, expected 2 or 3")
+            rest = _uint(frame[2], "rest interval")
+            if not 0 < rest <= MAX_REST_MS:
+                raise DecodeError(f"beat rest interval {rest} ms is not in (0, {MAX_REST_MS}]")
+            return Beat(_uint(frame[1], "seq"), rest / _MM)
         case 4 | 5:
             return _decode_channel(frame)
         case 6 | 7:

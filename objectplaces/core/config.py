@@ -28,6 +28,15 @@ class NodeConfig:
             that publishes anyway sends none. With beats, ``property_interval`` can be
             long: liveness no longer needs a full republication (docs/protocol.md §2).
             None: no beats.
+        rest_beat_interval: the beat interval of a node at rest (``set_at_rest``: an
+            application's node that stands still and has nothing to say, such as a parked
+            vehicle), and the longest this node waits for the beats of a resting peer.
+            A resting node declares its interval in its beats, first at the usual one
+            for a failure timeout, then this often; a receiver counts it failed only
+            after ``failure_timeout`` scaled by that interval over ``beat_interval``
+            (the interval capped at its own ``rest_beat_interval``: a fleet shares its
+            configuration). Needs ``beat_interval``; None: no rest, a node beats every
+            ``beat_interval`` always (docs/protocol.md §2).
         failure_timeout: a node not heard for this long leaves every group; None: three
             times the shorter of the beat and property intervals that are on, else no
             failure detection.
@@ -49,6 +58,7 @@ class NodeConfig:
 
     property_interval: float | None = None
     beat_interval: float | None = None
+    rest_beat_interval: float | None = None
     failure_timeout: float | None = None
     interest_radius: float | None = None
     footprint_margin: float | None = None
@@ -66,6 +76,26 @@ class NodeConfig:
             return self.failure_timeout
         interval = self.liveness_interval
         return None if interval is None else 3 * interval
+
+    @property
+    def longest_lease(self) -> float | None:
+        """The longest this node lets a peer go unheard before counting it failed: the
+        failure timeout, scaled up for a peer at rest (None: no failure detection)."""
+        timeout = self.effective_failure_timeout
+        if timeout is None:
+            return None
+        beat, rest = self.beat_interval, self.rest_beat_interval
+        if beat is None or rest is None or rest <= beat:
+            return timeout
+        return timeout * rest / beat
+
+    @property
+    def failure_detection_bound(self) -> float | None:
+        """The longest from a node's last frame until this node counts it failed: the
+        longest lease, plus the third of the timeout between two liveness checks (None:
+        no failure detection)."""
+        lease, timeout = self.longest_lease, self.effective_failure_timeout
+        return None if lease is None or timeout is None else lease + timeout / 3
 
     @property
     def liveness_interval(self) -> float | None:

@@ -78,9 +78,13 @@ class Beat:
 
     Attributes:
         seq: the sequence number of the sender's latest publication to its scope.
+        rest: set by a node at rest: its beat interval now, in seconds; a receiver
+            waits that much longer for it before counting it failed (``NodeConfig.
+            rest_beat_interval``). None: the usual interval.
     """
 
     seq: int
+    rest: float | None = None
 
 
 @dataclass(frozen=True, slots=True)

@@ -183,7 +183,7 @@ class NodeMachine(Introspection):
             # The most frequent frame of a quiet network (one per listener per beat
             # interval): tallied and handed to the view without the dispatch below.
             if self._intake.admit_beat(source, size):
-                self._view.beat(source, message.seq, now)
+                self._view.beat(source, message.seq, now, message.rest)
             return
         if not self._intake.admit(source, message, size):
             return
@@ -191,8 +191,8 @@ class NodeMachine(Introspection):
         match message:
             case PropertyUpdate():
                 self._on_properties(source, message, now)
-            case Beat(seq):  # second: the most frequent frame of an idle network
-                self._view.beat(source, seq, now)
+            case Beat(seq, rest):  # second: the most frequent frame of an idle network
+                self._view.beat(source, seq, now, rest)
             case ChannelData(to_participant=True):
                 accepted = self._participations.on_frame(source, message, now)
             case ChannelData():
@@ -230,6 +230,7 @@ class NodeMachine(Introspection):
         self._now = now
         if peer != self.node_id:
             self._outbox.emit(self._own.full_update_for(peer))
+            self._liveness.sent_snapshot(peer)
 
     def record_sent(self, kind: str, frames: int, size: int) -> None:
         """Count ``frames`` frames of ``size`` bytes each that the transport put on the wire."""
@@ -261,6 +262,15 @@ class NodeMachine(Introspection):
                 for node in self._view.set_scope(cells):
                     self._forget(node)
         self._sessions.reevaluate_all(now)
+
+    def set_at_rest(self, at_rest: bool, now: float) -> None:
+        """Say whether this node is at rest: standing still with nothing to publish (a
+        parked vehicle). At rest it beats every ``rest_beat_interval`` instead of every
+        ``beat_interval``, and its peers wait for it that much longer before counting it
+        failed (docs/protocol.md §2); without a ``rest_beat_interval`` nothing changes.
+        """
+        self._now = now
+        self._liveness.set_at_rest(bool(at_rest))
 
     @property
     def properties(self) -> Mapping[str, Any]:

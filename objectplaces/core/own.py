@@ -207,17 +207,24 @@ class OwnProperties:
         self.pending = False
         return self._publication(self._values, self._home(), full=True) if self._values else None
 
-    def beat(self) -> Output | None:
-        """The liveness beat: the number of the latest publication, to where the
-        publications go (None when this node has no properties: it publishes nothing,
-        so it has never been heard of by its properties either)."""
+    def beat(self, rest: float | None = None) -> Output | None:
+        """The liveness beat: the number of the latest publication (and ``rest``, the
+        beat interval of a node at rest), to where the publications go (None when this
+        node has no properties: it publishes nothing, so it has never been heard of by
+        its properties either)."""
         if not self._values:
             return None
-        data = codec.encode(Beat(self._seq))
+        data = codec.encode(Beat(self._seq, rest))
         home = self._published_home or self._home()
         if self._config.interest_radius is None or not home:
             return Broadcast(data, "beat")
         return Publish(home, data, "beat", len(home))
+
+    def beat_to(self, peer: str, rest: float) -> Send | None:
+        """A beat of a node at rest for one peer (None when this node has no properties)."""
+        if not self._values:
+            return None
+        return Send(peer, codec.encode(Beat(self._seq, rest)), "beat")
 
     def full_update_for(self, peer: str) -> Send | None:
         """A snapshot for one peer (a newcomer, a new subscriber of our cell, an asker)."""

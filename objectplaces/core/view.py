@@ -8,10 +8,9 @@ one part and are forgotten together:
   (not per frame) because a republication carries every property while a delta carries
   only some, and an old full frame must not undo a newer delta.
 * **liveness**: when each node was last heard, by any frame (property, beat or
-  channel). Failure detection (§2) only needs "not heard since"; the machine asks for
-  the silent nodes and decides what departure means. A beat also says which
-  publication was the sender's latest: holding an older one, the view asks for a
-  snapshot (a lost update repaired without a republication).
+  channel), and which rest it may take (``RestGrants``). The machine asks for the
+  silent nodes and decides what departure means. A beat also says which publication
+  was the sender's latest: holding an older one, the view asks for a snapshot.
 * **the index** (§6): a uniform grid per position property that a declarative group
   definition uses, and a running maximum per radius property, so that resolving a
   group costs about O(neighbours) instead of O(view). Both are built lazily, the first
@@ -46,6 +45,7 @@ from objectplaces.core.groups import DefinitionLike, GroupDefinition
 from objectplaces.core.messages import PropertyRequest, PropertyUpdate
 from objectplaces.core.observers import Observers
 from objectplaces.core.plumbing import Plumbing
+from objectplaces.core.rest import RestGrants
 from objectplaces.core.spatial import GridIndex, RunningMax, footprint_bounds
 from objectplaces.core.values import POSITION, RADIUS
 
@@ -85,6 +85,7 @@ class PropertyView:
         "_props",
         "_proxies",
         "_readonly",
+        "_resting",
         "_scope",
         "_scope_bounds",
         "_seqs",
@@ -107,6 +108,7 @@ class PropertyView:
         self._seqs: dict[str, dict[str, int] | int] = {}
         self._tops: dict[str, int] = {}  # per node, the highest seq it has in ``_seqs``
         self._heard: dict[str, float] = {}
+        self._resting = RestGrants(plumbing.config)  # nodes at rest (§2)
         self._indexes: dict[str, GridIndex] = {}
         self._maxima: dict[str, RunningMax] = {}
         self._scope: frozenset[Cell] | None = None
@@ -134,6 +136,7 @@ class PropertyView:
         return {
             "view": len(self._props),
             "heard": len(self._heard),
+            "resting": len(self._resting),
             "asked": len(self._asked),
             "indexed": sum(len(index) for index in self._indexes.values()),
         }
@@ -147,8 +150,14 @@ class PropertyView:
         return node in self._props or node in self._heard
 
     def silent_since(self, cutoff: float) -> list[str]:
-        """Nodes last heard at or before ``cutoff``, sorted (never in set order)."""
-        return sorted(n for n, heard in self._heard.items() if heard <= cutoff)
+        """Nodes last heard at or before ``cutoff``, sorted (never in set order); a node
+        at rest only once it is silent for as much longer as its rest allows."""
+        resting = self._resting
+        return sorted(
+            n
+            for n, heard in self._heard.items()
+            if heard <= cutoff and (not resting or heard + resting.extra(n) <= cutoff)
+        )
 
     # ------------------------------------------------------------------ updating
 
@@ -156,8 +165,9 @@ class PropertyView:
         """``node`` sent something at ``now``: it is alive."""
         self._heard[node] = now
 
-    def beat(self, source: str, seq: int, now: float) -> None:
-        """Take a beat from ``source`` at ``now``: its latest publication was ``seq``.
+    def beat(self, source: str, seq: int, now: float, rest: float | None = None) -> None:
+        """Take a beat from ``source`` at ``now``: its latest publication was ``seq``;
+        ``rest``: it is at rest and beats that often (§2).
 
         A node in the view is heard; one whose latest publication we missed (we hold
         only older numbers), or that we do not hold whole, is asked for a snapshot, at
@@ -170,6 +180,8 @@ class PropertyView:
             self._outbox.send(source, _REQUEST, "property")
             return
         self._heard[source] = now
+        if rest is not None or self._resting:
+            self._resting.beat(source, rest)
         if seq > self._tops.get(source, -1) or source not in self._complete:
             self._want_snapshot(source, now)
 
@@ -181,6 +193,8 @@ class PropertyView:
         so locals are bound once and nothing is allocated for an unchanged value.
         """
         self._heard[source] = now
+        if self._resting and not update.full:  # a change: usual beats follow (§2)
+            self._resting.ended(source)
         props = self._props.get(source)
         if props is None:
             props = self._props[source] = {}
@@ -257,6 +271,7 @@ class PropertyView:
         self._seqs.pop(node, None)
         self._tops.pop(node, None)
         self._heard.pop(node, None)
+        self._resting.ended(node)
         self._complete.discard(node)
         self._asked.pop(node, None)
         for index in self._indexes.values():

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from agv_app.fleet import Fleet, FleetConfig
+from agv_app.fleet.sim import REST_BEAT_S
 from agv_app.layout import Layout
 from agv_app.layout.builder import LayoutBuilder
 from agv_app.vehicle.controller import DEFAULT_ADVANCE_M
@@ -117,11 +118,13 @@ def run_floor(
     one_at_a_time: bool = True,
     wait_for_drop: bool = True,
     advance_m: float = DEFAULT_ADVANCE_M,
+    rest_beat: float | None = REST_BEAT_S,
     **options: Any,
 ) -> Fleet:
     """Tasks for 300 s, then 200 s more to finish them; every step checked for safety
-    (a collision or a lock overlap raises). ``one_at_a_time``, ``wait_for_drop`` and
-    ``advance_m`` as in :class:`FleetConfig`; ``options`` go to :class:`Fleet`."""
+    (a collision or a lock overlap raises). ``one_at_a_time``, ``wait_for_drop``,
+    ``advance_m`` and ``rest_beat`` as in :class:`FleetConfig`; ``options`` go to
+    :class:`Fleet`."""
     cfg = FleetConfig(
         agvs=run.floor.agvs,
         seed=run.seed,
@@ -130,6 +133,7 @@ def run_floor(
         one_at_a_time=one_at_a_time,
         wait_for_drop=wait_for_drop,
         advance_m=advance_m,
+        rest_beat=rest_beat,
         fail_on_violation=True,
     )
     fleet = Fleet(run.floor.layout, cfg, **options)

@@ -23,7 +23,7 @@ from tests.agv_app.one_way_floors import (
     run_floor,
 )
 from tests.agv_app.test_random_layouts import FLEET_EXAMPLES
-from tests.agv_app.vehicles import FOUND_AT_ADVANCE_M, vehicle_with
+from tests.agv_app.vehicles import FOUND_AT, vehicle_with
 
 
 def test_the_floors_have_merges_without_boxes() -> None:
@@ -62,7 +62,7 @@ def test_without_the_rule_these_floors_lock() -> None:
         fleet = run_floor(
             run,
             one_at_a_time=False,
-            advance_m=FOUND_AT_ADVANCE_M,
+            **FOUND_AT,
             vehicle=vehicle_with(clear_merges=False, clear_turn_offs=False),
         )
         assert fleet.summary()["deadlocks"] > 0, run
@@ -105,11 +105,11 @@ def test_an_agv_waiting_for_a_dock_stays_off_the_way_out(run: FloorRun) -> None:
     locked = run_floor(
         run,
         one_at_a_time=False,
-        advance_m=FOUND_AT_ADVANCE_M,
+        **FOUND_AT,
         vehicle=vehicle_with(keep_way_out=False, clear_turn_offs=False),
     )
     assert locked.summary()["deadlocks"] > 0
-    figures = run_floor(run, one_at_a_time=False, advance_m=FOUND_AT_ADVANCE_M).summary()
+    figures = run_floor(run, one_at_a_time=False, **FOUND_AT).summary()
     assert figures["deadlocks"] == figures["collisions"] == figures["lock_overlaps"] == 0
     assert figures["tasks_completed"] > 2 * locked.summary()["tasks_completed"]
 
@@ -157,7 +157,7 @@ def test_an_agv_held_up_before_its_dock_drives_on_and_the_queue_behind_it_clears
     locked = run_floor(
         _QUEUED,
         one_at_a_time=False,
-        advance_m=FOUND_AT_ADVANCE_M,
+        **FOUND_AT,
         vehicle=vehicle_with(drive_on_after=None, clear_turn_offs=False),
     ).summary()
     assert locked["deadlocks"] > 0
@@ -165,7 +165,7 @@ def test_an_agv_held_up_before_its_dock_drives_on_and_the_queue_behind_it_clears
     fleet = run_floor(
         _QUEUED,
         one_at_a_time=False,
-        advance_m=FOUND_AT_ADVANCE_M,
+        **FOUND_AT,
         vehicle=vehicle_with(_DrivingOn, clear_turn_offs=False),
     )
     figures = fleet.summary()
@@ -198,11 +198,11 @@ def test_the_queued_floor_no_longer_locks_just_past_a_turn_off_the_lane() -> Non
     locked = run_floor(
         _QUEUED,
         wait_for_drop=False,
-        advance_m=FOUND_AT_ADVANCE_M,
+        **FOUND_AT,
         vehicle=vehicle_with(clear_turn_offs=False),
     ).summary()
     assert locked["deadlocks"] > 0
-    figures = run_floor(_QUEUED, advance_m=FOUND_AT_ADVANCE_M).summary()
+    figures = run_floor(_QUEUED, **FOUND_AT).summary()
     assert figures["collisions"] == figures["lock_overlaps"] == 0
     assert figures["deadlocks"] == 0, f"the longest wait {figures['max_wait']} s"
     assert figures["tasks_completed"] > locked["tasks_completed"]

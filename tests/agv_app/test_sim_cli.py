@@ -145,6 +145,23 @@ def test_sim_refuses_a_task_interval_that_is_not_positive(
     assert "--task-interval must be more than 0 s; got 0.0" in capsys.readouterr().err
 
 
+def test_sim_refuses_a_bad_rest_beat(capsys: pytest.CaptureFixture[str]) -> None:
+    args = ["sim", "--agvs", "2", "--minutes", "1", "--quiet", "--rest-beat"]
+    assert main([*args, "0"]) == 2
+    assert "rest_beat must be a positive number, got 0.0" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exit_:
+        main([*args, "soon"])
+    assert exit_.value.code == 2
+    assert "expected seconds or 'none', got 'soon'" in capsys.readouterr().err
+
+
+def test_sim_runs_without_rest_beats(tmp_path: Path) -> None:
+    out = tmp_path / "m.json"
+    args = ["sim", "--agvs", "2", "--minutes", "1", "--quiet", "--json", str(out)]
+    assert main([*args, "--rest-beat", "none"]) == 0
+    assert json.loads(out.read_text())["collisions"] == 0
+
+
 @pytest.mark.parametrize("limit", [None, "3"])
 def test_waits_past_the_limit_point_to_the_task_desk_limit(
     monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], limit: str | None

@@ -4,16 +4,24 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
-from typing import Any
+from typing import Any, Final, TypedDict
 
 from agv_app.vehicle import AgvController
 
-__all__ = ["FOUND_AT_ADVANCE_M", "VehicleFactory", "vehicle_with"]
+__all__ = ["FOUND_AT", "FoundAt", "VehicleFactory", "vehicle_with"]
 
-FOUND_AT_ADVANCE_M = 5.0
-"""The request length (``FleetConfig.advance_m``) the fleets that the before-and-after
-tests replay were found with: with shorter requests their dynamics differ, and most of
-them no longer lock without the rule they show."""
+
+class FoundAt(TypedDict):
+    """Fleet settings (``FleetConfig`` fields) a replayed fleet was found with."""
+
+    advance_m: float
+    rest_beat: float | None
+
+
+FOUND_AT: Final = FoundAt(advance_m=5.0, rest_beat=None)
+"""The settings the fleets that the before-and-after tests replay were found with: 5 m
+requests, and no rest beats (which widen the interest radius). With other settings
+their dynamics differ, and most of them no longer lock without the rule they show."""
 
 VehicleFactory = Callable[..., AgvController]
 """What ``Fleet(vehicle=...)`` takes: builds one AGV component."""

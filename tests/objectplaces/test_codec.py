@@ -75,6 +75,9 @@ def test_position_is_rounded_to_millimetres_and_normalising_matches_the_wire() -
         PropertyRequest(),
         Beat(0),
         Beat(2**53 - 1),
+        Beat(7, 5.0),
+        Beat(7, 0.001),
+        Beat(7, 86_400.0),
     ],
 )
 def test_round_trip(message: object) -> None:
@@ -120,6 +123,7 @@ def test_random_bytes_decode_or_fail_with_decode_error(data: bytes) -> None:
             codec.encode(ChannelData(True, 1, 1, 0, FrameKind.ROLE, {"x": 1})),
             codec.encode(ChannelAck(False, 1, 1, 3)),
             codec.encode(Beat(70_000)),
+            codec.encode(Beat(70_000, 5.0)),
         ]
     ),
     index=st.integers(0, 40),
@@ -145,7 +149,8 @@ def test_mutated_frames_decode_or_fail_with_decode_error(
         (msgpack.packb([6, 1, 1]), "ack frame has 3 fields"),
         (msgpack.packb([2, 1, 1.5, 2]), "integer millimetres"),
         (msgpack.packb([11]), "beat frame has 1 fields, expected 2"),
-        (msgpack.packb([11, 1, 2]), "beat frame has 3 fields, expected 2"),
+        (msgpack.packb([11, 1, 2, 3]), "beat frame has 4 fields, expected 2 or 3"),
+        (msgpack.packb([11, 1, 0]), "rest interval 0 ms"),
         (msgpack.packb([11, -1]), "seq must be a non-negative integer"),
         (msgpack.packb([11, "7"]), "seq must be a non-negative integer"),
         (msgpack.packb([11, True]), "seq must be a non-negative integer"),
@@ -172,6 +177,7 @@ def test_a_beat_is_a_few_bytes() -> None:
     # The point of a beat: liveness for the price of a frame header and a number.
     assert len(codec.encode(Beat(5))) == 3
     assert len(codec.encode(Beat(70_000))) <= 7
+    assert len(codec.encode(Beat(5, 5.0))) == 6  # at rest: the interval in whole ms
 
 
 def test_frame_type_peeks_without_decoding() -> None:

@@ -15,6 +15,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 
 from agv_app.fleet import Fleet, FleetConfig, agv_process
+from agv_app.fleet.sim import REST_BEAT_S
 from agv_app.fleet.view import OBSERVER_ID
 from agv_app.layout import Layout, Point, Segment, Station
 from agv_app.layout.demo import demo_warehouse
@@ -98,7 +99,7 @@ def test_published_hull_lengths_stay_within_the_bound(
     fleet, watch = scoped_run
     bound = largest_hull_length(fleet.layout, fleet.spec, fleet.agv_config)
     assert 4.0 < watch.longest_hull <= bound
-    timing = {"delay_s": 0.007, "failure_timeout_s": 3.0}
+    timing = {"delay_s": 0.007, "failure_detection_s": 3 * REST_BEAT_S + 1.0}
     assert fleet.interest_radius == pytest.approx(
         interest_radius(fleet.layout, fleet.spec, fleet.agv_config, footprints=True, **timing)
     )
@@ -134,17 +135,26 @@ def test_broadcast_and_unscoped_fleets_hear_every_node() -> None:
     assert Fleet(config=FleetConfig(agvs=2, interest_radius=30.0)).interest_radius == 30.0
 
 
-@pytest.mark.parametrize("field", ["interest_radius", "heartbeat", "republish"])
+@pytest.mark.parametrize("field", ["interest_radius", "heartbeat", "republish", "rest_beat"])
 @pytest.mark.parametrize("value", [0.0, -1.0, float("inf")])
 def test_config_refuses_bad_radius_and_heartbeat(field: str, value: float) -> None:
     with pytest.raises(ValueError, match=field):
         FleetConfig(**{field: value})  # type: ignore[arg-type]
 
 
-def _sent(heartbeat: float | None, kind: str, *, beats: bool = True) -> tuple[int, int]:
-    config = FleetConfig(agvs=2, heartbeat=heartbeat, start_tasks=0, load=0.01, beats=beats)
+def _sent(
+    heartbeat: float | None,
+    kind: str,
+    *,
+    beats: bool = True,
+    rest_beat: float | None = None,
+    seconds: float = 12.0,
+) -> tuple[int, int]:
+    config = FleetConfig(
+        agvs=2, heartbeat=heartbeat, start_tasks=0, load=0.01, beats=beats, rest_beat=rest_beat
+    )
     fleet = Fleet(config=config)
-    fleet.run(12.0)
+    fleet.run(seconds)
     frames, size = fleet.net.stats().per_node["agv-01"].sent.get(kind, (0, 0))
     return frames, size
 
@@ -160,6 +170,38 @@ def test_idle_agvs_beat_instead_of_republishing_every_property() -> None:
     assert beats[0] + first[0] == before[0]  # a frame a second all the same ...
     assert 5 * beats[1] < before[1] - first[1]  # ... for a fraction of the bytes
     assert _sent(None, "beat", beats=False) == (0, 0)
+
+
+def test_parked_agvs_beat_at_the_rest_interval() -> None:
+    """Two idle AGVs at home for a minute: three beats a second apart, then one every
+    five seconds, instead of one a second (the rest beats are three bytes longer)."""
+    usual = _sent(None, "beat", seconds=60.0)  # frames to every listener
+    resting = _sent(None, "beat", rest_beat=REST_BEAT_S, seconds=60.0)
+    # About 59 beats against 3 + 11 (3 s, then one every 5 s: 8 s, 13 s ...).
+    assert 0.2 < resting[0] / usual[0] < 0.3
+    assert resting[1] < usual[1] / 2
+    # A heartbeat as long as the rest beat leaves nothing to save.
+    assert _sent(5.0, "beat", rest_beat=REST_BEAT_S, seconds=60.0) == _sent(
+        5.0, "beat", seconds=60.0
+    )
+
+
+def test_an_agv_is_at_rest_only_while_parked_at_home_without_a_task() -> None:
+    fleet = Fleet(config=FleetConfig(agvs=6, seed=2, load=0.5))
+    seen: set[tuple[bool, str, bool]] = set()
+    for _ in range(120):
+        fleet.run(1.0)
+        for agv in fleet.agvs.values():
+            parked = agv.phase == "home" and agv.point == agv.home and agv.vehicle.speed == 0.0
+            busy = agv.task is not None or agv.pending_task is not None
+            seen.add((agv.at_rest, agv.phase, busy))
+            if agv.at_rest:
+                assert parked, (agv.node_id, agv.phase, agv.point)
+                assert not busy, (agv.node_id, agv.task, agv.pending_task)
+            elif parked and not busy and agv._dest is None:
+                raise AssertionError(f"{agv.node_id} parked idle but not at rest")
+    assert (True, "home", False) in seen
+    assert any(not rest and busy for rest, _, busy in seen)
 
 
 # -- the bound itself -------------------------------------------------------------------
@@ -332,7 +374,11 @@ def test_an_agv_out_of_scope_learns_of_a_crash_from_the_relay_and_of_the_return(
     far = far_from(crashed)[0]
     assert crashed not in fleet.agvs[far].node.view()
     fleet.crash(crashed)
-    fleet.run(5.0)  # found within 4/3 of the 3 s timeout, then relayed
+    # Found within 4/3 of the 3 s timeout, or of three rest beats if it was parked
+    # (NodeConfig.failure_detection_bound), then relayed.
+    bound = fleet.agvs[far].node.machine.config.failure_detection_bound
+    assert bound == 3 * REST_BEAT_S + 1.0
+    fleet.run(bound + 0.5)
     assert crashed in fleet.stale_relay.failed
     assert crashed in {r.node_id for r in fleet.agvs[far].book.stale()}
     fleet.recover(crashed)

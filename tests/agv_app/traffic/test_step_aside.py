@@ -12,7 +12,7 @@ import pytest
 from agv_app.fleet import Fleet, FleetConfig
 from agv_app.layout.demo import demo_warehouse
 from agv_app.vehicle.controller import AgvController
-from tests.agv_app.vehicles import FOUND_AT_ADVANCE_M
+from tests.agv_app.vehicles import FOUND_AT
 
 
 class _Logged(AgvController):
@@ -44,7 +44,7 @@ def _gaps(vehicle: type[_Logged]) -> list[float]:
         scoped=True,
         heartbeat=10.0,
         wait_for_drop=False,  # as found: the queues the rule now holds back formed the ring
-        advance_m=FOUND_AT_ADVANCE_M,
+        **FOUND_AT,
         fail_on_violation=True,
     )
     fleet = Fleet(demo_warehouse(), config, vehicle=vehicle)

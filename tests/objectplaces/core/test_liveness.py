@@ -168,10 +168,22 @@ def test_a_node_behind_asks_once_per_snapshot_retry() -> None:
 
 def test_malformed_beats_are_refused_and_counted() -> None:
     _, _, b = pair()
-    for frame in ([11], [11, -3], [11, "x"], [11, 2**60], [11, 1, 2]):
+    frames = (
+        [11],
+        [11, -3],
+        [11, "x"],
+        [11, 2**60],
+        [11, 1, 0],  # a rest interval of nothing
+        [11, 1, -5000],
+        [11, 1, 5.0],  # not whole milliseconds
+        [11, 1, 86_400_001],  # more than a day
+        [11, 1, None],
+        [11, 1, 5000, 1],
+    )
+    for frame in frames:
         b.receive("a", msgpack.packb(frame), now=0.5)
-    assert b.counters["dropped_malformed"] == 5
-    assert b.dropped_by_peer == {"a": 5}
+    assert b.counters["dropped_malformed"] == len(frames)
+    assert b.dropped_by_peer == {"a": len(frames)}
     assert b.view()["a"]["status"] == "idle"
 
 

@@ -25,6 +25,7 @@ class Wire:
         self.now = 0.0
         self.cut: set[tuple[str, str]] = set()
         self.log: list[tuple[str, str, Message]] = []  # (source, target, decoded frame)
+        self.sent_at: list[float] = []  # when each frame of ``log`` went
         self._queue: deque[tuple[str, str, bytes]] = deque()
 
     def _collect(self, machine: NodeMachine) -> bool:
@@ -53,6 +54,7 @@ class Wire:
             while self._queue:
                 source, target, data = self._queue.popleft()
                 self.log.append((source, target, codec.decode(data)))
+                self.sent_at.append(self.now)
                 if (source, target) not in self.cut and target in self.machines:
                     self.machines[target].receive(source, data, self.now)
         raise AssertionError("the machines never settled")

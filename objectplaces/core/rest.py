@@ -1,0 +1,63 @@
+"""What a receiver grants its peers at rest (docs/protocol.md §2, "A node at rest").
+
+A peer at rest beats every ``rest`` seconds instead of every ``beat_interval``, and says
+so in its beats; the receiver then counts it failed only after ``failure_timeout``
+scaled by ``rest / beat_interval``, with ``rest`` capped at its own
+``rest_beat_interval``. The grant ends with the peer's next change (a delta) or plain
+beat. The sender's side is :mod:`objectplaces.core.liveness`.
+"""
+
+from __future__ import annotations
+
+from objectplaces.core.config import NodeConfig
+
+__all__ = ["RestGrants"]
+
+
+class RestGrants:
+    """How much longer than the failure timeout each peer at rest may stay silent.
+
+    Args:
+        config: the receiver's tunables (failure timeout, beat and rest intervals).
+    """
+
+    __slots__ = ("_extra", "_terms")
+
+    def __init__(self, config: NodeConfig) -> None:
+        self._extra: dict[str, float] = {}
+        timeout, beat, rest = (
+            config.effective_failure_timeout,
+            config.beat_interval,
+            config.rest_beat_interval,
+        )
+        # None: this node allows no rest (or detects no failures): it grants nothing.
+        self._terms = (
+            None
+            if timeout is None or beat is None or rest is None or rest <= beat
+            else (timeout, beat, rest)
+        )
+
+    def __len__(self) -> int:
+        return len(self._extra)
+
+    def beat(self, node: str, rest: float | None) -> None:
+        """A beat of ``node``: at rest, beating every ``rest`` seconds (grant it the
+        longer wait), or not (None: the usual wait again)."""
+        terms = self._terms
+        if rest is None or terms is None:
+            self._extra.pop(node, None)
+            return
+        timeout, beat, cap = terms
+        extra = timeout * (min(rest, cap) / beat - 1)
+        if extra > 0:
+            self._extra[node] = extra
+        else:
+            self._extra.pop(node, None)
+
+    def ended(self, node: str) -> None:
+        """``node`` is no longer at rest (or no longer known): the usual wait again."""
+        self._extra.pop(node, None)
+
+    def extra(self, node: str) -> float:
+        """Seconds beyond the failure timeout ``node`` may be silent (0 if not at rest)."""
+        return self._extra.get(node, 0.0)
