@@ -295,8 +295,9 @@ class NodeMachine(Introspection):
         self._sessions.node_changed(source, now)
 
     def _forget(self, node: str) -> None:
-        """Drop ``node`` from the view (it left our scope); sessions re-evaluate it."""
-        self._view.forget(node)
+        """Drop ``node`` from the view (it left our scope); sessions re-evaluate it. When
+        it was last heard stays if we play roles of its: its failure must end them."""
+        self._view.forget(node, keep_liveness=self._participations.plays_for(node))
         self._sessions.node_changed(node, self._now)
 
     def _depart(self, node: str, reason: str) -> None:

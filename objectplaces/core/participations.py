@@ -261,7 +261,9 @@ class ParticipationTable:
         expires = now + self._config.tombstone_ttl
         tomb = self._tombstones[key] = _Tombstone(owner.epoch, expires)
         self._timers.push(expires, ExpireTombstone(owner.initiator, owner.session))
-        if on_our_own and part.role is not None:  # a declined one is no member
+        # A declining one is told too: its DECLINED may be what was lost, and the
+        # initiator would hold it pending for ever (soak seed 1259).
+        if on_our_own and (part.role is not None or part.declining):
             tomb.left_seq = part.channel.sent_through + 1
             tomb.left_wait = self._config.retransmit_timeout
             self._tell_left(owner.initiator, owner.session, owner.epoch, tomb.left_seq)
@@ -299,6 +301,10 @@ class ParticipationTable:
             for (initiator, _), tomb in self._tombstones.items():
                 if initiator == node:
                     tomb.left_wait = None
+
+    def plays_for(self, initiator: str) -> bool:
+        """Whether this node plays a role in a session of ``initiator``."""
+        return any(key[0] == initiator for key in self._parts)
 
     def end_all(self, now: float) -> None:
         """End every participation (this node leaves)."""

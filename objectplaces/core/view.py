@@ -24,8 +24,7 @@ one part and are forgotten together:
   for one, at most once per ``SNAPSHOT_RETRY``; with or without a heartbeat, a node
   newly heard is complete within one round trip.
 
-The view hands out read-only mappings (``mapping``): callers may keep and read them,
-never change the machine's state through them.
+The view hands out read-only mappings (``mapping``): callers may keep and read them.
 
 Group definitions are application code: the view runs them, but one that raises is
 logged, counted (``definition_errors``) and treated as "no match", so a bad definition
@@ -127,9 +126,6 @@ class PropertyView:
 
     def __contains__(self, node: object) -> bool:
         return node in self._props
-
-    def __len__(self) -> int:
-        return len(self._props)
 
     def footprint(self) -> dict[str, int]:
         """Sizes of the per-node tables (bounded by the nodes heard, and failure detection)."""
@@ -264,14 +260,16 @@ class PropertyView:
         if maximum is not None:
             maximum.set(node, float(value) if isinstance(value, int | float) else 0.0)
 
-    def forget(self, node: str) -> Mapping[str, Any] | None:
-        """Drop everything known of ``node``; return its last properties (None if unknown)."""
+    def forget(self, node: str, *, keep_liveness: bool = False) -> Mapping[str, Any] | None:
+        """Drop what is known of ``node`` (but when it was last heard, with
+        ``keep_liveness``); return its last properties (None if unknown)."""
         last = self._props.pop(node, None)
         self._proxies.pop(node, None)
         self._seqs.pop(node, None)
         self._tops.pop(node, None)
-        self._heard.pop(node, None)
-        self._resting.ended(node)
+        if not keep_liveness:
+            self._heard.pop(node, None)
+            self._resting.ended(node)
         self._complete.discard(node)
         self._asked.pop(node, None)
         for index in self._indexes.values():

@@ -163,9 +163,12 @@ def forget_deadline(world: World) -> float:
 
     The deactivation is retransmitted until acknowledged or the channel gives up; a
     participant that hears nothing more of its initiator drops it after the failure
-    timeout. Either way, this is the longest it can take.
+    timeout (longer for an initiator at rest). Either way, this is the longest it can
+    take.
     """
-    return world.scenario.failure_timeout + retransmission_time(world.config) + 1.0
+    lease = world.config.longest_lease
+    assert lease is not None  # every seed detects failures
+    return lease + retransmission_time(world.config) + 1.0
 
 
 CONVERGENCE_TRANSMISSIONS = 8
@@ -177,15 +180,21 @@ and its ack fail 8 times running with probability 0.36**8 < 3e-4."""
 def convergence_bound(world: World) -> float:
     """How long after the network heals membership must equal the truth (guarantee 2).
 
-    A departed node is noticed within the failure timeout, a returning one within a few
-    property intervals; activating it takes a channel round trip, which on a lossy link
-    may need retransmissions (``CONVERGENCE_TRANSMISSIONS``).
+    A departed node is noticed within the failure timeout (three rest beats for a node
+    at rest), a returning one within a few liveness intervals (and a rest beat: a node
+    at rest counted failed after lost beats is heard again at its next one);
+    activating it takes a channel round trip, which on a lossy link may need
+    retransmissions (``CONVERGENCE_TRANSMISSIONS``).
     """
-    scenario = world.scenario
+    config = world.config
+    lease, interval = config.longest_lease, config.liveness_interval
+    assert lease is not None  # every seed detects failures
+    assert interval is not None
     return (
-        scenario.failure_timeout
-        + 4 * scenario.property_interval
-        + retransmission_time(world.config, CONVERGENCE_TRANSMISSIONS)
+        lease
+        + 4 * interval
+        + (config.rest_beat_interval or 0.0)
+        + retransmission_time(config, CONVERGENCE_TRANSMISSIONS)
     )
 
 

@@ -178,3 +178,59 @@ def test_frames_of_an_overtaken_epoch_do_not_open_a_role_later() -> None:
     net.run_for(60.0)  # beyond every retransmission and tombstone
     assert b.participations() == []
     assert not any(role.active for role in roles)
+
+
+def test_a_participant_out_of_scope_of_its_initiator_still_finds_its_crash() -> None:
+    # Found by soak seed 1048 (with nodes at rest, whose longer timeout widened the
+    # window): the participant moved so that its initiator left its scope, and the
+    # view forgot when the initiator was last heard with its properties; the initiator
+    # crashed, and the participant played its role for ever.
+    net = SimulatedNetwork(seed=1, property_interval=0.5, failure_timeout=1.5)
+    a = net.add_node("a")
+    b = net.add_node("b", interest_radius=10.0)
+    a.update_node_property("position", (0.0, 0.0))
+    b.update_node_property("position", (1.0, 0.0))
+    roles: list[Listener] = []
+
+    def make() -> Listener:
+        roles.append(Listener())
+        return roles[-1]
+
+    b.set_participant_factory("listener", make)
+    a.start_interaction(Greeter(), groups.within(1000.0), "listener")
+    net.run_for(1.0)
+    assert roles[-1].active
+    b.update_node_property("position", (200.0, 0.0))  # a is out of b's scope now
+    net.run_for(1.0)
+    assert "a" not in b.view()
+    assert roles[-1].active  # still a member: a hears b, and it lives
+    net.remove_node("a")  # a crashes
+    net.run_for(3.0)
+    assert not roles[-1].active
+    assert b.participations() == []
+
+
+def test_a_node_that_declined_and_took_its_initiator_for_failed_tells_it() -> None:
+    # Found by soak seed 1259 (with nodes at rest): the DECLINED of a node without the
+    # role was lost, a partition made the node take the initiator for failed and end
+    # the channel, and the initiator's ACTIVATE, retransmitted after the heal, was only
+    # acknowledged: the initiator held the node pending for ever. The node now tells
+    # it LEFT, as a member would, and the initiator asks it again.
+    net = SimulatedNetwork(seed=1, property_interval=0.5, failure_timeout=1.5)
+    a = net.add_node("a", failure_timeout=10.0)  # a waits longer than b
+    b = net.add_node("b")  # b plays no role
+    a.update_node_property("position", (0.0, 0.0))
+    b.update_node_property("position", (1.0, 0.0))
+    net.run_for(1.0)
+    session = a.start_interaction(Greeter(), groups.within(5.0), "listener")
+    net.run_for(0.003)  # the ACTIVATE is on its way; the DECLINED will go into the cut
+    net.partition(["a"], ["b"])
+    net.run_for(3.0)  # b takes a for failed, a still holds b
+    [info] = a.sessions()
+    assert info.pending == frozenset({"b"})
+    net.heal()
+    net.run_for(10.0)
+    [info] = a.sessions()
+    assert info.session_id == session.session_id
+    assert info.pending == frozenset()
+    assert info.members == frozenset()

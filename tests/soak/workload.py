@@ -10,6 +10,7 @@ the generator tracks which nodes live and which sessions run, so every step is v
 
 from __future__ import annotations
 
+import dataclasses
 import random
 from dataclasses import dataclass, field
 
@@ -152,6 +153,14 @@ class Heal:
 
 
 @dataclass(frozen=True, slots=True)
+class Rest:
+    """``node`` says it is at rest (``on``) or no longer (docs/protocol.md §2)."""
+
+    node: str
+    on: bool
+
+
+@dataclass(frozen=True, slots=True)
 class Link:
     """The link between ``a`` and ``b`` changes, both ways."""
 
@@ -200,6 +209,7 @@ Step = (
     | Partition
     | Heal
     | Link
+    | Rest
     | Inject
     | StopAll
     | Settle
@@ -224,13 +234,24 @@ class Scenario:
     interest_radius: float | None
     arena: float
     steps: tuple[Step, ...]
+    beat_interval: float | None = None
+    rest_beat_interval: float | None = None
 
 
 class _Builder:
     """Generates steps while tracking what lives, so every step is valid."""
 
-    def __init__(self, rng: random.Random, scenario_ids: list[str], arena: float) -> None:
+    def __init__(
+        self,
+        rng: random.Random,
+        scenario_ids: list[str],
+        arena: float,
+        rest_rng: random.Random | None = None,
+    ) -> None:
         self.rng = rng
+        # Draws of its own for nodes coming to rest and leaving it: the other steps of
+        # a seed are the same with beats and rest as without.
+        self.rest_rng = rest_rng
         self.arena = arena
         self.live: list[str] = []
         self.gone: list[str] = []  # crashed or left: may restart
@@ -364,6 +385,8 @@ class _Builder:
                 for _ in range(rng.randint(1, 5)):
                     kind_name, data = forge(rng, self.arena)
                     self.add(Inject(rng.choice(self.live), kind_name, data))
+        if self.rest_rng is not None and self.live and self.rest_rng.random() < 0.2:
+            self.add(Rest(self.rest_rng.choice(self.live), self.rest_rng.random() < 0.6))
         if rng.random() < 0.5:
             self.add(Wait(round(rng.uniform(0.01, 0.3), 3)))
 
@@ -396,7 +419,11 @@ def generate(seed: int, *, chaos_steps: tuple[int, int] = (40, 100), phases: int
         else:
             roles[node] = frozenset({"decoy"})
     arena = round(rng.uniform(8.0, 30.0), 3)
-    builder = _Builder(rng, ids[count:], arena)
+    # Half the seeds run with liveness beats and nodes at rest (docs/protocol.md §2),
+    # drawn apart so that the rest of the scenario is the same either way.
+    rest_rng = random.Random(f"rest:{seed}")
+    resting = rest_rng.random() < 0.5
+    builder = _Builder(rng, ids[count:], arena, rest_rng if resting else None)
     builder.scoped = rng.random() < 0.4
     interest_radius = round(rng.uniform(14.0, 20.0), 3) if builder.scoped else None
     initial = []
@@ -412,7 +439,7 @@ def generate(seed: int, *, chaos_steps: tuple[int, int] = (40, 100), phases: int
         builder.calm()
     builder.add(StopAll())
     builder.add(Settle(final=True))
-    return Scenario(
+    scenario = Scenario(
         seed=seed,
         initial=tuple(initial),
         roles=roles,
@@ -422,9 +449,18 @@ def generate(seed: int, *, chaos_steps: tuple[int, int] = (40, 100), phases: int
         duplicate=rng.choice([0.0, 0.02, 0.1]),
         reorder=rng.choice([0.0, 0.05, 0.2]),
         cell_size=rng.choice([5.0, 10.0, 25.0]),
-        property_interval=interval,
+        # With beats every property is republished only every ten beats: else a node
+        # at rest would publish every interval, and never rest.
+        property_interval=10 * interval if resting else interval,
         failure_timeout=round(interval * rng.uniform(3.0, 5.0), 3),
         interest_radius=interest_radius,
         arena=arena,
         steps=tuple(builder.steps),
+        beat_interval=interval if resting else None,
     )
+    if not resting:
+        return scenario
+    # Rests as long as the timeout and longer: a peer that missed the announcement would
+    # count the node failed before its next beat.
+    rest = round(scenario.failure_timeout * rest_rng.uniform(0.7, 2.0), 3)
+    return dataclasses.replace(scenario, rest_beat_interval=rest)

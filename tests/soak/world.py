@@ -30,6 +30,7 @@ from tests.soak.workload import (
     ParticipantSends,
     Partition,
     Placement,
+    Rest,
     Restart,
     Scenario,
     Settle,
@@ -119,10 +120,14 @@ class World:
             reorder=s.reorder,
             cell_size=s.cell_size,
             property_interval=s.property_interval,
+            beat_interval=s.beat_interval,
+            rest_beat_interval=s.rest_beat_interval,
             failure_timeout=s.failure_timeout,
         )
         self.config = NodeConfig(
             property_interval=s.property_interval,
+            beat_interval=s.beat_interval,
+            rest_beat_interval=s.rest_beat_interval,
             failure_timeout=s.failure_timeout,
             interest_radius=s.interest_radius,
             cell_size=s.cell_size,
@@ -208,6 +213,8 @@ class World:
                 net.heal()
             case Link(a, b, loss, duplicate, reorder):
                 net.set_link(a, b, loss=loss, duplicate=duplicate, reorder=reorder)
+            case Rest(node, on):
+                self.node(node).set_at_rest(on)
             case Inject(target, _, data):
                 net.inject(HOSTILE, target, data)
                 self.last_injection = self.now

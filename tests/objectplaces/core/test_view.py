@@ -131,7 +131,11 @@ def test_liveness_reports_silent_nodes_sorted_and_forget_returns_the_last_values
     assert v.forget("c") == {"status": "idle"}
     assert v.forget("c") is None
     assert not v.knows("c")
-    assert len(v) == 1
+    assert list(v.mapping) == ["a"]
+    assert v.forget("a", keep_liveness=True) == {"status": "idle"}  # out of scope
+    assert "a" not in v
+    assert v.knows("a")  # when it was last heard stays: its failure is still found
+    assert v.silent_since(3.0) == ["a", "b"]
 
 
 def test_every_message_type_has_a_kind_name() -> None:
