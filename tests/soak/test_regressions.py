@@ -46,10 +46,13 @@ class Listener(Participant):
         self.heard.append(message)
 
 
-def _pair(seed: int) -> tuple[SimulatedNetwork, Greeter, list[Listener], str]:
-    """Initiator ``a`` with participant ``b`` in one session, both settled."""
+def _pair(
+    seed: int, *, reach: float = 5.0, b_radius: float | None = None
+) -> tuple[SimulatedNetwork, Greeter, list[Listener], str]:
+    """Initiator ``a`` with participant ``b`` (within ``reach``, ``b`` listening over
+    ``b_radius``) in one session, both settled."""
     net = SimulatedNetwork(seed=seed, property_interval=0.5, failure_timeout=1.5)
-    a, b = net.add_node("a"), net.add_node("b")
+    a, b = net.add_node("a"), net.add_node("b", interest_radius=b_radius)
     a.update_node_property("position", (0.0, 0.0))
     b.update_node_property("position", (1.0, 0.0))
     roles: list[Listener] = []
@@ -60,7 +63,7 @@ def _pair(seed: int) -> tuple[SimulatedNetwork, Greeter, list[Listener], str]:
 
     b.set_participant_factory("listener", make)
     greeter = Greeter()
-    session = a.start_interaction(greeter, groups.within(5.0), "listener")
+    session = a.start_interaction(greeter, groups.within(reach), "listener")
     net.run_for(1.0)
     assert greeter.members == {ParticipantRef("b", session.session_id)}
     return net, greeter, roles, session.session_id
@@ -185,21 +188,8 @@ def test_a_participant_out_of_scope_of_its_initiator_still_finds_its_crash() -> 
     # window): the participant moved so that its initiator left its scope, and the
     # view forgot when the initiator was last heard with its properties; the initiator
     # crashed, and the participant played its role for ever.
-    net = SimulatedNetwork(seed=1, property_interval=0.5, failure_timeout=1.5)
-    a = net.add_node("a")
-    b = net.add_node("b", interest_radius=10.0)
-    a.update_node_property("position", (0.0, 0.0))
-    b.update_node_property("position", (1.0, 0.0))
-    roles: list[Listener] = []
-
-    def make() -> Listener:
-        roles.append(Listener())
-        return roles[-1]
-
-    b.set_participant_factory("listener", make)
-    a.start_interaction(Greeter(), groups.within(1000.0), "listener")
-    net.run_for(1.0)
-    assert roles[-1].active
+    net, _, roles, _ = _pair(seed=1, reach=1000.0, b_radius=10.0)
+    b = net.node("b")
     b.update_node_property("position", (200.0, 0.0))  # a is out of b's scope now
     net.run_for(1.0)
     assert "a" not in b.view()
