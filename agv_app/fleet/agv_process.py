@@ -48,6 +48,7 @@ from agv_app.traffic.reach import interest_radius
 from agv_app.vda5050.process import bridge_for, vehicle_class
 from agv_app.vehicle.controller import AgvConfig, AgvController
 from agv_app.vehicle.kinematics import VehicleSpec
+from objectplaces.core.config import NodeConfig
 from objectplaces.core.errors import LocalProtocolError
 from objectplaces.mesh import MeshNode, start_node
 from objectplaces.zenoh_node import ZenohNode, start_zenoh_node
@@ -132,8 +133,11 @@ def dissemination_radius(
         return float(choice)
     # A loaded machine delays frames by up to the largest step lag. The demo floor
     # lies within this radius, so no failure needs relaying (traffic/stale_relay.py).
+    liveness = NodeConfig(property_interval=config.t_update, failure_timeout=3 * config.t_update)
+    detection = liveness.failure_detection_bound
+    assert detection is not None  # a failure timeout is set
     radius = interest_radius(
-        layout, spec, config, delay_s=_MAX_LAG_S, failure_detection_s=4 * config.t_update
+        layout, spec, config, delay_s=_MAX_LAG_S, failure_detection_s=detection
     )
     # Every node on such a floor lies within the radius of every other: scoping would
     # leave nobody out, and one subscription to everything costs a receiver less than a

@@ -200,7 +200,7 @@ class Fleet(FleetSourceBase):
         self.layout = layout or demo_warehouse()
         self.config = cfg = config or FleetConfig()
         self.spec = spec or VehicleSpec(DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M)
-        liveness = self._liveness()
+        self._node_liveness = liveness = self._liveness()
         self.net = SimulatedNetwork(
             cfg.seed,
             delay=cfg.delay,
@@ -346,7 +346,7 @@ class Fleet(FleetSourceBase):
         cfg = self.config
         # A held-back frame waits up to four more delays (SimulatedNetwork's reorder).
         worst_delay = (cfg.delay + cfg.jitter) * (5 if cfg.reorder else 1)
-        detection = self._liveness().failure_detection_bound
+        detection = self._node_liveness.failure_detection_bound
         assert detection is not None  # the fleet's nodes always detect failures
         return {"delay_s": worst_delay, "failure_detection_s": detection}
 

@@ -25,16 +25,16 @@ class RestGrants:
 
     def __init__(self, config: NodeConfig) -> None:
         self._extra: dict[str, float] = {}
-        timeout, beat, rest = (
+        timeout, beat, lease = (
             config.effective_failure_timeout,
             config.beat_interval,
-            config.rest_beat_interval,
+            config.longest_lease,
         )
         # None: this node allows no rest (or detects no failures): it grants nothing.
         self._terms = (
             None
-            if timeout is None or beat is None or rest is None or rest <= beat
-            else (timeout, beat, rest)
+            if timeout is None or beat is None or lease is None or lease <= timeout
+            else (timeout, beat, lease)
         )
 
     def __len__(self) -> int:
@@ -47,8 +47,8 @@ class RestGrants:
         if rest is None or terms is None:
             self._extra.pop(node, None)
             return
-        timeout, beat, cap = terms
-        extra = timeout * (min(rest, cap) / beat - 1)
+        timeout, beat, longest = terms
+        extra = min(timeout * rest / beat, longest) - timeout
         if extra > 0:
             self._extra[node] = extra
         else:
