@@ -13,8 +13,9 @@ import sys
 import time
 from pathlib import Path
 
+from agv_app.fleet.liveness import REST_BEAT_S, rest_beat_argument
 from agv_app.fleet.parking import parking_capacity
-from agv_app.fleet.sim import REST_BEAT_S, TRAFFIC_MODES, Fleet, FleetConfig
+from agv_app.fleet.sim import TRAFFIC_MODES, Fleet, FleetConfig
 from agv_app.layout.elements import LayoutError
 from agv_app.layout.generated import generated_warehouse, parse_generated
 from agv_app.layout.graph import Layout
@@ -68,16 +69,6 @@ def max_open_argument(text: str) -> int | str:
         return parse_max_open(text)
     except ValueError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
-
-
-def rest_beat_argument(text: str) -> float | None:
-    """``--rest-beat``: seconds, or ``none`` (no rest), for argparse."""
-    if text.strip().lower() == "none":
-        return None
-    try:
-        return float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected seconds or 'none', got {text!r}") from None
 
 
 def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:

@@ -165,6 +165,8 @@ async def start_mesh_node(
     secret: bytes,
     interest_radius: float | None = None,
     property_interval: float | None = 1.0,
+    beat_interval: float | None = None,
+    rest_beat_interval: float | None = None,
     failure_timeout: float | None = None,
     cell_size: float = 25.0,
     retransmit_timeout: float = 0.2,
@@ -179,9 +181,16 @@ async def start_mesh_node(
         join: ``host:port`` of one or more nodes already in the mesh.
         secret: shared by every node of the mesh; proves each link, never sent.
         interest_radius: scoped dissemination radius (None: hear every node).
-        property_interval: republish properties this often, the heartbeat (None: never).
+        property_interval: republish properties this often (None: never); the heartbeat
+            unless ``beat_interval`` is set.
+        beat_interval: send a liveness beat (a few bytes) after this long without a
+            publication (None: no beats). With beats, ``property_interval`` can be long
+            (docs/protocol.md §2).
+        rest_beat_interval: the beat interval of a node at rest (``set_at_rest``), and
+            the longest this node waits for a resting peer's beats (None: no rest;
+            ``NodeConfig.rest_beat_interval``).
         failure_timeout: a node not heard this long leaves every group (None: three
-            property intervals).
+            liveness intervals, the shorter of beats and republications).
         cell_size: grid cell side for scoped dissemination and the spatial index.
         retransmit_timeout: first retransmission delay of session channel frames.
         options: transport limits and timings (flood limit, frame size, backoff ...).
@@ -199,6 +208,8 @@ async def start_mesh_node(
     options = options or MeshOptions()
     config = NodeConfig(
         property_interval=property_interval,
+        beat_interval=beat_interval,
+        rest_beat_interval=rest_beat_interval,
         failure_timeout=failure_timeout,
         interest_radius=interest_radius,
         cell_size=cell_size,

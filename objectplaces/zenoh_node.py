@@ -133,6 +133,7 @@ async def start_zenoh_node(
     interest_radius: float | None = None,
     property_interval: float | None = 1.0,
     beat_interval: float | None = None,
+    rest_beat_interval: float | None = None,
     failure_timeout: float | None = None,
     cell_size: float = 25.0,
     retransmit_timeout: float = 0.2,
@@ -156,6 +157,9 @@ async def start_zenoh_node(
         beat_interval: send a liveness beat (a few bytes) after this long without a
             publication (None: no beats; ``property_interval`` is the heartbeat). With
             beats, ``property_interval`` can be long (docs/protocol.md §2).
+        rest_beat_interval: the beat interval of a node at rest (``set_at_rest``), and
+            the longest this node waits for a resting peer's beats (None: no rest;
+            ``NodeConfig.rest_beat_interval``).
         failure_timeout: a node not heard this long leaves every group (None: three
             liveness intervals, the shorter of beats and republications); a node whose
             process dies leaves before, by liveliness.
@@ -190,6 +194,7 @@ async def start_zenoh_node(
     config = NodeConfig(
         property_interval=property_interval,
         beat_interval=beat_interval,
+        rest_beat_interval=rest_beat_interval,
         failure_timeout=failure_timeout,
         interest_radius=interest_radius,
         cell_size=cell_size,

@@ -1,4 +1,4 @@
-"""One AGV as its own process on the WebSocket mesh.
+"""One AGV as its own process on the WebSocket mesh or on Zenoh.
 
 ```
 python -m agv_app.fleet.agv_process --id agv-03 --listen 127.0.0.1:0 --join 127.0.0.1:7000 \\
@@ -39,6 +39,13 @@ import time
 from pathlib import Path
 from typing import Any
 
+from agv_app.fleet.liveness import (
+    REPUBLISH_BEATS,
+    REST_BEAT_S,
+    fleet_liveness,
+    liveness_arguments,
+    rest_beat_argument,
+)
 from agv_app.fleet.parking import home_heading
 from agv_app.fleet.remote import roles_wire, sessions_wire, traffic_wire
 from agv_app.geometry import Area, polygon_to_coords
@@ -56,18 +63,16 @@ from objectplaces.zenoh_node import ZenohNode, start_zenoh_node
 __all__ = [
     "DisplayPublisher",
     "StepLag",
-    "beats",
     "dissemination_radius",
     "main",
     "parse_args",
+    "process_liveness",
     "run",
 ]
 
 _PARENT_CHECK_S = 1.0
 _MAX_LAG_S = 1.0
 _LAG_EVERY_S = 5.0
-REPUBLISH_BEATS = 10
-"""Beats between two republications of every property (the simulated fleet's default)."""
 POLL_INTERVAL_S = 0.05
 """On Zenoh, received frames are handed to the node together every this many seconds
 (half the control step): one wake-up for several frames instead of two each. Ten AGV
@@ -79,15 +84,16 @@ PROFILE_ENV = "OBJECTPLACES_AGV_PROFILE"
 CPU time) and writes ``<id>.prof`` there when it stops. Off by default."""
 
 
-def beats(t_update: float, republish_beats: int = REPUBLISH_BEATS) -> dict[str, float | None]:
-    """Liveness by beats, as the simulated fleet runs it: a beat of a few bytes after
-    ``t_update`` without a publication, every property again only every
-    ``republish_beats`` beats (0: no beats, every property republished each
-    ``t_update``, which sends each AGV's whole display state to every other AGV once a
-    second)."""
-    if republish_beats <= 0:
-        return {"beat_interval": None, "property_interval": t_update}
-    return {"beat_interval": t_update, "property_interval": republish_beats * t_update}
+def process_liveness(
+    t_update: float, republish_beats: int = REPUBLISH_BEATS, rest_beat: float | None = REST_BEAT_S
+) -> NodeConfig:
+    """Liveness by beats, as the simulated fleet runs it (``fleet_liveness``): a beat of a
+    few bytes after ``t_update`` without a publication, every ``rest_beat`` while parked
+    idle, every property again only every ``republish_beats`` beats (0: no beats, every
+    property republished each ``t_update``, which sends each AGV's whole display state
+    to every other AGV once a second)."""
+    republish = republish_beats * t_update if republish_beats > 0 else None
+    return fleet_liveness(t_update, republish=republish, rest_beat=rest_beat)
 
 
 def _emit(event: str, **fields: Any) -> None:
@@ -122,18 +128,21 @@ class _AreaCoords:
 
 
 def dissemination_radius(
-    choice: str | float, layout: Layout, spec: VehicleSpec, config: AgvConfig
+    choice: str | float,
+    layout: Layout,
+    spec: VehicleSpec,
+    config: AgvConfig,
+    liveness: NodeConfig,
 ) -> float | None:
     """The interest radius of an AGV node for ``--interest-radius`` (None: hear every
-    node). ``auto``: from the layout's largest hull projection, or None when that spans
-    the whole layout."""
+    node). ``auto``: from the layout's largest hull projection and the nodes' failure
+    detection (``liveness``), or None when that spans the whole layout."""
     if choice == "none":
         return None
     if choice != "auto":
         return float(choice)
     # A loaded machine delays frames by up to the largest step lag. The demo floor
     # lies within this radius, so no failure needs relaying (traffic/stale_relay.py).
-    liveness = NodeConfig(property_interval=config.t_update, failure_timeout=3 * config.t_update)
     detection = liveness.failure_detection_bound
     assert detection is not None  # a failure timeout is set
     radius = interest_radius(
@@ -211,14 +220,20 @@ class DisplayPublisher:
 
     def publish_introspection(self) -> None:
         """Publish the sessions, roles and traffic of the node, each on change, at most
-        every ``traffic_interval_s``: what the dashboard shows of a node."""
+        every ``traffic_interval_s``: what the dashboard shows of a node.
+
+        Not the traffic while the AGV is at rest: its counters change with every frame
+        it hears, and each publication is a frame to every AGV that hears it, so parked
+        AGVs would keep each other publishing every interval, never at rest. The
+        dashboard shows a parked AGV's traffic as of when it parked."""
         node = self.agv.node
         now = node.now()
         if now >= self._next_traffic:
             self._next_traffic = now + self.traffic_interval_s
             self._set("sessions", sessions_wire(node.sessions()))
             self._set("roles", roles_wire(node.participations()))
-            self._set("traffic", traffic_wire(node.stats()))
+            if not self.agv.at_rest:
+                self._set("traffic", traffic_wire(node.stats()))
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -255,7 +270,15 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "--republish-beats",
         type=int,
         default=REPUBLISH_BEATS,
-        help="zenoh: liveness beats between republications (0: republish every t-update)",
+        help="liveness beats between republications (0: republish every t-update)",
+    )
+    parser.add_argument(
+        "--rest-beat",
+        type=rest_beat_argument,
+        default=REST_BEAT_S,
+        metavar="S|none",
+        help=f"beat every S seconds while parked at home with no task (default "
+        f"{REST_BEAT_S:g}; 'none': every t-update)",
     )
     parser.add_argument(
         "--secret-file", type=Path, required=True, help="file holding the mesh secret"
@@ -425,10 +448,12 @@ async def run(args: argparse.Namespace, secret: bytes) -> int:
         loop.add_signal_handler(signum, stop.set)
     spec = VehicleSpec(DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M)
     config = AgvConfig(t_update=args.t_update, dwell=args.dwell)
+    liveness = process_liveness(args.t_update, args.republish_beats, args.rest_beat)
     timing: dict[str, Any] = {
-        "property_interval": args.t_update,
-        "failure_timeout": 3 * args.t_update,
-        "interest_radius": dissemination_radius(args.interest_radius, layout, spec, config),
+        **liveness_arguments(liveness),
+        "interest_radius": dissemination_radius(
+            args.interest_radius, layout, spec, config, liveness
+        ),
     }
     lag = StepLag()
     node: MeshNode | ZenohNode
@@ -439,7 +464,7 @@ async def run(args: argparse.Namespace, secret: bytes) -> int:
             connect=args.connect,
             mode=args.mode,
             poll_interval=args.poll_interval or None,
-            **{**timing, **beats(args.t_update, args.republish_beats)},
+            **timing,
         )
     else:
         node = await start_node(

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import math
 import random
 import secrets
 import sys
@@ -32,8 +33,9 @@ import time
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from agv_app.fleet.agv_process import POLL_INTERVAL_S, REPUBLISH_BEATS, beats
+from agv_app.fleet.agv_process import POLL_INTERVAL_S, process_liveness
 from agv_app.fleet.base import FleetSourceBase
+from agv_app.fleet.liveness import REPUBLISH_BEATS, REST_BEAT_S, liveness_arguments
 from agv_app.fleet.metrics import FleetMetrics
 from agv_app.fleet.observed import LastingOverlaps
 from agv_app.fleet.parking import ParkingPlan
@@ -111,9 +113,11 @@ class MeshFleet(FleetSourceBase):
         publish_interval: seconds between two pose publications of a moving AGV (None:
             by the fleet's size, :func:`pose_interval_for`); the sessions, roles and
             traffic each AGV shows the dashboard go out at most five times as seldom.
-        republish_beats: on Zenoh, liveness beats between two republications of every
-            property, by every node (0: no beats, everything republished each
-            ``t_update``).
+        republish_beats: liveness beats between two republications of every property,
+            by every node (0: no beats, everything republished each ``t_update``).
+        rest_beat: an AGV parked at its home with no task beats only this often, and
+            every node waits that much longer for it (None: no rest; with beats only;
+            docs/protocol.md §2, "A node at rest").
         poll_interval: on Zenoh, the AGV processes hand received frames on every this
             many seconds (0: each at once; ``agv_app.fleet.agv_process``).
         max_open_tasks: tasks on the floor at once, at most; the others wait at the
@@ -122,7 +126,8 @@ class MeshFleet(FleetSourceBase):
 
     Raises:
         ValueError: ``agvs`` < 1, ``start_tasks`` < 0, more AGVs than parking spots,
-            an unknown ``zenoh_mode``, or ``max_open_tasks`` neither >= 1 nor "auto".
+            an unknown ``zenoh_mode``, a ``rest_beat`` that is not a positive number, or
+            ``max_open_tasks`` neither >= 1 nor "auto".
     """
 
     def __init__(
@@ -145,6 +150,7 @@ class MeshFleet(FleetSourceBase):
         zenoh_mode: str = "client",
         publish_interval: float | None = None,
         republish_beats: int = REPUBLISH_BEATS,
+        rest_beat: float | None = REST_BEAT_S,
         poll_interval: float = POLL_INTERVAL_S,
         max_open_tasks: int | str | None = None,
     ) -> None:
@@ -169,7 +175,10 @@ class MeshFleet(FleetSourceBase):
         self.publish_interval = (
             pose_interval_for(agvs) if publish_interval is None else publish_interval
         )
+        if rest_beat is not None and not (rest_beat > 0 and math.isfinite(rest_beat)):
+            raise ValueError(f"rest_beat must be a positive number, got {rest_beat!r}")
         self.republish_beats = republish_beats
+        self.rest_beat = rest_beat
         self.poll_interval = poll_interval
         self._router: ZenohRouter | None = None
         self.final_logs: dict[str, str] = {}
@@ -258,14 +267,10 @@ class MeshFleet(FleetSourceBase):
     async def _start(self, loop: asyncio.AbstractEventLoop) -> None:
         secret = secrets.token_hex(32).encode()
         secret_file = self.processes.write_secret(secret)
-        node_args: dict[str, Any] = {
-            "secret": secret,
-            "property_interval": self.t_update,
-            "failure_timeout": 3 * self.t_update,
-        }
+        liveness = process_liveness(self.t_update, self.republish_beats, self.rest_beat)
+        node_args: dict[str, Any] = {"secret": secret, **liveness_arguments(liveness)}
         zenoh = self.transport == "zenoh"
         if zenoh:
-            node_args.update(beats(self.t_update, self.republish_beats))
             node_args["poll_interval"] = self.poll_interval or None
         link: dict[str, Any]
         if zenoh and self.zenoh_mode == "client":
@@ -291,7 +296,8 @@ class MeshFleet(FleetSourceBase):
             link_args.append(observer.address)
         if zenoh:
             link_args += ["--poll-interval", str(self.poll_interval)]
-            link_args += ["--republish-beats", str(self.republish_beats)]
+        link_args += ["--republish-beats", str(self.republish_beats)]
+        link_args += ["--rest-beat", "none" if self.rest_beat is None else str(self.rest_beat)]
         for sid in pick_stations(self.layout):
             node = await start_node(f"st:{sid}", **link, **node_args)
             self._station_nodes[sid] = node

@@ -15,6 +15,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 from agv_app.fleet.base import FleetSourceBase
+from agv_app.fleet.liveness import REPUBLISH_BEATS, REST_BEAT_S, fleet_liveness
 from agv_app.fleet.metrics import FleetMetrics
 from agv_app.fleet.parking import ParkingPlan, home_heading
 from agv_app.fleet.stalls import STALL_LIMIT_S, StallWatch
@@ -42,13 +43,7 @@ from objectplaces.core.config import NodeConfig
 from objectplaces.runtime.sim import collections_spaced
 from objectplaces.sim import SimulatedNetwork
 
-__all__ = ["REST_BEAT_S", "TRAFFIC_MODES", "Fleet", "FleetConfig", "SafetyError"]
-
-_REPUBLISH_BEATS = 60
-"""Heartbeats between two republications of every property, by default."""
-
-REST_BEAT_S = 5.0
-"""How often an AGV parked idle beats, by default (its heartbeat when that is longer)."""
+__all__ = ["TRAFFIC_MODES", "Fleet", "FleetConfig", "SafetyError"]
 
 TRAFFIC_MODES = ("protocol", "central")
 """How locks are granted: by the AGVs' collision groups, or by one central scheduler."""
@@ -329,16 +324,9 @@ class Fleet(FleetSourceBase):
         """The nodes' liveness settings: heartbeat, republication, rest, timeout."""
         cfg = self.config
         heartbeat = cfg.t_update if cfg.heartbeat is None else cfg.heartbeat
-        if not cfg.beats:
-            return NodeConfig(property_interval=heartbeat, failure_timeout=3 * heartbeat)
-        rest = cfg.rest_beat
-        return NodeConfig(
-            property_interval=heartbeat * _REPUBLISH_BEATS
-            if cfg.republish is None
-            else cfg.republish,
-            beat_interval=heartbeat,
-            rest_beat_interval=None if rest is None else max(rest, heartbeat),
-            failure_timeout=3 * heartbeat,
+        republish = heartbeat * REPUBLISH_BEATS if cfg.republish is None else cfg.republish
+        return fleet_liveness(
+            heartbeat, republish=republish if cfg.beats else None, rest_beat=cfg.rest_beat
         )
 
     def _timing(self) -> dict[str, float]:

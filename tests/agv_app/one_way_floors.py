@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from agv_app.fleet import Fleet, FleetConfig
-from agv_app.fleet.sim import REST_BEAT_S
+from agv_app.fleet.liveness import REST_BEAT_S
 from agv_app.layout import Layout
 from agv_app.layout.builder import LayoutBuilder
 from agv_app.vehicle.controller import DEFAULT_ADVANCE_M

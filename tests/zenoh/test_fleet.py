@@ -10,7 +10,8 @@ import math
 import pytest
 
 from agv_app.fleet import OBSERVER_ID, MeshFleet
-from agv_app.fleet.agv_process import REPUBLISH_BEATS, StepLag, beats, parse_args
+from agv_app.fleet.agv_process import StepLag, parse_args, process_liveness
+from agv_app.fleet.liveness import REPUBLISH_BEATS, REST_BEAT_S
 from objectplaces.cli import build_parser
 
 pytestmark = [pytest.mark.processes, pytest.mark.timeout(150)]
@@ -84,9 +85,26 @@ def test_step_lag_counts_the_late_steps() -> None:
     assert lag.fields() == {"steps": 4, "late_steps": 1, "max_lag_s": 0.3}
 
 
-def test_agv_processes_live_by_beats_unless_told_otherwise() -> None:
-    assert beats(1.0) == {"beat_interval": 1.0, "property_interval": REPUBLISH_BEATS * 1.0}
-    assert beats(0.5, 0) == {"beat_interval": None, "property_interval": 0.5}
+def test_agv_processes_live_by_beats_and_rest_unless_told_otherwise() -> None:
+    usual = process_liveness(1.0)
+    assert (usual.beat_interval, usual.property_interval) == (1.0, REPUBLISH_BEATS * 1.0)
+    assert usual.rest_beat_interval == REST_BEAT_S
+    assert process_liveness(2.0, rest_beat=1.0).rest_beat_interval == 2.0  # never below
+    assert process_liveness(1.0, rest_beat=None).rest_beat_interval is None
+    plain = process_liveness(0.5, 0)  # no beats: every property each t-update, no rest
+    assert (plain.beat_interval, plain.property_interval) == (None, 0.5)
+    assert plain.rest_beat_interval is None
+    assert plain.failure_timeout == 1.5
+
+
+def test_the_rest_beat_of_an_agv_process_is_checked() -> None:
+    base = ["--id", "a", "--secret-file", "s", "--home", "P"]
+    assert parse_args(base).rest_beat == REST_BEAT_S
+    assert parse_args([*base, "--rest-beat", "none"]).rest_beat is None
+    assert parse_args([*base, "--rest-beat", "8"]).rest_beat == 8.0
+    for bad in ("0", "-1", "inf", "nan", "soon"):
+        with pytest.raises(SystemExit):
+            parse_args([*base, "--rest-beat", bad])
 
 
 def test_the_poll_interval_of_an_agv_process_is_bounded() -> None:
@@ -129,11 +147,16 @@ def test_an_agv_hears_everyone_when_its_radius_spans_the_floor() -> None:
     from agv_app.vehicle.kinematics import VehicleSpec
 
     spec, config = VehicleSpec(DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M), AgvConfig()
+    resting, awake = process_liveness(1.0), process_liveness(1.0, rest_beat=None)
     demo = demo_warehouse()  # 56 m by 37.5 m: the radius from "auto" spans it
-    assert dissemination_radius("auto", demo, spec, config) is None
-    assert dissemination_radius(40.0, demo, spec, config) == 40.0
-    assert dissemination_radius("none", demo, spec, config) is None
+    assert dissemination_radius("auto", demo, spec, config, resting) is None
+    assert dissemination_radius(40.0, demo, spec, config, resting) == 40.0
+    assert dissemination_radius("none", demo, spec, config, resting) is None
     wide = long_loop(300.0)
-    radius = dissemination_radius("auto", wide, spec, config)
+    radius = dissemination_radius("auto", wide, spec, config, resting)
     assert radius is not None
     assert radius < 300.0
+    # A resting peer's crash is found later: the radius allows for the longer silence.
+    shorter = dissemination_radius("auto", wide, spec, config, awake)
+    assert shorter is not None
+    assert shorter < radius

@@ -167,3 +167,45 @@ def test_the_task_desk_of_a_mesh_fleet_takes_the_limit() -> None:
     assert automatic.desk.admission.cuts == 1
     with pytest.raises(ValueError, match="max_open must be a whole number >= 1"):
         MeshFleet(agvs=2, seed=1, max_open_tasks=0)
+
+
+def test_a_mesh_fleet_checks_its_rest_beat() -> None:
+    for bad in (0.0, -1.0, math.inf, math.nan):
+        with pytest.raises(ValueError, match="rest_beat must be a positive number"):
+            MeshFleet(agvs=2, seed=1, rest_beat=bad)
+
+
+async def _frames_from_parked_agvs(fleet: MeshFleet, seconds: float) -> dict[str, int]:
+    """Frames the observer received from each AGV over ``seconds``, once the fleet is
+    ready and its AGVs have stood parked long enough to be at rest."""
+    await fleet.start()
+    async with asyncio.timeout(40):
+        await fleet.wait_ready()
+    observer = fleet.observer
+    assert observer is not None
+    await asyncio.sleep(5.0)  # the beats that announce a rest come at the usual interval
+    before = {a: observer.peer_stats()[a].messages_in for a in fleet.agv_ids}
+    await asyncio.sleep(seconds)
+    return {a: observer.peer_stats()[a].messages_in - before[a] for a in fleet.agv_ids}
+
+
+async def test_parked_agv_processes_beat_at_rest_and_stay_in_the_fleet() -> None:
+    # Two fleets side by side, the same but for rest; 12 s is four failure timeouts of
+    # the usual beat, so a node that granted no rest would have dropped the AGVs.
+    resting = MeshFleet(agvs=2, seed=7, task_interval=None, run_seconds=80.0)
+    awake = MeshFleet(agvs=2, seed=7, task_interval=None, run_seconds=80.0, rest_beat=None)
+    try:
+        rest_frames, awake_frames = await asyncio.gather(
+            _frames_from_parked_agvs(resting, 12.0), _frames_from_parked_agvs(awake, 12.0)
+        )
+        # Both hear the mesh's gossip alike; beats: about 12 awake, 2 or 3 at rest
+        # (plus the three after a republication, every 60 s).
+        for agv in resting.agv_ids:
+            assert rest_frames[agv] <= awake_frames[agv] - 6, (rest_frames, awake_frames)
+        assert resting.roster.failed() == []
+        assert resting.missing() == []
+        for sid, station in resting.desk.stations.items():
+            assert set(resting.agv_ids) <= set(station.node.view()), sid
+        resting.check()
+    finally:
+        await asyncio.gather(resting.stop(), awake.stop())

@@ -15,7 +15,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 
 from agv_app.fleet import Fleet, FleetConfig, agv_process
-from agv_app.fleet.sim import REST_BEAT_S
+from agv_app.fleet.liveness import REST_BEAT_S
 from agv_app.fleet.view import OBSERVER_ID
 from agv_app.layout import Layout, Point, Segment, Station
 from agv_app.layout.demo import demo_warehouse
