@@ -377,7 +377,12 @@ class NodeMachine(Introspection):
                 self._liveness.beat(action, now)
             case CheckLiveness(timeout):
                 for node in self._view.silent_since(now - timeout):
-                    self._depart(node, "failed")
+                    if self._view.props_of(node) is None and not self._participations.plays_for(
+                        node
+                    ):
+                        self._view.forget(node)  # kept only for its roles, which ended
+                    else:
+                        self._depart(node, "failed")
                 self._timers.push(now + timeout / 3, action)
             case ExpireTombstone(initiator, session):
                 self._participations.expire_tombstone(initiator, session, now)

@@ -47,12 +47,13 @@ class Listener(Participant):
 
 
 def _pair(
-    seed: int, *, reach: float = 5.0, b_radius: float | None = None
+    seed: int, *, reach: float = 5.0, a_radius: float | None = None, b_radius: float | None = None
 ) -> tuple[SimulatedNetwork, Greeter, list[Listener], str]:
-    """Initiator ``a`` with participant ``b`` (within ``reach``, ``b`` listening over
-    ``b_radius``) in one session, both settled."""
+    """Initiator ``a`` with participant ``b`` (within ``reach``, each listening over its
+    radius) in one session, both settled."""
     net = SimulatedNetwork(seed=seed, property_interval=0.5, failure_timeout=1.5)
-    a, b = net.add_node("a"), net.add_node("b", interest_radius=b_radius)
+    a = net.add_node("a", interest_radius=a_radius)
+    b = net.add_node("b", interest_radius=b_radius)
     a.update_node_property("position", (0.0, 0.0))
     b.update_node_property("position", (1.0, 0.0))
     roles: list[Listener] = []
@@ -198,6 +199,34 @@ def test_a_participant_out_of_scope_of_its_initiator_still_finds_its_crash() -> 
     net.run_for(3.0)
     assert not roles[-1].active
     assert b.participations() == []
+
+
+def test_an_out_of_scope_initiator_is_forgotten_quietly_once_its_roles_end() -> None:
+    # The other side of seed 1048: when the initiator's session ends normally, the
+    # liveness kept for its roles must go with them. Kept, the participant, which no
+    # longer hears the initiator, counted it failed at its timeout: a departure with
+    # no properties of a node that lives.
+    net, _, roles, sid = _pair(seed=1, reach=1000.0, a_radius=1000.0, b_radius=10.0)
+    a, b = net.node("a"), net.node("b")
+    departures: list[tuple[str, dict[str, Any]]] = []
+    b.register_node_departure_observer(lambda node, last: departures.append((node, dict(last))))
+    b.update_node_property("position", (200.0, 0.0))  # a hears b, b no longer hears a
+    net.run_for(1.0)
+    assert "a" not in b.view()
+    assert roles[-1].active
+    a.stop_interaction(sid)
+    net.run_for(10.0)  # many failure timeouts
+    assert not roles[-1].active
+    assert b.participations() == []
+    assert departures == []
+    assert b.stats().counters.get("departed_failed", 0) == 0
+    # Back in scope, a is heard as any node, and its crash is a departure again.
+    b.update_node_property("position", (1.0, 0.0))
+    net.run_for(2.0)
+    assert "a" in b.view()
+    net.remove_node("a")
+    net.run_for(3.0)
+    assert [node for node, _ in departures] == ["a"]
 
 
 def test_a_node_that_declined_and_took_its_initiator_for_failed_tells_it() -> None:
