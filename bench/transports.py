@@ -3,7 +3,8 @@
 Run: ``.venv/bin/python bench/transports.py`` (``--sizes 10,20`` or ``--transports
 zenoh-peer`` for less, ``zenoh-client-polled5`` for clients polling every 5 ms;
 ``--fleet-agvs 0`` skips the fleet run; ``--fleet-only`` runs the
-fleet alone and rewrites only its part; ``--fleet-before`` runs it as before first).
+fleet alone and rewrites only its part; ``--fleet-against before`` runs it first as
+before the real-time work, ``--fleet-against no-rest`` without nodes at rest).
 
 For each transport and size, every node a separate process on 127.0.0.1:
 
@@ -489,6 +490,14 @@ FLEET_BEFORE = {"poll_interval": 0.0, "republish_beats": 0, "publish_interval": 
 pose every 0.2 s. What is code, not settings, is in both runs: a subscriber per row of
 cells instead of per cell, the display's introspection at most once a second."""
 
+FLEET_BASELINES: dict[str, tuple[str, dict[str, Any]]] = {
+    "before": ("as before", FLEET_BEFORE),
+    "no-rest": ("without rest", {"rest_beat": None}),
+}
+"""``--fleet-against``: the fleet run first in the same slot, as a baseline; by name,
+its column's label and the ``MeshFleet`` settings it changes. ``no-rest``: parked AGVs
+beat every second like the others (docs/protocol.md §2, "A node at rest")."""
+
 
 async def run_fleet(agvs: int, seconds: float, settings: dict[str, Any]) -> dict[str, Any]:
     """A fleet of AGV processes on Zenoh, as ``objectplaces demo --processes N
@@ -591,12 +600,13 @@ def fleet_verdict(fleet: dict[str, Any]) -> str:
     )
 
 
-async def measure_fleets(agvs: int, seconds: float, before: bool) -> tuple[str, list[str]]:
-    """The fleet phase: the fleet as it runs now (and first as before, with ``before``);
-    its markdown and what did not complete."""
+async def measure_fleets(agvs: int, seconds: float, against: str | None) -> tuple[str, list[str]]:
+    """The fleet phase: the fleet as it runs now (first the baseline ``against`` names,
+    if any, in the same slot); its markdown and what did not complete."""
     runs: dict[str, dict[str, Any]] = {}
     failed: list[str] = []
-    for label, settings in [*([("as before", FLEET_BEFORE)] if before else []), ("now", {})]:
+    first = [FLEET_BASELINES[against]] if against else []
+    for label, settings in [*first, ("now", {})]:
         print(f"running {agvs} AGV processes on Zenoh ({label}) ...", file=sys.stderr)
         try:
             runs[label] = await run_fleet(agvs, seconds, settings)
@@ -613,15 +623,17 @@ async def measure_fleets(agvs: int, seconds: float, before: bool) -> tuple[str, 
             "(the fleet did not form: not every AGV heard within 180 s)"
         ]
     )
-    if "now" in runs and "as before" in runs:
-        now, was = runs["now"], runs["as before"]
+    baseline = FLEET_BASELINES[against][0] if against else None
+    if "now" in runs and baseline in runs:
+        now, was = runs["now"], runs[baseline]
         ratio = (was["late_steps"] / max(was["steps"], 1)) / max(
             now["late_steps"] / max(now["steps"], 1), 1e-9
         )
         lines.append(
-            f"- what the real-time work bought, same run: the AGV processes' CPU "
+            f"- now against {baseline}, same run: the AGV processes' CPU "
             f"{was['cpu_cores']:.2f} -> {now['cpu_cores']:.2f} cores "
-            f"({was['cpu_cores'] / max(now['cpu_cores'], 1e-9):.2f}x less), late control "
+            f"({was['cpu_cores'] / max(now['cpu_cores'], 1e-9):.2f}x less), this process "
+            f"{was['own_cores']:.2f} -> {now['own_cores']:.2f} cores, late control "
             f"steps {was['late_steps'] / max(was['steps'], 1):.2%} -> "
             f"{now['late_steps'] / max(now['steps'], 1):.2%}"
             + (f" ({ratio:.1f}x fewer)" if now["late_steps"] else "")
@@ -692,9 +704,9 @@ _CODE = ("objectplaces", "agv_app", "tuplespace", "bench")
 """The code a fleet run executes: changes elsewhere (docs) do not make it another run."""
 
 
-async def fleet_only(agvs: int, seconds: float, before: bool) -> None:
+async def fleet_only(agvs: int, seconds: float, against: str | None) -> None:
     """Run only the fleet phase and rewrite only its part of BENCHMARKS.md."""
-    body, _ = await measure_fleets(agvs, seconds, before)
+    body, _ = await measure_fleets(agvs, seconds, against)
     load = os.getloadavg()[0]
     body = (
         f"At {_commit()}. Only this phase ran (`--fleet-only`); the rows above are from "
@@ -702,7 +714,7 @@ async def fleet_only(agvs: int, seconds: float, before: bool) -> None:
         f"average {load:.0f} at the end). {FLEET_NOTE}\n\n{body}"
     )
     command = ".venv/bin/python bench/transports.py --fleet-only" + (
-        " --fleet-before" if before else ""
+        f" --fleet-against {against}" if against else ""
     )
     publish(FLEET_SECTION, FLEET_TITLE, body, command)
 
@@ -711,11 +723,12 @@ FLEET_NOTE = (
     "The demo fleet (`objectplaces demo --processes N --transport zenoh`): a router, the "
     "observer and the stations in the bench's process, every AGV a process of its own, a "
     "client of the router; tasks at the demo's load. Late steps are read from what each "
-    "AGV process reports every 5 s, over the measured run; `as before` runs the same "
-    "fleet first with the reception and publication settings before the real-time work "
-    "(each frame handed on at once, every property republished each second, a pose "
-    "every 0.2 s); what is code, not settings (a subscriber per row of cells, not per "
-    "cell; the display's introspection at most once a second), is in both."
+    "AGV process reports every 5 s, over the measured run. A baseline column, when there "
+    "is one, is the same fleet run first in the same slot: `as before` with the "
+    "reception and publication settings before the real-time work (each frame handed on "
+    "at once, every property republished each second, a pose every 0.2 s), `without "
+    "rest` with parked AGVs beating every second like the others; what is code, not "
+    "settings, is in both."
 )
 
 
@@ -725,7 +738,7 @@ async def coordinate(
     fleet_agvs: int,
     fleet_s: float,
     before_size: int,
-    fleet_before: bool,
+    fleet_against: str | None,
 ) -> None:
     payload = position_frame()
     load_before = os.getloadavg()[0]
@@ -756,12 +769,12 @@ async def coordinate(
                 failed.append(f"{transport} at {size} nodes: {type(exc).__name__} {exc}")
     fleet_text = standing_fleet_block()
     if fleet_agvs:
-        fleet_body, fleet_failed = await measure_fleets(fleet_agvs, fleet_s, fleet_before)
+        fleet_body, fleet_failed = await measure_fleets(fleet_agvs, fleet_s, fleet_against)
         failed += fleet_failed
         fleet_text = fleet_block(
             f"{FLEET_NOTE}\n\n{fleet_body}",
             ".venv/bin/python bench/transports.py --fleet-only"
-            + (" --fleet-before" if fleet_before else ""),
+            + (f" --fleet-against {fleet_against}" if fleet_against else ""),
         )
 
     ms = 1000.0
@@ -907,7 +920,10 @@ def main() -> None:
         "--fleet-only", action="store_true", help="run the fleet phase alone (its part only)"
     )
     parser.add_argument(
-        "--fleet-before", action="store_true", help="run the fleet as before first, same run"
+        "--fleet-against",
+        choices=sorted(FLEET_BASELINES),
+        help="run the fleet first as this baseline, same run: 'before' the real-time "
+        "work, or with 'no-rest'",
     )
     parser.add_argument("--before-size", type=int, default=20, help="0: no before row")
     parser.add_argument("--worker")
@@ -925,7 +941,7 @@ def main() -> None:
     elif args.zenoh_listen:
         asyncio.run(run_zenoh_listener(args.zenoh_listen, args.mode))
     elif args.fleet_only:
-        asyncio.run(fleet_only(args.fleet_agvs, args.fleet_seconds, args.fleet_before))
+        asyncio.run(fleet_only(args.fleet_agvs, args.fleet_seconds, args.fleet_against))
     else:
         asyncio.run(
             coordinate(
@@ -934,7 +950,7 @@ def main() -> None:
                 args.fleet_agvs,
                 args.fleet_seconds,
                 args.before_size,
-                args.fleet_before,
+                args.fleet_against,
             )
         )
 
