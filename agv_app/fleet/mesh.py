@@ -287,6 +287,7 @@ class MeshFleet(FleetSourceBase):
         else:
             node_args["listen"] = f"{_HOST}:0"
         observer = await start_node(OBSERVER_ID, **node_args)
+        observer.set_at_rest(True)  # it listens and says nothing
         self.observer = observer
         observer.register_node_property_observer(self._on_property, names=("last_done", "state"))
         observer.register_node_departure_observer(lambda node_id, _: self._departed(node_id))

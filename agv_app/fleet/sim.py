@@ -291,6 +291,7 @@ class Fleet(FleetSourceBase):
         for sid in pick_stations(self.layout):
             self.desk.open_station(sid, self.net.add_node(f"st:{sid}"))
         self.observer = self.net.add_node(OBSERVER_ID)
+        self.observer.set_at_rest(True)  # it listens; it speaks only of failed AGVs
         self.stale_relay = None if self.interest_radius is None else StaleRelay(self.observer)
         """Relays failed AGVs to every AGV when the AGVs are scoped (traffic/stale_relay.py)."""
         start_tasks = cfg.start_tasks

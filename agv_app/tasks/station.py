@@ -105,6 +105,9 @@ class Station:
         self._generation = 0
         node.update_node_property("kind", STATION_KIND)
         node.update_node_property("position", position)
+        # A station never moves and has said all it will say: its node beats as seldom
+        # as the fleet lets a node at rest (its sessions' frames go on as ever).
+        node.set_at_rest(True)
         node.register_node_departure_observer(self._departed)
         node.register_node_property_observer(
             self._property, names=("last_done", "reached_pick", "dropping_at")

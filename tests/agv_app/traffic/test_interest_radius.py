@@ -186,6 +186,24 @@ def test_parked_agvs_beat_at_the_rest_interval() -> None:
     )
 
 
+def test_stations_and_the_observer_are_at_rest_from_the_start() -> None:
+    """They never move and have said all they will at start: three beats a second
+    apart, then one every rest interval, as parked AGVs."""
+
+    def beats(rest_beat: float | None) -> dict[str, int]:
+        fleet = Fleet(config=FleetConfig(agvs=2, start_tasks=0, load=0.01, rest_beat=rest_beat))
+        fleet.run(60.0)
+        per_node = fleet.net.stats().per_node
+        quiet = [OBSERVER_ID, *(f"st:{sid}" for sid in fleet.desk.stations)]
+        return {node: per_node[node].sent.get("beat", (0, 0))[0] for node in quiet}
+
+    usual, resting = beats(None), beats(REST_BEAT_S)
+    assert len(usual) > 10  # the observer and the demo's stations
+    for node, frames in resting.items():
+        # About 59 beats to each listener against 3 + 11 (3 s, then one every 5 s).
+        assert 0.2 < frames / usual[node] < 0.3, (node, frames, usual[node])
+
+
 def test_an_agv_is_at_rest_only_while_parked_at_home_without_a_task() -> None:
     fleet = Fleet(config=FleetConfig(agvs=6, seed=2, load=0.5))
     seen: set[tuple[bool, str, bool]] = set()

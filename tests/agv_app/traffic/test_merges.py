@@ -120,8 +120,15 @@ def test_a_floor_without_boxes_no_longer_locks_at_its_merges(seed: int) -> None:
     AGVs over 180 s)."""
     layout = generated_warehouse(12)
     # As found: stations calling every winner at once, the queues at the docks the hard
-    # case the rule must hold in.
-    config = FleetConfig(agvs=12, seed=seed, load=0.9, one_at_a_time=False, fail_on_violation=True)
+    # case the rule must hold in, and no node at rest (it came later).
+    config = FleetConfig(
+        agvs=12,
+        seed=seed,
+        load=0.9,
+        one_at_a_time=False,
+        rest_beat=None,
+        fail_on_violation=True,
+    )
     locked = Fleet(layout, config, vehicle=vehicle_with(clear_merges=False))
     locked.run(400.0)
     assert locked.summary()["deadlocks"] > 0
