@@ -11,13 +11,17 @@ from typing import Any
 
 from objectplaces.core.codec import encode_value
 
-__all__ = ["AGV_KIND", "STATION_KIND", "MessageTally", "tally_send"]
+__all__ = ["AGV_KIND", "OBSERVER_KIND", "STATION_KIND", "MessageTally", "tally_send"]
 
 AGV_KIND = "agv"
 """Value of the ``kind`` property every AGV publishes."""
 
 STATION_KIND = "station"
 """Value of the ``kind`` property stations publish."""
+
+OBSERVER_KIND = "observer"
+"""Value of the ``kind`` property of a process fleet's observer: a property to publish,
+so its peers hear it even without beats (it initiates the display session)."""
 
 MessageTally = Callable[[str, int], None]
 """Counts one protocol message of a type and its encoded size in bytes."""

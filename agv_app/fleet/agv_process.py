@@ -5,15 +5,16 @@ python -m agv_app.fleet.agv_process --id agv-03 --listen 127.0.0.1:0 --join 127.
     --secret-file /tmp/secret --home P0350n --seed 3 [--run-seconds 600]
 ```
 
-The process starts a mesh node, builds an :class:`~agv_app.vehicle.controller.AgvController` on the
+The process starts a node, builds an :class:`~agv_app.vehicle.controller.AgvController` on the
 demo warehouse and steps it in real time (fixed ``--dt``). Besides what the controller
-publishes (position, hull length, status, task, last done), it publishes what an
-observer needs to draw the vehicle, each only when it changes: ``heading`` (radians),
-``state`` (the dashboard's finer status), ``size`` (``[length, width]``), ``locked``
-and ``requested`` (its projections in the compact form of
-:func:`~agv_app.geometry.polygon_to_coords`) and ``route`` (the vertices ahead); and
-what the dashboard shows of its node: ``sessions``, ``roles`` and ``traffic``
-(:mod:`agv_app.fleet.remote`).
+publishes as properties (position and hull length at every request and release,
+status, task, last done), it shows the observer, over the observer's display session
+(:mod:`agv_app.fleet.display_feed`), what it needs to draw the vehicle, each only when
+it changes: ``position`` and ``heading`` (radians) as it moves, ``state`` (the
+dashboard's finer status), ``size`` (``[length, width]``), ``locked`` and ``requested``
+(its projections in the compact form of :func:`~agv_app.geometry.polygon_to_coords`)
+and ``route`` (the vertices ahead); and what the dashboard shows of its node:
+``sessions``, ``roles`` and ``traffic`` (:mod:`agv_app.fleet.remote`).
 
 It stops by itself, always through a graceful ``node.close()``: when ``--run-seconds``
 pass, when its stdin (a pipe from its parent) closes, when its parent process dies, or
@@ -39,6 +40,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from agv_app.fleet.display_feed import DISPLAY_ROLE, DisplayFeed
 from agv_app.fleet.liveness import (
     REPUBLISH_BEATS,
     REST_BEAT_S,
@@ -165,16 +167,16 @@ def _route_ahead(agv: AgvController) -> list[list[float]]:
 
 
 class DisplayPublisher:
-    """Publishes what an observer needs to draw one AGV, each property only on change,
-    and what the dashboard shows of its node (``agv_app.fleet.remote``).
+    """Shows the observer what it needs to draw one AGV, and what the dashboard shows
+    of its node (``agv_app.fleet.remote``), each only on change, over the observer's
+    display session (:mod:`agv_app.fleet.display_feed`), not to every node that hears
+    the AGV.
 
     Args:
-        agv: the AGV component (its node publishes).
-        min_move_m: re-publish the position when the vehicle moved at least this far.
-        traffic_interval_s: least time between two publications of the node's
-            introspection (sessions, roles, traffic). Sessions and roles change with
-            every request; each change is a frame to every AGV that hears this one, for
-            the dashboard's panel only.
+        agv: the AGV component (its node plays the display role).
+        min_move_m: show the pose again when the vehicle moved at least this far.
+        traffic_interval_s: least time between two reports of the node's introspection
+            (sessions, roles, traffic), which change with every request.
     """
 
     def __init__(
@@ -183,21 +185,17 @@ class DisplayPublisher:
         self.agv = agv
         self.min_move_m = min_move_m
         self.traffic_interval_s = traffic_interval_s
+        self.feed = DisplayFeed()
         self._next_traffic = -math.inf
-        self._last: dict[str, Any] = {}
         self._pose: tuple[float, float, float] | None = None
         self._locked = _AreaCoords()
         self._requested = _AreaCoords()
-        agv.node.update_node_property("size", [agv.spec.length_m, agv.spec.width_m])
-
-    def _set(self, name: str, value: Any) -> None:
-        if self._last.get(name, self) != value:
-            self._last[name] = value
-            self.agv.node.update_node_property(name, value)
+        agv.node.set_participant_factory(DISPLAY_ROLE, self.feed.reporter)
+        self.feed.set("size", [agv.spec.length_m, agv.spec.width_m])
 
     def publish(self) -> None:
-        """Publish the pose (through the AGV, with its hull length), state and projections."""
-        agv = self.agv
+        """Show the pose, state and projections, and send what changed."""
+        agv, feed = self.agv, self.feed
         if agv.failed:
             return
         pose = agv.vehicle.pose()
@@ -209,31 +207,35 @@ class DisplayPublisher:
             or heading != last[2]
         ):
             self._pose = (pose.x, pose.y, heading)
-            agv.publish()
-            self._set("heading", heading)
-        self._set("state", agv.display_status())
+            feed.set("position", [round(pose.x, 3), round(pose.y, 3)])
+            feed.set("heading", heading)
+        # The task with the state: the observer learns that the AGV set off with it
+        # from one report, whatever the order of the property stream and the channel.
+        feed.set("task", agv.node.properties.get("task"))
+        feed.set("state", agv.display_status())
         locks, request = agv.areas()
-        self._set("locked", self._locked(locks))
-        self._set("requested", self._requested([] if request is None else [request]))
-        self._set("route", _route_ahead(agv))
+        feed.set("locked", self._locked(locks))
+        feed.set("requested", self._requested([] if request is None else [request]))
+        feed.set("route", _route_ahead(agv))
         self.publish_introspection()
+        feed.flush()
 
     def publish_introspection(self) -> None:
-        """Publish the sessions, roles and traffic of the node, each on change, at most
+        """Show the sessions, roles and traffic of the node, each on change, at most
         every ``traffic_interval_s``: what the dashboard shows of a node.
 
         Not the traffic while the AGV is at rest: its counters change with every frame
-        it hears, and each publication is a frame to every AGV that hears it, so parked
-        AGVs would keep each other publishing every interval, never at rest. The
-        dashboard shows a parked AGV's traffic as of when it parked."""
-        node = self.agv.node
+        it hears, its own reports included, so it would report every interval for as
+        long as it stands. The dashboard shows a parked AGV's traffic as of when it
+        parked."""
+        node, feed = self.agv.node, self.feed
         now = node.now()
         if now >= self._next_traffic:
             self._next_traffic = now + self.traffic_interval_s
-            self._set("sessions", sessions_wire(node.sessions()))
-            self._set("roles", roles_wire(node.participations()))
+            feed.set("sessions", sessions_wire(node.sessions()))
+            feed.set("roles", roles_wire(node.participations()))
             if not self.agv.at_rest:
-                self._set("traffic", traffic_wire(node.stats()))
+                feed.set("traffic", traffic_wire(node.stats()))
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

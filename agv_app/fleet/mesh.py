@@ -35,6 +35,7 @@ from typing import Any
 
 from agv_app.fleet.agv_process import POLL_INTERVAL_S, process_liveness
 from agv_app.fleet.base import FleetSourceBase
+from agv_app.fleet.display_feed import DISPLAY_ROLE, DisplayCollector, display_group
 from agv_app.fleet.liveness import REPUBLISH_BEATS, REST_BEAT_S, liveness_arguments
 from agv_app.fleet.metrics import FleetMetrics
 from agv_app.fleet.observed import LastingOverlaps
@@ -47,7 +48,7 @@ from agv_app.fleet.view import OBSERVER_ID, VehicleState
 from agv_app.geometry import XY
 from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
 from agv_app.layout.graph import Layout
-from agv_app.protocol import AGV_KIND
+from agv_app.protocol import AGV_KIND, OBSERVER_KIND
 from agv_app.tasks.desk import TaskDesk, pick_stations, require_task_stations
 from agv_app.tasks.free_flow import FreeFlowBound, FreeFlowTimer
 from agv_app.tasks.load import TaskArrivals
@@ -218,6 +219,8 @@ class MeshFleet(FleetSourceBase):
         self.broker_monitor = None if vda5050 is None else BrokerMonitor(parse_broker_url(vda5050))
         self._monitor_task: asyncio.Task[None] | None = None
         self.observer: MeshNode | None = None
+        self.display = DisplayCollector(on_report=self._on_report)
+        """What each AGV process shows, reported to the observer (its display session)."""
         self._station_nodes: dict[str, MeshNode] = {}
         self._watcher: asyncio.Task[None] | None = None
         self._started_at: float | None = None
@@ -287,9 +290,11 @@ class MeshFleet(FleetSourceBase):
         else:
             node_args["listen"] = f"{_HOST}:0"
         observer = await start_node(OBSERVER_ID, **node_args)
-        observer.set_at_rest(True)  # it listens and says nothing
+        observer.update_node_property("kind", OBSERVER_KIND)
+        observer.set_at_rest(True)  # it listens, and says nothing more
         self.observer = observer
-        observer.register_node_property_observer(self._on_property, names=("last_done", "state"))
+        observer.register_node_property_observer(self._on_property, names=("last_done",))
+        observer.start_interaction(self.display, display_group(), DISPLAY_ROLE)
         observer.register_node_departure_observer(lambda node_id, _: self._departed(node_id))
         if not (zenoh and self.zenoh_mode == "client"):
             link = {"connect": [observer.address]} if zenoh else {"join": [observer.address]}
@@ -375,14 +380,14 @@ class MeshFleet(FleetSourceBase):
     # -- observing --------------------------------------------------------------------
 
     def _on_property(self, node_id: str, name: str, value: Any) -> None:
-        book = self.desk.book
         if name == "last_done" and isinstance(value, str):
             self.desk.finish(value, now=self.now)
-        elif name == "state" and value == "driving" and self.observer is not None:
-            # The task property travels before the state that shows the AGV set off.
-            task = self.observer.view().get(node_id, {}).get("task")
+
+    def _on_report(self, node_id: str, report: Mapping[str, Any]) -> None:
+        if report.get("state") == "driving":
+            task = self.display.reports.get(node_id, {}).get("task")
             if isinstance(task, str):
-                book.start(task, node_id, now=self.now)
+                self.desk.book.start(task, node_id, now=self.now)
 
     def _departed(self, node_id: str) -> None:
         if self.started:
@@ -391,9 +396,9 @@ class MeshFleet(FleetSourceBase):
     def _agv_views(self) -> list[tuple[str, Mapping[str, Any]]]:
         if self.observer is None or self.observer.closed:
             return []
-        view = self.observer.view()
+        view, shown = self.observer.view(), self.display.shown
         return [
-            (n, view[n])
+            (n, shown(n, view[n]))
             for n in sorted(view)
             if view[n].get("kind") == AGV_KIND and isinstance(view[n].get("position"), tuple)
         ]

@@ -1,8 +1,9 @@
 """What an observer node hears of AGVs it does not run: their state, shapes and safety.
 
-An AGV process publishes, besides position and hull length, what an observer needs to
-draw it (``heading``, ``state``, ``size``, ``task``) and its ``locked`` and ``requested``
-projections in the compact form of :func:`~agv_app.geometry.polygon_to_coords`. The
+An AGV process publishes its position and hull length, and shows the observer what it
+needs to draw it (its pose as it moves, ``heading``, ``state``, ``size``, ``task``) and
+its ``locked`` and ``requested`` projections in the compact form of
+:func:`~agv_app.geometry.polygon_to_coords` (:mod:`agv_app.fleet.display_feed`). The
 shapes are decoded once per change (:class:`ObservedAgv`); :func:`vehicle_state`
 turns the properties into the dashboard's :class:`~agv_app.fleet.view.VehicleState`.
 
@@ -72,7 +73,8 @@ def vehicle_state(agv_id: str, props: Mapping[str, Any], seen: ObservedAgv) -> V
 
     Args:
         agv_id: the AGV's node id.
-        props: its properties as the observer holds them (``position`` is a tuple).
+        props: its properties and display as the observer holds them (``position`` is a
+            tuple).
         seen: its decoded projections (updated here).
     """
     x, y = (_number(c) for c in props["position"][:2])

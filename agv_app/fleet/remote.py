@@ -1,13 +1,14 @@
 """A node that runs in another process, as the observer hears it: reads only.
 
-An AGV process publishes, beside what draws it, what the dashboard shows of any node:
-the sessions it initiated (``sessions``), the participant roles it plays (``roles``)
-and its traffic by kind (``traffic``), in the plain forms :func:`sessions_wire`,
-:func:`roles_wire` and :func:`traffic_wire` give. :class:`RemoteNode` reads them back
-from the observer's view and answers the dashboard's reading members as a local
-``RoleActivator`` would; the members that would act on the node (start or stop a
-session, evaluate a group from its point of view) raise ``LocalProtocolError``,
-since the node's own process alone can do that.
+An AGV process shows the observer, beside what draws it, what the dashboard shows of
+any node: the sessions it initiated (``sessions``), the participant roles it plays
+(``roles``) and its traffic by kind (``traffic``), in the plain forms
+:func:`sessions_wire`, :func:`roles_wire` and :func:`traffic_wire` give, over the
+observer's display session (:mod:`agv_app.fleet.display_feed`). :class:`RemoteNode`
+reads them back from what the observer holds of the AGV and answers the dashboard's
+reading members as a local ``RoleActivator`` would; the members that would act on the
+node (start or stop a session, evaluate a group from its point of view) raise
+``LocalProtocolError``, since the node's own process alone can do that.
 
 Times: an AGV's node clock is the machine's monotonic clock (its event loop's), as is
 the observer's; every process of a mesh fleet runs on this machine (127.0.0.1), so a
@@ -122,7 +123,8 @@ class RemoteNode:
 
     Args:
         node_id: the node's id.
-        heard: its properties as the observer holds them now (empty once it is gone).
+        heard: its properties and display as the observer holds them now (empty once
+            it is gone).
         clock_offset: subtracted from the node's times to give the fleet's.
     """
 

@@ -162,9 +162,9 @@ def test_an_agv_hears_everyone_when_its_radius_spans_the_floor() -> None:
     assert shorter < radius
 
 
-def test_a_parked_agv_process_keeps_its_traffic_counters_to_itself() -> None:
-    # Each publication is a frame to every AGV that hears this one, and changes their
-    # counters in turn: parked AGVs would keep each other publishing, never at rest.
+def test_a_parked_agv_process_shows_its_traffic_as_of_parking() -> None:
+    # Its counters change with every frame it hears, its own reports included: it
+    # would report them every interval for as long as it stands.
     from agv_app.fleet import Fleet, FleetConfig
     from agv_app.fleet.agv_process import DisplayPublisher
     from agv_app.fleet.remote import traffic_wire
@@ -173,12 +173,13 @@ def test_a_parked_agv_process_keeps_its_traffic_counters_to_itself() -> None:
     [agv] = fleet.agvs.values()
     display = DisplayPublisher(agv, traffic_interval_s=1.0)
     display.publish()  # not stepped yet, so not at rest: the counters go out
-    first = agv.node.properties["traffic"]
+    first = display.feed.get("traffic")
+    assert first is not None
     for _ in range(20):
         fleet.run(1.0)
         display.publish()
     assert agv.at_rest
-    assert agv.node.properties["traffic"] == first
+    assert display.feed.get("traffic") == first
     assert traffic_wire(agv.node.stats()) != first  # the node went on counting
     fleet.create_task(next(iter(fleet.stations)))
     for _ in range(30):
@@ -187,4 +188,4 @@ def test_a_parked_agv_process_keeps_its_traffic_counters_to_itself() -> None:
         if not agv.at_rest:
             break
     assert not agv.at_rest  # the only AGV took the task
-    assert agv.node.properties["traffic"] == traffic_wire(agv.node.stats())
+    assert display.feed.get("traffic") == traffic_wire(agv.node.stats())
