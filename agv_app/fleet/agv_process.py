@@ -92,8 +92,7 @@ def process_liveness(
     """Liveness by beats, as the simulated fleet runs it (``fleet_liveness``): a beat of a
     few bytes after ``t_update`` without a publication, every ``rest_beat`` while parked
     idle, every property again only every ``republish_beats`` beats (0: no beats, every
-    property republished each ``t_update``, which sends each AGV's whole display state
-    to every other AGV once a second)."""
+    property republished each ``t_update``)."""
     republish = republish_beats * t_update if republish_beats > 0 else None
     return fleet_liveness(t_update, republish=republish, rest_beat=rest_beat)
 
