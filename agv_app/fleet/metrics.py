@@ -30,7 +30,8 @@ class FleetMetrics:
     protocol: dict[str, list[int]] = field(default_factory=dict)
     """Role message type -> [messages, bytes of payload]."""
     last_resorts: dict[str, int] = field(default_factory=dict)
-    """How often the AGVs backed off (``yield``) or drove on (``drive_on``)."""
+    """How often the AGVs backed off (``yield``), drove on (``drive_on``) or took another
+    way (``detour``)."""
 
     def tally(self, kind: str, size: int) -> None:
         """Count one role message of ``kind`` with ``size`` payload bytes."""
@@ -39,7 +40,7 @@ class FleetMetrics:
         entry[1] += size
 
     def last_resort(self, kind: str) -> None:
-        """Count one ``yield`` or ``drive_on`` of an AGV."""
+        """Count one ``yield``, ``drive_on`` or ``detour`` of an AGV."""
         self.last_resorts[kind] = self.last_resorts.get(kind, 0) + 1
 
     def summary(
@@ -67,8 +68,8 @@ class FleetMetrics:
         ``free_flow_tasks_per_hour`` is the bound of
         :class:`~agv_app.tasks.free_flow.FreeFlowBound`; ``stalls_60s`` counts the waits
         longer than 60 s and ``max_wait`` is the longest single wait (``stalls``);
-        ``yields`` and ``drive_ons`` count the AGVs' last resorts against a circle of
-        waits (docs/traffic.md).
+        ``yields``, ``drive_ons`` and ``detours`` count the AGVs' last resorts against a
+        circle of waits (docs/traffic.md).
         """
         per = max(agvs, 1) * max(sim_seconds, 1e-9)
         done, times, waits = tasks.counts["done"], tasks.durations, self.lock_waits
@@ -106,6 +107,7 @@ class FleetMetrics:
             "double_assignments": tasks.double_assignments,
             "yields": self.last_resorts.get("yield", 0),
             "drive_ons": self.last_resorts.get("drive_on", 0),
+            "detours": self.last_resorts.get("detour", 0),
         }
         for kind, (n, b) in sorted(agv_sent.items()):
             out[f"wire_{kind}_messages_per_agv_per_s"] = round(n / per, 3)

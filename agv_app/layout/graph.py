@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Collection, Iterable, Mapping, Sequence
 from types import MappingProxyType
 
 from agv_app.geometry import XY, Polyline
@@ -358,17 +358,24 @@ class Layout:
         """
         self.point(a)
         self.point(b)
-        dist, prev = self._search(a)
-        if b not in dist:
-            raise NoRouteError(f"no route from point {a!r} to point {b!r}")
-        path = [b]
-        while path[-1] != a:
-            path.append(prev[path[-1]][0])
-        return tuple(reversed(path))
+        return _path(a, b, *self._search(a))
 
     def route(self, a: str, b: str) -> Route:
         """The shortest route ``a -> b`` with its geometry (see :meth:`shortest_path`)."""
         return self.route_through(self.shortest_path(a, b))
+
+    def route_avoiding(self, a: str, b: str, avoid: Collection[str]) -> Route:
+        """The shortest route ``a -> b`` that drives none of the segments ``avoid``
+        (not cached: a detour is rare).
+
+        Raises:
+            LayoutError: unknown point.
+            NoRouteError: every route from ``a`` to ``b`` drives one of them.
+        """
+        self.point(a)
+        self.point(b)
+        arcs = {u: [x for x in out if x.segment not in avoid] for u, out in self._arcs.items()}
+        return self.route_through(_path(a, b, *shortest_paths(arcs, a)))
 
     def route_through(self, points: Sequence[str]) -> Route:
         """Build a :class:`Route` along an explicit point sequence.
@@ -489,3 +496,19 @@ class Layout:
 
 def _by_id(s: Station) -> str:
     return s.id
+
+
+def _path(
+    a: str, b: str, dist: Mapping[str, float], prev: Mapping[str, tuple[str, str]]
+) -> tuple[str, ...]:
+    """The points of the shortest route ``a -> b`` from a search out of ``a``.
+
+    Raises:
+        NoRouteError: the search did not reach ``b``.
+    """
+    if b not in dist:
+        raise NoRouteError(f"no route from point {a!r} to point {b!r}")
+    path = [b]
+    while path[-1] != a:
+        path.append(prev[path[-1]][0])
+    return tuple(reversed(path))

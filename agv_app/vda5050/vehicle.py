@@ -169,6 +169,10 @@ class OrderAgv(AgvController):
         # The same: it waits on the order's path for as long as it takes.
         return not self._stretch and super()._must_drive_on(now, requester)
 
+    def _must_detour(self, now: float, requester: Requester | CentralRequest) -> bool:
+        # The same: no other way than the order's.
+        return not self._stretch and super()._must_detour(now, requester)
+
     def step(self, dt: float) -> None:
         """Advance ``dt`` seconds: brake while paused, else drive as the controller does."""
         if self.failed:

@@ -115,6 +115,12 @@ class AgvConfig:
             drives on to a waiting place and comes back (None: never); AGVs queued
             behind it may stand where the destination's AGV must drive to leave
             (docs/traffic.md, "Driving on").
+        detour_after: seconds an AGV standing before a fork of its way, short of the
+            last resting place before its destination, waits for its request, held up
+            by a lock, before it takes another way to its destination from that fork,
+            one that avoids the segment it was waiting to drive (None: never); AGVs
+            that fill a one-way loop each wait for the one ahead
+            (docs/traffic.md, "Taking another way").
     """
 
     t_update: float = 1.0
@@ -131,6 +137,7 @@ class AgvConfig:
     clear_turn_offs: bool = True
     keep_way_out: bool = True
     drive_on_after: float | None = 60.0
+    detour_after: float | None = 60.0
 
 
 class AgvController:
@@ -224,6 +231,7 @@ class AgvController:
         self._resume: str | None = None
         """Where a yielding AGV goes once it has reached its waiting place."""
         self._no_drive_on_until = 0.0
+        self._no_detour_until = 0.0
         """No drive-on before then (the last one found no other way on)."""
         self._hold_until = 0.0
         """The vehicle stands still until then (the dwell ends) though its route is set."""
@@ -628,7 +636,11 @@ class AgvController:
         if requester is None or requester.done:
             return
         if requester.blocked_by:
-            if self._must_yield(now) or self._must_drive_on(now, requester):
+            if (
+                self._must_yield(now)
+                or self._must_drive_on(now, requester)
+                or self._must_detour(now, requester)
+            ):
                 requester.withdraw()
             elif self._may_shorten():
                 # Held up by a lock while standing: ask for half the stretch, which
@@ -762,6 +774,8 @@ class AgvController:
                 self._yield()
             elif requester.blocked_by and self._must_drive_on(now, requester):
                 self._drive_on()
+            elif requester.blocked_by and self._must_detour(now, requester):
+                self._detour()
             self.publish()
 
     def _must_yield(self, now: float) -> bool:
@@ -817,7 +831,7 @@ class AgvController:
         """Drive on from the next point of the route to a waiting place (home, else a
         free rest point), then come back to the destination from there; False (and
         no new try for ``drive_on_after``) where there is no other way on."""
-        route, dest, vehicle = self._route, self._dest, self.vehicle
+        route, dest = self._route, self._dest
         assert route is not None
         assert dest is not None
         found = self._onward(route, dest)
@@ -825,21 +839,74 @@ class AgvController:
             assert self.config.drive_on_after is not None
             self._no_drive_on_until = self.node.now() + self.config.drive_on_after
             return False
-        ahead, onward = found
-        # The lead piece is the rest of the way to the route's next point: the vehicle
-        # starts at its beginning, where it stands.
+        self._take(*found, "drive_on")
+        self._resume = dest
+        return True
+
+    def _must_detour(self, now: float, requester: Requester | CentralRequest) -> bool:
+        """True if the AGV stands on its way, past its start and short of the last
+        resting place before its destination, within a hull length of the route's next
+        point, and its request has been held up for ``detour_after`` (docs/traffic.md,
+        "Taking another way")."""
+        after, plan, first, route = (
+            self.config.detour_after,
+            self._plan,
+            self._first_try,
+            self._route,
+        )
+        vehicle = self.vehicle
+        if (
+            after is None
+            or plan is None
+            or route is None
+            or self._resume is not None
+            or vehicle.speed != 0.0
+            or vehicle.s <= self._route_shift + 1e-6
+            or requester.entry.end_s >= plan.length - 1e-9
+            or first is None
+            or now - first[1] < after
+            or now < self._no_detour_until
+        ):
+            return False
+        ahead = route.index_at(vehicle.s - self._route_shift + 1e-6) + 1
+        if ahead >= len(route.points) - 1:
+            return False
+        return route.offsets[ahead] + self._route_shift - vehicle.s <= self.spec.length_m
+
+    def _detour(self) -> bool:
+        """Take another way to the destination from the route's next point, one that
+        drives neither the segment it was waiting to drive nor the one it stands on;
+        False where there is none. Either way no new try for ``detour_after``."""
+        route, dest, vehicle = self._route, self._dest, self.vehicle
+        assert route is not None
+        assert dest is not None
+        assert self.config.detour_after is not None
+        self._no_detour_until = self.node.now() + self.config.detour_after
+        ahead = route.index_at(vehicle.s - self._route_shift + 1e-6) + 1
+        avoid = {route.segments[ahead], *route.segments[ahead - 1 : ahead]}
+        try:
+            onward = self.layout.route_avoiding(route.points[ahead], dest, avoid)
+        except NoRouteError:
+            return False
+        self._take(ahead, onward, "detour")
+        return True
+
+    def _take(self, ahead: int, onward: Route, resort: str) -> None:
+        """Leave the route at its point ``ahead`` for ``onward`` (a last resort, counted
+        as ``resort``): the lead piece is the rest of the way to that point, and the
+        vehicle starts at its beginning, where it stands."""
+        route, vehicle = self._route, self.vehicle
+        assert route is not None
         lead = vehicle.route.slice(vehicle.s, route.offsets[ahead] + self._route_shift)
         path = Polyline([*lead.coords, *onward.polyline.coords])
         self._follow(onward, path, shift=lead.length, start_s=0.0)
         self._dest = onward.end
-        self._resume = dest
         self._stalled = False
         self._first_try = None
         self._advance = self.config.advance_m
         self._route_started_at = self.node.now()
         if self._on_last_resort is not None:
-            self._on_last_resort("drive_on")
-        return True
+            self._on_last_resort(resort)
 
     def _onward(self, route: Route, dest: str) -> tuple[int, Route] | None:
         """The index of the route's next point and the way from there to a waiting

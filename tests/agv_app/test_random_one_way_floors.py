@@ -206,3 +206,41 @@ def test_the_queued_floor_no_longer_locks_just_past_a_turn_off_the_lane() -> Non
     assert figures["collisions"] == figures["lock_overlaps"] == 0
     assert figures["deadlocks"] == 0, f"the longest wait {figures['max_wait']} s"
     assert figures["tasks_completed"] > locked["tasks_completed"]
+
+
+class _Detouring(AgvController):
+    """An AGV component that records each other way it takes: (AGV, the point it left
+    the route at, the segment it was waiting to drive, its destination)."""
+
+    log: ClassVar[list[tuple[str, str, str, str | None]]] = []
+
+    def _detour(self) -> bool:
+        route = self._route
+        assert route is not None
+        ahead = route.index_at(self.vehicle.s - self._route_shift + 1e-6) + 1
+        fork, waited_for, dest = route.points[ahead], route.segments[ahead], self._dest
+        took = super()._detour()
+        if took:
+            assert self._route is not None
+            assert waited_for not in self._route.segments
+            self.log.append((self.node_id, fork, waited_for, dest))
+        return took
+
+
+# Seed 126 again, at today's settings: a one-way loop four segments long (the north
+# lane west from aisle 6, down aisle 5, the south lane east, up aisle 6), whose aisles
+# are no-rest zones from end to end (a turn off the lane at the top, a merge at the
+# bottom), fills with three AGVs, each waiting for the lock of the one ahead: the
+# "full loop" of docs/traffic.md. The AGV that has waited a minute at the fork into
+# aisle 5 takes the north lane on, round another aisle, and the loop opens.
+@pytest.mark.slow
+@pytest.mark.timeout(300)
+def test_a_full_loop_opens_when_an_agv_at_a_fork_takes_another_way() -> None:
+    locked = run_floor(_QUEUED, vehicle=vehicle_with(detour_after=None)).summary()
+    assert locked["deadlocks"] >= 3
+    _Detouring.log.clear()
+    figures = run_floor(_QUEUED, vehicle=vehicle_with(_Detouring)).summary()
+    assert figures["deadlocks"] == figures["collisions"] == figures["lock_overlaps"] == 0
+    assert figures["tasks_completed"] > 1.5 * locked["tasks_completed"]
+    assert _Detouring.log, "no AGV took another way"
+    assert figures["detours"] == len(_Detouring.log)

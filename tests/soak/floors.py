@@ -16,10 +16,11 @@ layouts with dead-end docks and crossings instead
 The safety monitor checks every step (a collision or a lock overlap ends the seed);
 at the end no AGV may have stalled past the stall limit and a task must be done.
 ``--off RULE`` runs the fleet without a traffic rule (``clear_merges``,
-``clear_turn_offs``, ``keep_way_out``, ``drive_on_after``) or with stations that call
-every winner at once (``one_at_a_time``) or that call an AGV whose drop station another
-is bound for (``wait_for_drop``), to show what the rule is for. Every failing
-seed is printed with its replay command; the exit status is 1 when any seed failed.
+``clear_turn_offs``, ``keep_way_out``, ``drive_on_after``, ``detour_after``) or with
+stations that call every winner at once (``one_at_a_time``) or that call an AGV whose
+drop station another is bound for (``wait_for_drop``), to show what the rule is for.
+Every failing seed is printed with its replay command; the exit status is 1 when any
+seed failed.
 """
 
 from __future__ import annotations
@@ -54,6 +55,7 @@ RULES: dict[str, Any] = {
     "clear_turn_offs": False,
     "keep_way_out": False,
     "drive_on_after": None,
+    "detour_after": None,
 }
 """The traffic rules ``--off`` can switch off, and the ``AgvConfig`` value that does."""
 
@@ -78,6 +80,7 @@ class FloorResult:
         stalls: waits past the stall limit (each AGV's wait counted once).
         yields: times an AGV backed off from the start of its route.
         drive_ons: times an AGV drove on past its destination to come back later.
+        detours: times an AGV took another way to its destination.
         standing: the AGVs still standing past the limit at the end, with their phase
             and the point their route started from.
         violation: the safety violation that ended the run, if any.
@@ -90,6 +93,7 @@ class FloorResult:
     stalls: int
     yields: int
     drive_ons: int
+    detours: int
     standing: tuple[tuple[str, str, str], ...]
     violation: str | None
     wall_seconds: float
@@ -123,7 +127,9 @@ def run_floor_seed(seed: int, off: Sequence[str] = (), kind: str = "one-way") ->
     try:
         fleet = drive(run, **options)
     except SafetyError as violation:
-        return FloorResult(seed, run, 0, 0, 0, 0, (), str(violation), time.perf_counter() - started)
+        return FloorResult(
+            seed, run, 0, 0, 0, 0, 0, (), str(violation), time.perf_counter() - started
+        )
     figures = fleet.summary()
     now, watch = fleet.net.now, fleet.stalls
     standing = tuple(
@@ -138,6 +144,7 @@ def run_floor_seed(seed: int, off: Sequence[str] = (), kind: str = "one-way") ->
         int(figures["deadlocks"]),
         int(figures["yields"]),
         int(figures["drive_ons"]),
+        int(figures["detours"]),
         standing,
         None,
         time.perf_counter() - started,
@@ -148,7 +155,7 @@ def _describe(result: FloorResult) -> str:
     head = f"seed {result.seed}: {result.run}"
     if result.violation is not None:
         return f"{head}: {result.violation}"
-    resorts = f"{result.yields} yields, {result.drive_ons} drive-ons"
+    resorts = f"{result.yields} yields, {result.drive_ons} drive-ons, {result.detours} detours"
     if result.stalls:
         agvs = ", ".join(f"{a} ({phase} from {point})" for a, phase, point in result.standing)
         return (
@@ -165,7 +172,7 @@ def _worker(job: tuple[int, tuple[str, ...], str]) -> FloorResult:
 def _run_many(seeds: list[int], off: tuple[str, ...], kind: str, jobs: int) -> int:
     started = time.perf_counter()
     failed: list[FloorResult] = []
-    done = tasks = yields = drive_ons = 0
+    done = tasks = yields = drive_ons = detours = 0
     with (
         seed_progress() as progress,
         multiprocessing.get_context("fork").Pool(jobs, maxtasksperchild=50) as pool,
@@ -176,6 +183,7 @@ def _run_many(seeds: list[int], off: tuple[str, ...], kind: str, jobs: int) -> i
             tasks += result.tasks_done
             yields += result.yields
             drive_ons += result.drive_ons
+            detours += result.detours
             if not result.ok:
                 failed.append(result)
                 progress.console.print(f"FAILED {_describe(result)}")
@@ -184,7 +192,7 @@ def _run_many(seeds: list[int], off: tuple[str, ...], kind: str, jobs: int) -> i
     print(
         f"floors: {done} {kind} seeds run ({min(seeds)}-{max(seeds)} asked), rules off: {rules}, "
         f"{len(failed)} failed, {tasks} tasks done, {yields} yields, {drive_ons} drive-ons, "
-        f"{time.perf_counter() - started:.1f}s wall"
+        f"{detours} detours, {time.perf_counter() - started:.1f}s wall"
     )
     for result in sorted(failed, key=lambda r: r.seed):
         print(f"FAILED {_describe(result)}")

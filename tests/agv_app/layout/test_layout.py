@@ -204,6 +204,26 @@ def test_no_route() -> None:
     assert layout.distance("b", "a") == math.inf
 
 
+def test_a_route_may_avoid_segments() -> None:
+    # a -> b -> c directly, or round the long way when b -> c is to be avoided.
+    layout = Layout(
+        [Point("a", 0, 0), Point("b", 10, 0), Point("c", 20, 0), Point("d", 10, 10)],
+        [
+            Segment("ab", "a", "b"),
+            Segment("bc", "b", "c"),
+            Segment("bd", "b", "d"),
+            Segment("dc", "d", "c"),
+        ],
+    )
+    assert layout.route("a", "c").points == ("a", "b", "c")
+    detour = layout.route_avoiding("a", "c", {"bc"})
+    assert detour.points == ("a", "b", "d", "c")
+    assert detour.segments == ("ab", "bd", "dc")
+    assert layout.route("a", "c").points == ("a", "b", "c")  # the cached search unharmed
+    with pytest.raises(NoRouteError, match="no route from point 'a' to point 'c'"):
+        layout.route_avoiding("a", "c", {"bc", "dc"})
+
+
 def test_route_through_rejects_wrong_direction() -> None:
     with pytest.raises(LayoutError, match="no segment drivable from point 'b' to point 'a'"):
         square().route_through(["b", "a"])
