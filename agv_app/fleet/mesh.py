@@ -332,8 +332,8 @@ class MeshFleet(FleetSourceBase):
             self._monitor_task = loop.create_task(self.broker_monitor.run(), name="vda5050-monitor")
 
     async def wait_ready(self) -> None:
-        """Wait until the observer has heard every AGV's position (bound it with
-        ``asyncio.timeout``; :meth:`missing` names who is still unheard).
+        """Wait until the observer has heard every AGV's position and has its display
+        (bound it with ``asyncio.timeout``; :meth:`missing` names who is still missing).
 
         Raises:
             RuntimeError: an AGV process has exited.
@@ -345,9 +345,11 @@ class MeshFleet(FleetSourceBase):
             await asyncio.sleep(0.1)
 
     def missing(self) -> list[str]:
-        """Ids of the AGVs the observer has not heard yet."""
+        """Ids of the AGVs the observer has not heard yet, or whose display (what draws
+        them: heading, locks ...) has not come yet."""
         seen = {n for n, _ in self._agv_views()}
-        return [a for a in self.agv_ids if a not in seen]
+        shown = self.display.reports
+        return [a for a in self.agv_ids if a not in seen or a not in shown]
 
     def child_logs(self) -> dict[str, str]:
         """The captured output of every AGV process so far (for diagnostics)."""
