@@ -231,8 +231,9 @@ class AgvController:
         self._resume: str | None = None
         """Where a yielding AGV goes once it has reached its waiting place."""
         self._no_drive_on_until = 0.0
-        self._no_detour_until = 0.0
         """No drive-on before then (the last one found no other way on)."""
+        self._no_detour_until = 0.0
+        """No other way taken before then (the last try was then)."""
         self._hold_until = 0.0
         """The vehicle stands still until then (the dwell ends) though its route is set."""
         self._done_later: str | None = None
@@ -868,7 +869,7 @@ class AgvController:
             or now < self._no_detour_until
         ):
             return False
-        ahead = route.index_at(vehicle.s - self._route_shift + 1e-6) + 1
+        ahead = self._next_point(route)
         if ahead >= len(route.points) - 1:
             return False
         return route.offsets[ahead] + self._route_shift - vehicle.s <= self.spec.length_m
@@ -877,12 +878,12 @@ class AgvController:
         """Take another way to the destination from the route's next point, one that
         drives neither the segment it was waiting to drive nor the one it stands on;
         False where there is none. Either way no new try for ``detour_after``."""
-        route, dest, vehicle = self._route, self._dest, self.vehicle
+        route, dest = self._route, self._dest
         assert route is not None
         assert dest is not None
         assert self.config.detour_after is not None
         self._no_detour_until = self.node.now() + self.config.detour_after
-        ahead = route.index_at(vehicle.s - self._route_shift + 1e-6) + 1
+        ahead = self._next_point(route)
         avoid = {route.segments[ahead], *route.segments[ahead - 1 : ahead]}
         try:
             onward = self.layout.route_avoiding(route.points[ahead], dest, avoid)
@@ -890,6 +891,11 @@ class AgvController:
             return False
         self._take(ahead, onward, "detour")
         return True
+
+    def _next_point(self, route: Route) -> int:
+        """The index of the route's next point ahead of the vehicle (past the last
+        point when the vehicle stands on it)."""
+        return route.index_at(self.vehicle.s - self._route_shift + 1e-6) + 1
 
     def _take(self, ahead: int, onward: Route, resort: str) -> None:
         """Leave the route at its point ``ahead`` for ``onward`` (a last resort, counted
@@ -911,7 +917,7 @@ class AgvController:
     def _onward(self, route: Route, dest: str) -> tuple[int, Route] | None:
         """The index of the route's next point and the way from there to a waiting
         place that does not pass ``dest``, or None."""
-        ahead = route.index_at(self.vehicle.s - self._route_shift + 1e-6) + 1
+        ahead = self._next_point(route)
         via = route.points[min(ahead, len(route.points) - 1)]
         if via == dest:
             return None  # already on the way into it: there is no other way on

@@ -217,7 +217,7 @@ class _Detouring(AgvController):
     def _detour(self) -> bool:
         route = self._route
         assert route is not None
-        ahead = route.index_at(self.vehicle.s - self._route_shift + 1e-6) + 1
+        ahead = self._next_point(route)
         fork, waited_for, dest = route.points[ahead], route.segments[ahead], self._dest
         took = super()._detour()
         if took:
