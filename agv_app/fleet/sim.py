@@ -85,9 +85,10 @@ class FleetConfig:
             against lost updates (None: sixty heartbeats; a loss is found by the next
             frame of the node, publications being numbered without gaps).
         rest_beat: an AGV parked at its home with no task is at rest and beats only this
-            often (``NodeConfig.rest_beat_interval``; its heartbeat when that is longer);
-            its peers count it failed after three of these. None: no rest. The interest
-            radius allows for the longer wait (docs/traffic.md, "Idle AGVs").
+            often (``NodeConfig.rest_beat_interval``; its heartbeat when that is longer),
+            and so do the stations and the observer, which never move; their peers count
+            them failed after three of these. None: no rest. The interest radius allows
+            for the longer wait (docs/traffic.md, "Idle AGVs").
         beats: False: no beats; every node republishes every property each heartbeat
             instead (how the fleet ran before beats; ``republish`` is then ignored).
         load: target share of busy AGVs, in (0, 1]; the task rate follows from it and
