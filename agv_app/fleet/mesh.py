@@ -111,14 +111,15 @@ class MeshFleet(FleetSourceBase):
         transport: ``websocket`` (the mesh) or ``zenoh``.
         zenoh_mode: on Zenoh, ``client`` (default: a router in this process, every node
             its client) or ``peer`` (every node a peer, found through the observer).
-        publish_interval: seconds between two pose publications of a moving AGV (None:
-            by the fleet's size, :func:`pose_interval_for`); the sessions, roles and
-            traffic each AGV shows the dashboard go out at most five times as seldom.
+        publish_interval: seconds between two pose reports of a moving AGV to the
+            observer (None: by the fleet's size, :func:`pose_interval_for`); the
+            sessions, roles and traffic each AGV shows the dashboard go out at most five
+            times as seldom.
         republish_beats: liveness beats between two republications of every property,
             by every node (0: no beats, everything republished each ``t_update``).
-        rest_beat: an AGV parked at its home with no task beats only this often, and
-            every node waits that much longer for it (None: no rest; with beats only;
-            docs/protocol.md §2, "A node at rest").
+        rest_beat: an AGV parked at its home with no task, the stations and the
+            observer beat only this often, and every node waits that much longer for
+            them (None: no rest; with beats only; docs/protocol.md §2, "A node at rest").
         poll_interval: on Zenoh, the AGV processes hand received frames on every this
             many seconds (0: each at once; ``agv_app.fleet.agv_process``).
         max_open_tasks: tasks on the floor at once, at most; the others wait at the
