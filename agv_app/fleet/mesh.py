@@ -67,17 +67,17 @@ _CHECK_INTERVAL_S = 0.25
 
 
 POSES_PER_SECOND = 100.0
-"""About how many poses a whole fleet of AGV processes publishes a second when moving."""
+"""About how many poses a whole fleet of AGV processes reports a second when moving."""
 
 
 def pose_interval_for(agvs: int) -> float:
-    """Seconds between two pose publications of an AGV in a fleet of ``agvs``: 0.2 s up
-    to 20 AGVs, then longer, so that the fleet's poses stay about ``POSES_PER_SECOND``.
+    """Seconds between two pose reports of an AGV in a fleet of ``agvs``: 0.2 s up to 20
+    AGVs, then longer, so that the fleet's poses stay about ``POSES_PER_SECOND``.
 
-    On the demo floor every AGV hears every other, so each pose costs a frame on each
-    of them: the poses alone cost ``agvs ** 2 / interval`` receipts a second. Safety
-    does not wait for them (an AGV publishes its position and hull length with every
-    request and release); the observer draws from them.
+    Every pose goes to the observer, in the dashboard's process, over the display
+    session (:mod:`agv_app.fleet.display_feed`): the observer alone draws from them.
+    Safety does not wait for them (an AGV publishes its position and hull length with
+    every request and release).
     """
     return max(0.2, agvs / POSES_PER_SECOND)
 
