@@ -179,6 +179,12 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
     )
     parser.add_argument("--interest-radius", type=float, help="scoped dissemination radius")
     parser.add_argument("--property-interval", type=float, default=1.0, help="heartbeat, s")
+    parser.add_argument(
+        "--beat-interval",
+        type=float,
+        help="send a beat of a few bytes after this long without a publication, s "
+        "(default: none, the property interval is the heartbeat)",
+    )
     parser.add_argument("--failure-timeout", type=float, help="failure timeout, s")
     parser.add_argument("--run-seconds", type=float, default=3600.0, help="stop after this")
     parser.add_argument("--role", choices=["none", "collector", "echo"], default="none")
@@ -328,6 +334,7 @@ async def _start(args: argparse.Namespace, secret: bytes) -> AnyNode:
             max_frame=args.max_frame,
             interest_radius=args.interest_radius,
             property_interval=args.property_interval,
+            beat_interval=args.beat_interval,
             failure_timeout=args.failure_timeout,
         )
     return await start_node(
@@ -338,6 +345,7 @@ async def _start(args: argparse.Namespace, secret: bytes) -> AnyNode:
         options=_options(args),
         interest_radius=args.interest_radius,
         property_interval=args.property_interval,
+        beat_interval=args.beat_interval,
         failure_timeout=args.failure_timeout,
     )
 

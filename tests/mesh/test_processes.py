@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import time
 from pathlib import Path
 
 import pytest
@@ -124,3 +125,25 @@ def test_session_follows_moves_crash_and_restart(cluster: Cluster) -> None:
     heard = check_only_members_speak(collector.events)
     assert set(heard) == {"n1", "n2", "n3"}
     assert not any(e.get("event") == "in_group_of" for e in voters["n4"].events)
+
+
+def test_a_node_that_beats_stays_in_view_between_rare_republications(cluster: Cluster) -> None:
+    # Republications every 30 s, a failure timeout of 1.5 s: only beats keep a node
+    # heard in between. c does not beat, so the others count it failed.
+    quiet = [
+        "--property-interval",
+        "30",
+        "--failure-timeout",
+        "1.5",
+        "--property",
+        "position=[0,0]",
+    ]
+    a = cluster.start("a", *quiet, "--beat-interval", "0.4")
+    b = cluster.start("b", *quiet, "--beat-interval", "0.4", "--join", a.address)
+    c = cluster.start("c", *quiet, "--join", a.address)
+    for node in (a, b, c):
+        node.wait_peers(2)
+    b.wait_event("departed", peer="c", timeout=10.0)
+    time.sleep(3.0)  # two failure timeouts more
+    departed = {e["peer"] for e in b.events if e.get("event") == "departed"}
+    assert departed == {"c"}
