@@ -376,11 +376,10 @@ class NodeMachine(Introspection):
             case SendBeat():
                 self._liveness.beat(action, now)
             case CheckLiveness(timeout):
-                for node in self._view.silent_since(now - timeout):
-                    if self._view.props_of(node) is None and not self._participations.plays_for(
-                        node
-                    ):
-                        self._view.forget(node)  # kept only for its roles, which ended
+                view, parts = self._view, self._participations
+                for node in view.silent_since(now - timeout):
+                    if view.props_of(node) is None and not parts.plays_for(node):
+                        view.forget(node)  # kept only for its roles, which ended
                     else:
                         self._depart(node, "failed")
                 self._timers.push(now + timeout / 3, action)
