@@ -82,6 +82,11 @@ def pose_interval_for(agvs: int) -> float:
     return max(0.2, agvs / POSES_PER_SECOND)
 
 
+def _is_agv(props: Mapping[str, Any]) -> bool:
+    """Whether properties the observer holds are an AGV's, with a position to draw."""
+    return props.get("kind") == AGV_KIND and isinstance(props.get("position"), tuple)
+
+
 class MeshFleet(FleetSourceBase):
     """A ``FleetSource`` over the WebSocket mesh: AGV processes, stations, an observer.
 
@@ -229,7 +234,10 @@ class MeshFleet(FleetSourceBase):
         self._advanced = 0.0
         self._next_task_at: float | None = None
         self.roster = AgvRoster(
-            self.agv_ids, self._agv_views, clock_offset=lambda: self._started_at or 0.0
+            self.agv_ids,
+            self._agv_views,
+            self._agv_view,
+            clock_offset=lambda: self._started_at or 0.0,
         )
 
     # -- life cycle -------------------------------------------------------------------
@@ -348,8 +356,7 @@ class MeshFleet(FleetSourceBase):
     def missing(self) -> list[str]:
         """Ids of the AGVs the observer has not heard yet, or whose display (what draws
         them: heading, locks ...) has not come yet."""
-        seen = {n for n, _ in self._agv_views()}
-        shown = self.display.reports
+        seen, shown = self._agv_ids_heard(), self.display.reports
         return [a for a in self.agv_ids if a not in seen or a not in shown]
 
     def child_logs(self) -> dict[str, str]:
@@ -396,15 +403,27 @@ class MeshFleet(FleetSourceBase):
         if self.started:
             self.roster.departed(node_id)
 
+    def _agv_ids_heard(self) -> set[str]:
+        """Ids of the AGVs the observer hears (no display merged: a count, a check)."""
+        if self.observer is None or self.observer.closed:
+            return set()
+        return {n for n, props in self.observer.view().items() if _is_agv(props)}
+
     def _agv_views(self) -> list[tuple[str, Mapping[str, Any]]]:
+        """Every AGV the observer hears, by id, its display over its properties."""
         if self.observer is None or self.observer.closed:
             return []
         view, shown = self.observer.view(), self.display.shown
-        return [
-            (n, shown(n, view[n]))
-            for n in sorted(view)
-            if view[n].get("kind") == AGV_KIND and isinstance(view[n].get("position"), tuple)
-        ]
+        return [(n, shown(n, view[n])) for n in sorted(view) if _is_agv(view[n])]
+
+    def _agv_view(self, agv_id: str) -> Mapping[str, Any] | None:
+        """One AGV as ``_agv_views`` gives it, without merging the others (None: not heard)."""
+        if self.observer is None or self.observer.closed:
+            return None
+        props = self.observer.view().get(agv_id)
+        if props is None or not _is_agv(props):
+            return None
+        return self.display.shown(agv_id, props)
 
     async def _watch(self) -> None:
         """Check the observed shapes and stalls a few times a second, until cancelled."""
@@ -466,7 +485,7 @@ class MeshFleet(FleetSourceBase):
         vehicle = next((v for v in self.vehicles() if v.id == vehicle_id), None)
         if vehicle is None:
             raise KeyError(vehicle_id)
-        props = dict(self._agv_views()).get(vehicle_id, {})
+        props = self._agv_view(vehicle_id) or {}
         ahead = props.get("route")
         if vehicle.status == "failed" or not isinstance(ahead, list | tuple):
             return ()
@@ -526,7 +545,7 @@ class MeshFleet(FleetSourceBase):
         return {
             "agvs": float(self.agv_count - len(failed) - len(self.roster.left())),
             "agvs_failed": float(len(failed)),
-            "agvs_seen": float(len(self._agv_views())),
+            "agvs_seen": float(len(self._agv_ids_heard())),
             "processes_running": float(self.processes.running()),
             "tasks_created": float(book.counts["created"]),
             "tasks_completed": float(done),
@@ -577,7 +596,7 @@ class MeshFleet(FleetSourceBase):
             return
         now = self.now
         if self._next_task_at is None:
-            if len(self._agv_views()) < self.agv_count:
+            if len(self._agv_ids_heard()) < self.agv_count:
                 return
             self._next_task_at = now
             for _ in range(self.start_tasks):

@@ -36,6 +36,9 @@ class AgvRoster:
     Args:
         agv_ids: every AGV the fleet spawned.
         heard: the observer's view now: ``[(agv id, properties)]`` of the AGVs it hears.
+        heard_one: one AGV's properties as ``heard`` gives them (None: not heard), read
+            without the others: each node stand-in reads its own this way, so a look at
+            every node costs one merge per node, not one per node and AGV.
         clock_offset: the fleet's start on the nodes' clock (see ``RemoteNode``).
     """
 
@@ -43,11 +46,13 @@ class AgvRoster:
         self,
         agv_ids: Sequence[str],
         heard: Callable[[], list[tuple[str, Mapping[str, Any]]]],
+        heard_one: Callable[[str], Mapping[str, Any] | None],
         *,
         clock_offset: Callable[[], float],
     ) -> None:
         self.agv_ids = list(agv_ids)
         self._heard = heard
+        self._heard_one = heard_one
         self._clock_offset = clock_offset
         self._observed: dict[str, ObservedAgv] = {}
         self._last: dict[str, VehicleState] = {}
@@ -114,7 +119,7 @@ class AgvRoster:
 
     def _reader(self, agv_id: str) -> Callable[[], Mapping[str, Any]]:
         def read() -> Mapping[str, Any]:
-            return next((props for a, props in self._heard() if a == agv_id), {})
+            return self._heard_one(agv_id) or {}
 
         return read
 

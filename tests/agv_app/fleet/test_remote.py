@@ -120,13 +120,28 @@ class Heard:
             "agv-2": published(position=(20.0, 9.0), task=None, state="idle"),
         }
 
+        self.looks = 0  # properties handed out, one per AGV each look
+        self.views = 0  # looks at everyone
+
     def __call__(self) -> list[tuple[str, Mapping[str, Any]]]:
+        self.views += 1
+        self.looks += len(self.props)
         return sorted(self.props.items())
+
+    def one(self, agv_id: str) -> Mapping[str, Any] | None:
+        """One AGV as ``__call__`` gives it."""
+        self.looks += 1
+        return self.props.get(agv_id)
+
+
+def roster_of(agv_ids: list[str], heard: Heard, offset: float = 0.0) -> AgvRoster:
+    """A roster over the fake observer."""
+    return AgvRoster(agv_ids, heard, heard.one, clock_offset=lambda: offset)
 
 
 def test_an_exited_agv_stays_on_the_floor_as_failed_and_leaves_the_nodes() -> None:
     heard = Heard()
-    roster = AgvRoster(["agv-1", "agv-2", "agv-3"], heard, clock_offset=lambda: 100.0)
+    roster = roster_of(["agv-1", "agv-2", "agv-3"], heard, 100.0)
     assert [v.id for v in roster.vehicles()] == ["agv-1", "agv-2"]
     assert sorted(roster.nodes()) == ["agv-1", "agv-2"]
     assert roster.vehicles()[0].locked
@@ -146,7 +161,7 @@ def test_an_exited_agv_stays_on_the_floor_as_failed_and_leaves_the_nodes() -> No
 
 def test_a_departed_agv_fails_and_is_alive_again_when_heard_again() -> None:
     heard = Heard()
-    roster = AgvRoster(["agv-1", "agv-2"], heard, clock_offset=lambda: 0.0)
+    roster = roster_of(["agv-1", "agv-2"], heard)
     roster.vehicles()
     saved = heard.props.pop("agv-2")
     roster.departed("agv-2")
@@ -161,7 +176,7 @@ def test_a_departed_agv_fails_and_is_alive_again_when_heard_again() -> None:
 
 def test_an_agv_that_exits_before_it_is_heard_counts_as_failed_without_a_wreck() -> None:
     heard = Heard()
-    roster = AgvRoster(["agv-1", "agv-2", "agv-3"], heard, clock_offset=lambda: 0.0)
+    roster = roster_of(["agv-1", "agv-2", "agv-3"], heard)
     roster.exited({"agv-3": 1, "not-ours": -9})
     assert roster.failed() == ["agv-3"]
     assert [v.id for v in roster.vehicles()] == ["agv-1", "agv-2"]
@@ -169,7 +184,7 @@ def test_an_agv_that_exits_before_it_is_heard_counts_as_failed_without_a_wreck()
 
 def test_an_agv_whose_process_ended_its_run_has_left_and_did_not_fail() -> None:
     heard = Heard()
-    roster = AgvRoster(["agv-1", "agv-2"], heard, clock_offset=lambda: 0.0)
+    roster = roster_of(["agv-1", "agv-2"], heard)
     roster.vehicles()
     roster.departed("agv-1")  # its node said goodbye before its exit status is seen
     del heard.props["agv-1"]
@@ -179,3 +194,19 @@ def test_an_agv_whose_process_ended_its_run_has_left_and_did_not_fail() -> None:
     assert roster.left() == ["agv-1"]
     assert [v.id for v in roster.vehicles()] == ["agv-2"]
     assert sorted(roster.nodes()) == ["agv-2"]
+
+
+def test_reading_every_node_looks_at_each_agv_once_not_once_per_agv() -> None:
+    heard = Heard()
+    for k in range(3, 41):
+        heard.props[f"agv-{k}"] = published(position=(float(k), 9.0), task=None, state="idle")
+    roster = roster_of(sorted(heard.props), heard)
+    nodes = roster.nodes()
+    before = heard.looks
+    for node in nodes.values():
+        node.sessions()
+        node.participations()
+        node.stats()
+    # Three reads of each of 40 nodes: 120 looks; through the whole view, 4,800.
+    assert heard.looks - before == 3 * len(nodes) == 120
+    assert nodes["agv-7"].properties["position"] == (7.0, 9.0)
