@@ -6,8 +6,9 @@ inbox key. ``Subscribe`` declares one subscriber per row of interest cells, or t
 wildcard of full dissemination: Zenoh routes each update only to the nodes that hear it.
 
 Membership is Zenoh's liveliness: every node holds a token while its session lives; a
-node whose token goes (it left, its process died, its links lapsed past the lease) is
-gone, and the machine lets it leave every group at once, with no heartbeat of ours.
+node whose token goes (it left, its process died, its links lapsed past the lease) and
+is not back within ``TOKEN_GRACE`` (a token redeclared as routes change is) is gone, and
+the machine lets it leave every group then, with no heartbeat of ours.
 
 A node that starts hearing a cell asks the queryables there (``who/<cell>/*``), and a
 node that sees a new token asks that node; an asked node whose properties the asker
@@ -31,7 +32,6 @@ import zenoh
 from objectplaces.core.events import Broadcast, Output, Publish, Send, Subscribe
 from objectplaces.transport.base import RawNodeDriver
 from objectplaces.transport.routing import Cell
-from objectplaces.transport.zenoh_alive import AliveTable, Change
 from objectplaces.transport.zenoh_config import (
     Credentials,
     CredentialsFile,
@@ -41,6 +41,7 @@ from objectplaces.transport.zenoh_config import (
 )
 from objectplaces.transport.zenoh_inbox import Item, ZenohInbox, direct
 from objectplaces.transport.zenoh_keys import FleetKeys
+from objectplaces.transport.zenoh_membership import Membership
 from objectplaces.transport.zenoh_publishers import PublisherCache
 
 __all__ = ["FrameDriver", "ZenohTransport"]
@@ -48,9 +49,6 @@ __all__ = ["FrameDriver", "ZenohTransport"]
 log = logging.getLogger("objectplaces.zenoh")
 
 _QUERY_TIMEOUT = 2.0
-RECONCILE_EVERY = 3.0
-"""Seconds between two liveliness queries of every token up: a token report lost while
-links churn (many processes starting on a loaded machine) is made good by the next."""
 _ASK_AGAIN_AFTER = (0.3, 1.5)
 """Seconds after which an ask is repeated: an asked node's queryable, just moved to the
 cell we ask, may not have reached us yet (nor our subscription it), and a node without
@@ -89,7 +87,7 @@ class ZenohTransport:
         self._publishers: PublisherCache | None = None
         self._file: CredentialsFile | None = None
         self._inbox: ZenohInbox | None = None
-        self._alive = AliveTable(node_id)
+        self.membership = Membership(self.keys, self.counters, self._ask_new_run)
         self._declared: list[Any] = []
         self._row_subs: dict[int, Any] = {}  # one subscriber per row of our cells
         self._full_sub: Any = None
@@ -98,10 +96,6 @@ class ZenohTransport:
         self._subscribed = False
         self._home: tuple[Cell, ...] = ()  # the cells we publish in (none before a position)
         self._queryables: dict[Cell | None, Any] = {}  # one per home cell (None: no cell)
-        self._changed = asyncio.Event()
-        self._reconcile_timer: asyncio.TimerHandle | None = None
-        self._liveliness_queries = 0
-        self._gone_after_query: dict[str, int] = {}
         self.closed = False
 
     # ------------------------------------------------------------------ lifecycle
@@ -109,6 +103,7 @@ class ZenohTransport:
     def attach(self, driver: FrameDriver) -> None:
         """Connect whoever drives the node machine this transport carries."""
         self._driver = driver
+        self.membership.attach(driver)
 
     @property
     def address(self) -> str:
@@ -144,13 +139,7 @@ class ZenohTransport:
             inbox.declare_data(session, keys.broadcasts(), keys),
         ]
         self._queryables[None] = session.declare_queryable(keys.who(None), inbox.query_callback())
-        self._declared.append(
-            session.liveliness().declare_subscriber(
-                keys.alive_all(), inbox.alive_callback(keys), history=True
-            )
-        )
-        self._declared.append(session.liveliness().declare_token(keys.alive(self.incarnation)))
-        self._reconcile_timer = loop.call_later(RECONCILE_EVERY, self._reconcile)
+        self._declared += self.membership.declare(session, inbox, self.incarnation)
 
     async def close(self) -> None:
         """Withdraw our token and close the session (what was put is flushed first;
@@ -158,8 +147,7 @@ class ZenohTransport:
         if self.closed:
             return
         self.closed = True
-        if self._reconcile_timer is not None:
-            self._reconcile_timer.cancel()
+        self.membership.close()
         session = self._session
         if self._inbox is not None:
             self._inbox.close()
@@ -172,37 +160,14 @@ class ZenohTransport:
                 log.warning("node %s: closing the Zenoh session: %s", self.node_id, exc)
         if self._file is not None:
             self._file.remove()
-        self._changed.set()
-
-    def _reconcile(self) -> None:
-        """Ask for every token up now (an answer is a token report like any other, but
-        for a node reported gone after the query left), then again in
-        ``RECONCILE_EVERY`` seconds."""
-        session, inbox = self._session, self._inbox
-        if self.closed or session is None or inbox is None:
-            return
-        self._liveliness_queries += 1
-        on_reply = inbox.alive_reply_callback(self.keys, self._liveliness_queries)
-        try:
-            session.liveliness().get(self.keys.alive_all(), on_reply, timeout=_QUERY_TIMEOUT)
-        except zenoh.ZError:
-            self._count("dropped_query_failed")
-        loop = asyncio.get_running_loop()
-        self._reconcile_timer = loop.call_later(RECONCILE_EVERY, self._reconcile)
-
-    # ------------------------------------------------------------------ introspection
 
     def peers(self) -> list[str]:
         """Nodes of the fleet whose liveliness token is up now, sorted."""
-        return self._alive.nodes()
+        return self.membership.peers()
 
     async def links_changed(self) -> None:
         """Wait until a node appears or goes (or the transport closes)."""
-        await self._changed.wait()
-
-    def _signal(self) -> None:
-        self._changed.set()
-        self._changed = asyncio.Event()
+        await self.membership.changed()
 
     def _count(self, name: str, amount: int = 1) -> None:
         self.counters[name] = self.counters.get(name, 0) + amount
@@ -365,28 +330,21 @@ class ZenohTransport:
     def _handle(self, driver: FrameDriver, item: Item) -> None:
         match item:
             case ("alive", node, incarnation):
-                change = self._alive.token_up(node, incarnation)
-                if change is Change.RESTARTED:
-                    driver.peer_restarted(node)
-                if change is not Change.NOTHING:
-                    if self._subscribed:
-                        self._ask(self.keys.who_is(node))
-                    self._signal()
+                self.membership.token_up(node, incarnation)
             case ("answer", node, incarnation, query):
-                # An answer to a query sent before the node was reported gone is old news.
-                if query > self._gone_after_query.get(node, 0):
-                    self._handle(driver, ("alive", node, incarnation))
+                self.membership.answered(node, incarnation, query)
             case ("gone", node, incarnation):
-                if self._alive.token_down(node, incarnation) is Change.GONE:
-                    self._gone_after_query[node] = self._liveliness_queries
-                    # Its run is over, whether it left or died: it leaves every group now.
-                    driver.peer_restarted(node)
-                    self._signal()
+                self.membership.token_down(node, incarnation)
             case ("query", asker, cells):
                 if self._should_answer(cells):
                     driver.send_properties_to(asker)
             case _:
                 self._count("dropped_unknown_item")
+
+    def _ask_new_run(self, node: str) -> None:
+        """A node appeared or restarted: ask it for its properties (once we hear cells)."""
+        if self._subscribed:
+            self._ask(self.keys.who_is(node))
 
     def _should_answer(self, cells: frozenset[Cell] | None) -> bool:
         """Whether an asker hearing ``cells`` (None: everything) should hear us."""
