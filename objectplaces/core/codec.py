@@ -12,7 +12,7 @@ Frame layouts (type code first)::
     9  like 1                                             property snapshot (all of them)
     10 like 2                                             property snapshot, compact
     11 [11, seq(, rest_ms)]                               beat: alive, latest publication
-                                                          (and the beat interval at rest)
+                                                          (and the rest announced, 0: ended)
     4  [4, session, epoch, seq, kind, payload]            channel data, to participant
     5  [5, session, epoch, seq, kind, payload]            channel data, to initiator
     6  [6, session, epoch, ack]                           ack of the to-participant stream
@@ -214,10 +214,15 @@ def _reject_ext(code: int, data: bytes) -> Any:
 
 
 def _rest_ms(rest: float) -> int:
-    """A beat interval at rest as the whole milliseconds a beat carries."""
+    """A beat interval at rest as the whole milliseconds a beat carries (0: the rest
+    ended)."""
+    if rest == 0:
+        return 0
     ms = round(rest * _MM) if is_finite_number(rest) else 0
     if not 0 < ms <= MAX_REST_MS:
-        raise InvalidValueError(f"a beat's rest interval must be in (0, 1 day], got {rest!r}")
+        raise InvalidValueError(
+            f"a beat's rest interval must be in [1 ms, 1 day], or 0 (the rest ended), got {rest!r}"
+        )
     return ms
 
 
@@ -343,8 +348,8 @@ def decode(data: bytes, *, max_size: int = DEFAULT_MAX_FRAME) -> Message:
             if len(frame) != 3:
                 raise DecodeError(f"beat frame has {len(frame)} fields, expected 2 or 3")
             rest = _uint(frame[2], "rest interval")
-            if not 0 < rest <= MAX_REST_MS:
-                raise DecodeError(f"beat rest interval {rest} ms is not in (0, {MAX_REST_MS}]")
+            if rest > MAX_REST_MS:
+                raise DecodeError(f"beat rest interval {rest} ms is not in [0, {MAX_REST_MS}]")
             return Beat(_uint(frame[1], "seq"), rest / _MM)
         case 4 | 5:
             return _decode_channel(frame)

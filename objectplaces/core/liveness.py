@@ -18,18 +18,22 @@ a live node is never silent for longer than one interval (plus delay): one lost 
 leaves it well inside a timeout of three.
 
 **At rest** (``set_at_rest``, with ``rest_beat_interval``) a node beats less often: a
-parked vehicle has nothing to say but "still here". Its beats carry the rest interval,
-and a receiver waits for it that much longer (``PropertyView``). The first beats after
-a publication, or after the node came to rest, still come at the usual interval, as
-many as fit in a failure timeout: a receiver that lost some of them learns the longer
-interval from another before its timeout for the usual one runs out, so the losses a
-timeout of three intervals survives are survived at rest too. A publication ends the
-longer wait at every receiver that hears it, and the rest is announced again after it.
+parked vehicle has nothing to say but "still here". The first beats after a
+publication, or after the node came to rest, still come at the usual interval, as many
+as fit in a failure timeout, and announce the rest interval: a receiver waits for the
+node that much longer (``PropertyView``), and one that lost some of them learns the
+longer interval from another before its timeout for the usual one runs out, so the
+losses a timeout of three intervals survives are survived at rest too. The rarer beats
+that follow are plain: a receiver keeps what it granted. A publication ends the longer
+wait at every receiver that hears it, and the rest is announced again after it.
 A newcomer given a snapshot (or an asker) takes the node as beating at the usual
 interval, so the announcement after a snapshot goes to that peer alone: as many beats
 of its own, at the usual interval, and none again for as long (a peer out of scope
 that forgets the node and asks at each beat stops asking). A node that leaves rest
-without publishing beats at the usual interval again from the next interval on.
+without publishing beats at the usual interval again from the next interval on, and
+its first beats then (as many as announced the rest) say that its rest ended (0). A
+receiver that lost all of them waits the longer while until the node next publishes:
+it finds a failure later, never a live node failed.
 """
 
 from __future__ import annotations
@@ -69,6 +73,8 @@ class Liveness:
         "_announce",
         "_announced",
         "_at_rest",
+        "_declared",
+        "_ending",
         "_last_published",
         "_outbox",
         "_owed",
@@ -91,6 +97,8 @@ class Liveness:
         self._rest_every = _rest_every(config)
         self._at_rest = False
         self._announced = 0
+        self._declared = False  # a rest was declared to someone since the last publication
+        self._ending = 0  # beats still due that say the rest ended
         self._owed: dict[str, int] = {}  # peer -> beats of its own announcement still due
         # Beats at the usual interval that declare the rest before it begins: as many as
         # the failure timeout spans, so the losses it survives are survived at rest too.
@@ -104,11 +112,15 @@ class Liveness:
         if timeout is not None:
             timers.push(now + timeout / 3, CheckLiveness(timeout))
 
-    def published(self, now: float) -> None:
-        """The node published to its scope at ``now`` (a beat is due an interval later)."""
+    def published(self, now: float, *, snapshot: bool = False) -> None:
+        """The node published to its scope at ``now`` (a beat is due an interval later):
+        a change, or (``snapshot``) a republication of every property."""
         self._last_published = now
         self._announced = 0
         self._owed.clear()  # the announcement to all that follows reaches them too
+        if not snapshot:  # a change ends every grant; a snapshot says nothing of rest
+            self._declared = False
+            self._ending = 0
 
     def sent_snapshot(self, peer: str) -> None:
         """``peer`` got a snapshot of this node: it takes the node as beating at the usual
@@ -128,13 +140,14 @@ class Liveness:
             self._at_rest = at_rest
             self._announced = 0
             self._owed.clear()
+            self._ending = self._announce if self._declared and not at_rest else 0
 
     def republish(self, action: Republish, now: float) -> None:
         """The heartbeat is due: a snapshot of every property, then again later."""
         output = self._own.republish()
         if output is not None:
             self._outbox.emit(output)
-            self.published(now)
+            self.published(now, snapshot=True)
         self._timers.push(now + action.every, action)
 
     def beat(self, action: SendBeat, now: float) -> None:
@@ -145,6 +158,9 @@ class Liveness:
         every = action.every
         if rest is not None and self._announced >= self._announce:
             every = rest
+            declare = None  # announced: a plain beat keeps what was granted
+        else:
+            declare = 0.0 if rest is None and self._ending else rest
         due = self._last_published + every
         if due > now:
             # It published since, or rests: look again then, and at the usual interval
@@ -154,11 +170,16 @@ class Liveness:
         if self._own.pending:
             self._last_published = now  # the drain that follows this input publishes
         else:
-            output = self._own.beat(rest)
+            output = self._own.beat(declare)
             if output is not None:
                 self._outbox.emit(output)
                 self._last_published = now
-                self._announced += rest is not None
+                if rest is not None:
+                    self._announced += 1
+                    self._declared = True
+                elif self._ending:
+                    self._ending -= 1
+                    self._declared = self._ending > 0
         self._timers.push(now + action.every, action)
 
     def _announce_to_owed(self, rest: float) -> None:
@@ -167,6 +188,7 @@ class Liveness:
         for peer, left in list(owed.items()):
             if left > announce:
                 self._outbox.emit(self._own.beat_to(peer, rest))
+                self._declared = True
             if left > 1:
                 owed[peer] = left - 1
             else:

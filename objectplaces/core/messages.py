@@ -78,9 +78,11 @@ class Beat:
 
     Attributes:
         seq: the sequence number of the sender's latest publication to its scope.
-        rest: set by a node at rest: its beat interval now, in seconds; a receiver
-            waits that much longer for it before counting it failed (``NodeConfig.
-            rest_beat_interval``). None: the usual interval.
+        rest: set by a node at rest while it announces its rest: its beat interval
+            now, in seconds; a receiver waits that much longer for it before counting
+            it failed (``NodeConfig.rest_beat_interval``), until the node publishes or
+            says 0.0: its rest ended, the usual interval again. None: no news (a
+            receiver keeps what it granted).
     """
 
     seq: int

@@ -3,8 +3,10 @@
 A peer at rest beats every ``rest`` seconds instead of every ``beat_interval``, and says
 so in its beats; the receiver then counts it failed only after ``failure_timeout``
 scaled by ``rest / beat_interval``, with ``rest`` capped at its own
-``rest_beat_interval``. The grant ends with the peer's next change (a delta) or plain
-beat. The sender's side is :mod:`objectplaces.core.liveness`.
+``rest_beat_interval``. Only the beats that announce the rest say so; the plain beats
+that follow keep the grant. It ends with the peer's next change (a delta, a snapshot)
+or a beat that says its rest ended (0). The sender's side is
+:mod:`objectplaces.core.liveness`.
 """
 
 from __future__ import annotations
@@ -40,11 +42,11 @@ class RestGrants:
     def __len__(self) -> int:
         return len(self._extra)
 
-    def beat(self, node: str, rest: float | None) -> None:
-        """A beat of ``node``: at rest, beating every ``rest`` seconds (grant it the
-        longer wait), or not (None: the usual wait again)."""
+    def beat(self, node: str, rest: float) -> None:
+        """A beat of ``node`` that says it is at rest, beating every ``rest`` seconds
+        (grant it the longer wait), or that its rest ended (0: the usual wait again)."""
         terms = self._terms
-        if rest is None or terms is None:
+        if not rest or terms is None:
             self._extra.pop(node, None)
             return
         timeout, beat, longest = terms

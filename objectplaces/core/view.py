@@ -163,7 +163,8 @@ class PropertyView:
 
     def beat(self, source: str, seq: int, now: float, rest: float | None = None) -> None:
         """Take a beat from ``source`` at ``now``: its latest publication was ``seq``;
-        ``rest``: it is at rest and beats that often (§2).
+        ``rest``: it is at rest and beats that often, or (0) its rest ended; None: no
+        news of its rest (§2).
 
         A node in the view is heard; one whose latest publication we missed (we hold
         only older numbers), or that we do not hold whole, is asked for a snapshot, at
@@ -176,7 +177,7 @@ class PropertyView:
             self._outbox.send(source, _REQUEST, "property")
             return
         self._heard[source] = now
-        if rest is not None or self._resting:
+        if rest is not None:
             self._resting.beat(source, rest)
         if seq > self._tops.get(source, -1) or source not in self._complete:
             self._want_snapshot(source, now)

@@ -78,6 +78,7 @@ def test_position_is_rounded_to_millimetres_and_normalising_matches_the_wire() -
         Beat(7, 5.0),
         Beat(7, 0.001),
         Beat(7, 86_400.0),
+        Beat(7, 0.0),  # the rest ended
     ],
 )
 def test_round_trip(message: object) -> None:
@@ -150,7 +151,7 @@ def test_mutated_frames_decode_or_fail_with_decode_error(
         (msgpack.packb([2, 1, 1.5, 2]), "integer millimetres"),
         (msgpack.packb([11]), "beat frame has 1 fields, expected 2"),
         (msgpack.packb([11, 1, 2, 3]), "beat frame has 4 fields, expected 2 or 3"),
-        (msgpack.packb([11, 1, 0]), "rest interval 0 ms"),
+        (msgpack.packb([11, 1, 86_400_001]), "rest interval 86400001 ms"),
         (msgpack.packb([11, -1]), "seq must be a non-negative integer"),
         (msgpack.packb([11, "7"]), "seq must be a non-negative integer"),
         (msgpack.packb([11, True]), "seq must be a non-negative integer"),
@@ -177,7 +178,14 @@ def test_a_beat_is_a_few_bytes() -> None:
     # The point of a beat: liveness for the price of a frame header and a number.
     assert len(codec.encode(Beat(5))) == 3
     assert len(codec.encode(Beat(70_000))) <= 7
-    assert len(codec.encode(Beat(5, 5.0))) == 6  # at rest: the interval in whole ms
+    assert len(codec.encode(Beat(5, 5.0))) == 6  # announcing a rest: the interval in ms
+    assert len(codec.encode(Beat(5, 0.0))) == 4  # the rest ended
+
+
+@pytest.mark.parametrize("rest", [0.0001, -5.0, math.nan, math.inf, 86_400.5])
+def test_a_beat_declares_a_rest_it_can_carry_or_none(rest: float) -> None:
+    with pytest.raises(InvalidValueError, match="rest interval must be in"):
+        codec.encode(Beat(1, rest))
 
 
 def test_frame_type_peeks_without_decoding() -> None:

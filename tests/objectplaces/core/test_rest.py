@@ -73,9 +73,21 @@ def test_at_rest_a_node_announces_its_rest_at_the_usual_interval_then_beats_rare
     a.set_at_rest(True, 0.0)
     wire.run_until(30.0)
     beats = beat_times(wire)
-    # three beats a second apart (a failure timeout of them), then one every five
+    # three beats a second apart (a failure timeout of them) that announce the rest,
+    # then a plain one every five
     assert [t for t, _ in beats] == [1.0, 2.0, 3.0, 8.0, 13.0, 18.0, 23.0, 28.0]
-    assert {rest for _, rest in beats} == {5.0}
+    assert [rest for _, rest in beats] == [5.0, 5.0, 5.0, None, None, None, None, None]
+
+
+def test_the_plain_beats_after_the_announcement_keep_the_rest_granted() -> None:
+    wire, a, b = pair()
+    a.set_at_rest(True, 0.0)
+    wire.run_until(18.5)  # announced at 1, 2, 3; plain beats at 8, 13, 18
+    del wire.machines["a"]
+    wire.run_until(18.0 + 15.0 - 0.01)
+    assert "a" in b.view()
+    wire.run_until(18.0 + 15.0 + 1.0)
+    assert "a" not in b.view()
 
 
 def test_a_peer_waits_for_a_resting_node_as_long_as_its_rest_allows() -> None:
@@ -120,10 +132,49 @@ def test_leaving_rest_brings_the_usual_beat_back_within_an_interval() -> None:
     a.set_at_rest(False, wire.now)
     wire.run_until(12.0)
     beats = beat_times(wire)
-    assert beats[4:] == [(10.0, None), (11.0, None), (12.0, None)]
+    assert beats[4:] == [(10.0, 0.0), (11.0, 0.0), (12.0, 0.0)]  # the rest ended
     del wire.machines["a"]
     wire.run_until(12.0 + 4 / 3 * 3.0)
-    assert "a" not in b.view()  # a plain beat ended the rest at b
+    assert "a" not in b.view()  # the usual timeout again at b
+
+
+def test_after_saying_its_rest_ended_a_node_beats_plainly() -> None:
+    wire, a, _ = pair()
+    a.set_at_rest(True, 0.0)
+    wire.run_until(9.0)
+    a.set_at_rest(False, wire.now)
+    wire.run_until(15.0)
+    assert [r for _, r in beat_times(wire)][4:] == [0.0, 0.0, 0.0, None, None, None]
+
+
+def test_a_node_that_never_declared_its_rest_does_not_say_it_ended() -> None:
+    wire, a, _ = pair()
+    a.set_at_rest(True, 0.0)
+    a.set_at_rest(False, 0.5)  # before its first beat
+    wire.run_until(4.0)
+    assert beat_times(wire) == [(1.0, None), (2.0, None), (3.0, None), (4.0, None)]
+
+
+def test_a_receiver_that_lost_every_end_of_the_rest_only_finds_a_failure_later() -> None:
+    """It keeps the longer wait until the node publishes: never a live node failed."""
+    wire, a, b = pair()
+    a.set_at_rest(True, 0.0)
+    wire.run_until(9.0)
+    a.set_at_rest(False, wire.now)
+    for _ in range(3):  # the three beats that say the rest ended, lost
+        deadline = a.next_deadline()
+        assert deadline is not None
+        a.tick(deadline)
+        wire.now = deadline
+        a.messages_to_send()
+    assert wire.now == 12.0
+    wire.run_until(20.0)  # plain beats, every second
+    assert "a" in b.view()
+    del wire.machines["a"]
+    wire.run_until(20.0 + 15.0 - 0.01)
+    assert "a" in b.view()  # the rest it still grants
+    wire.run_until(20.0 + 15.0 + 1.0)
+    assert "a" not in b.view()
 
 
 def test_without_a_rest_interval_being_at_rest_changes_nothing() -> None:
@@ -233,13 +284,17 @@ def test_on_a_lossless_network_no_peer_ever_counts_a_live_node_failed(
     ops: list[tuple[str, object]],
 ) -> None:
     """Rest, wake, publish, republish, newcomers, in any order: a live node stays in
-    every view (the rest is announced wherever a peer expects the usual beats)."""
+    every view (the rest is announced wherever a peer expects the usual beats), and a
+    node that is awake, once it has beaten a timeout's worth, is waited for no longer
+    than usual (its end of the rest reached every peer that granted it)."""
     config = NodeConfig(property_interval=13.0, beat_interval=1.0, rest_beat_interval=5.0)
     wire, a, _ = pair(config)
+    resting = False
     for n, (op, arg) in enumerate(ops):
         match op:
             case "rest":
-                a.set_at_rest(bool(arg), wire.now)
+                resting = bool(arg)
+                a.set_at_rest(resting, wire.now)
             case "publish":
                 a.update_property("status", arg, wire.now)
             case "wait":
@@ -254,6 +309,10 @@ def test_on_a_lossless_network_no_peer_ever_counts_a_live_node_failed(
                 assert "a" in machine.view(), f"{name} lost a at {wire.now} after {ops[: n + 1]}"
     wire.run_until(wire.now + 40.0)
     assert all("a" in m.view() for name, m in wire.machines.items() if name != "a")
+    if not resting:
+        for name, machine in wire.machines.items():
+            if name != "a":
+                assert machine._view._resting.extra("a") == 0.0, f"{name} still grants a rest"
 
 
 def test_a_peer_that_forgets_a_resting_node_and_asks_at_each_beat_stops_asking() -> None:
