@@ -28,6 +28,7 @@ from objectplaces.core.node import NodeConfig, NodeMachine
 from objectplaces.network_node import NetworkNode
 from objectplaces.runtime.aio import AsyncioRunner
 from objectplaces.transport.options import PeerStats
+from objectplaces.transport.zenoh_alive import TOKEN_GRACE
 from objectplaces.transport.zenoh_config import Mode, ZenohOptions, resolve_ports
 from objectplaces.transport.zenoh_transport import ZenohTransport
 from tuplespace import TupleSpace
@@ -130,6 +131,7 @@ async def start_zenoh_node(
     mode: Mode = "peer",
     fleet: str = "default",
     lease: float = 10.0,
+    token_grace: float = TOKEN_GRACE,
     interest_radius: float | None = None,
     property_interval: float | None = 1.0,
     beat_interval: float | None = None,
@@ -152,6 +154,8 @@ async def start_zenoh_node(
         fleet: the fleet's name (its key prefix).
         lease: a silent node's links close after this long (and it leaves every
             group, if ``failure_timeout`` has not made it leave before).
+        token_grace: a node whose liveliness token goes leaves its groups only if the
+            token is not back this long after (0: at once; docs/zenoh.md).
         interest_radius: scoped dissemination radius (None: hear every node).
         property_interval: republish properties this often (None: never).
         beat_interval: send a liveness beat (a few bytes) after this long without a
@@ -187,6 +191,7 @@ async def start_zenoh_node(
         connect=tuple(connect),
         fleet=fleet,
         lease=lease,
+        token_grace=token_grace,
         max_frame=codec.DEFAULT_MAX_FRAME if max_frame is None else max_frame,
         poll_interval=poll_interval,
     )

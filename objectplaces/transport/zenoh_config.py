@@ -39,6 +39,7 @@ import zenoh
 
 from objectplaces.core import codec
 from objectplaces.core.errors import LocalProtocolError
+from objectplaces.transport.zenoh_alive import TOKEN_GRACE
 
 __all__ = [
     "PEER_SCOUTING",
@@ -70,6 +71,9 @@ class ZenohOptions:
             processes merely starved of CPU (30 peers on 2 busy cores with 2 s: links
             lapsed and came back for ever, and the fleet never formed). A frozen node
             leaves its groups sooner by the machine's ``failure_timeout``.
+        token_grace: a node whose liveliness token goes stays in its groups this long,
+            and leaves them only if its token is not back by then (Zenoh withdraws and
+            redeclares tokens as routes change); 0: it leaves at once.
         max_frame: largest frame accepted, in bytes.
         poll_interval: seconds between two polls of the data subscribers (None: data is
             handed on by callback at once). Polling costs frames up to this much delay
@@ -82,6 +86,7 @@ class ZenohOptions:
     connect: tuple[str, ...] = ()
     fleet: str = "default"
     lease: float = 10.0
+    token_grace: float = TOKEN_GRACE
     max_frame: int = codec.DEFAULT_MAX_FRAME
     poll_interval: float | None = None
     extra: dict[str, Any] = field(default_factory=dict)
@@ -97,6 +102,10 @@ class ZenohOptions:
                 )
         if not self.lease >= 0.1:
             raise LocalProtocolError(f"lease must be >= 0.1 s, got {self.lease!r}")
+        if not 0 <= self.token_grace <= self.lease:
+            raise LocalProtocolError(
+                f"token_grace must be in [0, lease] s, got {self.token_grace!r}"
+            )
         if self.max_frame < 64:
             raise LocalProtocolError(f"max_frame too small: {self.max_frame!r}")
         if self.poll_interval is not None and not 0 < self.poll_interval <= 1.0:

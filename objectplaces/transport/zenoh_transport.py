@@ -87,7 +87,9 @@ class ZenohTransport:
         self._publishers: PublisherCache | None = None
         self._file: CredentialsFile | None = None
         self._inbox: ZenohInbox | None = None
-        self.membership = Membership(self.keys, self.counters, self._ask_new_run)
+        self.membership = Membership(
+            self.keys, self.counters, self._ask_new_run, grace=options.token_grace
+        )
         self._declared: list[Any] = []
         self._row_subs: dict[int, Any] = {}  # one subscriber per row of our cells
         self._full_sub: Any = None

@@ -148,6 +148,12 @@ def test_a_poll_interval_outside_its_range_is_refused(interval: float) -> None:
         ZenohOptions(poll_interval=interval)
 
 
+@pytest.mark.parametrize("grace", [-0.1, 10.5, float("nan")])
+def test_a_token_grace_outside_the_lease_is_refused(grace: float) -> None:
+    with pytest.raises(LocalProtocolError, match="token_grace"):
+        ZenohOptions(token_grace=grace)
+
+
 class Talker(Participant):
     def in_group_of(self, initiator: object) -> None:
         self.send("hi")
