@@ -12,7 +12,12 @@ Floors: the demo warehouse (56 m x 37.5 m, smaller than the radius) and a 300 m 
 loop (``agv_app.layout.loop``, longer than the radius).
 
     python -m bench.fleet_bandwidth [--sizes 20,50] [--minutes 5] [--heartbeats 1,10]
-                                    [--floors demo,loop] [--seed 1] [--jobs 1]
+                                    [--floors demo,loop] [--seed 1] [--more-seeds 2,3,4]
+                                    [--jobs 1]
+
+``--more-seeds`` runs the largest size again, groups + scoped and broadcast, with each
+further seed: one seed of a few minutes measures the ratio to a few hundredths, and the
+goal is judged over every seed run.
 """
 
 from __future__ import annotations
@@ -78,6 +83,7 @@ def _verdict(
     floors: list[str],
     sizes: list[int],
     heartbeats: list[float],
+    by_seed: dict[tuple[str, float, int], float],
 ) -> str:
     """Where the bytes go, per floor at the largest size, and the goal's verdict."""
     n = max(sizes)
@@ -93,13 +99,41 @@ def _verdict(
                 "of it properties"
             )
         lines.append(f"- {floor}, {n} AGVs, groups + scoped: " + "; ".join(parts) + ".")
-    best = min((_ratio(results, (f, n, h)), f, h) for f in floors for h in heartbeats)
-    met = "met" if best[0] <= 0.2 else "not met"
+    ratios = sorted((r, f, h, seed) for (f, h, seed), r in by_seed.items())
+    (best, *_), worst = ratios, ratios[-1]
+    # Judged on the worst floor, heartbeat and seed: the fleet's defaults are among them.
+    met = "met in every run" if worst[0] <= 0.2 else "not met in every run"
+    missed = [r for r in ratios if r[0] > 0.2]
     lines.append(
-        f"\nGoal (issue 11): at {n} AGVs, groups + scoped <= 1/5 of broadcast: {met}; "
-        f"best ratio {best[0]:.2f} ({best[1]}, heartbeat {best[2]:g} s)."
+        f"\nGoal (issue 11): at {n} AGVs, groups + scoped <= 1/5 of broadcast: {met} "
+        f"({len(ratios) - len(missed)} of {len(ratios)} runs within it); worst ratio "
+        f"{worst[0]:.3f} ({worst[1]}, heartbeat {worst[2]:g} s, seed {worst[3]}), best "
+        f"{best[0]:.3f} ({best[1]}, heartbeat {best[2]:g} s, seed {best[3]})."
     )
     return "Where the bytes go:\n\n" + "\n".join(lines)
+
+
+def _seed_table(
+    by_seed: dict[tuple[str, float, int], float],
+    floors: list[str],
+    heartbeats: list[float],
+    seeds: list[int],
+    agvs: int,
+) -> str:
+    """Groups + scoped over broadcast at ``agvs`` AGVs, a column per seed ("" with one)."""
+    if len(seeds) < 2:
+        return ""
+    rows = [
+        [f, f"{h:g}", *(f"{by_seed[(f, h, seed)]:.3f}" for seed in seeds)]
+        for f in floors
+        for h in heartbeats
+    ]
+    header = ["floor", "heartbeat, s", *(f"seed {seed}" for seed in seeds)]
+    return (
+        f"Groups + scoped over broadcast, {agvs} AGVs, by seed:\n\n"
+        + markdown_table(header, rows)
+        + "\n\n"
+    )
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -110,6 +144,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--heartbeats", default="1,10", help="heartbeat intervals, s")
     parser.add_argument("--floors", default="demo,loop", help=f"of {', '.join(_FLOORS)}")
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument(
+        "--more-seeds", default="", help="further seeds for the largest size, e.g. 2,3,4"
+    )
     parser.add_argument("--load", type=float, default=DEFAULT_LOAD)
     parser.add_argument("--jobs", type=int, default=1, help="runs in parallel")
     args = parser.parse_args(argv)
@@ -119,13 +156,36 @@ def main(argv: list[str] | None = None) -> None:
     unknown = [f for f in floors if f not in _FLOORS]
     if unknown:
         raise SystemExit(f"bench.fleet_bandwidth: unknown floor(s) {', '.join(unknown)}")
+    more_seeds = [int(s) for s in args.more_seeds.split(",") if s]
     plan = [(f, n, m, h) for f in floors for n in sizes for h in heartbeats for m in MODES]
+    largest = max(sizes)
+    extra = [
+        (f, h, seed, m)
+        for seed in more_seeds
+        for f in floors
+        for h in heartbeats
+        for m in ("scoped", "broadcast")
+    ]
     with ProcessPoolExecutor(max_workers=max(1, args.jobs)) as pool:
         futures = {
             key: pool.submit(run_one, *key[:2], key[2], key[3], args.minutes, args.seed, args.load)
             for key in plan
         }
+        extra_futures = {
+            key: pool.submit(
+                run_one, key[0], largest, key[3], key[1], args.minutes, key[2], args.load
+            )
+            for key in extra
+        }
         results = {key: future.result() for key, future in futures.items()}
+        extra_results = {key: future.result() for key, future in extra_futures.items()}
+    by_seed = {
+        (f, h, args.seed): _ratio(results, (f, largest, h)) for f in floors for h in heartbeats
+    }
+    for f, h, seed, _ in extra:
+        by_seed[(f, h, seed)] = extra_results[(f, h, seed, "scoped")]["bytes_per_agv_per_s"] / max(
+            extra_results[(f, h, seed, "broadcast")]["bytes_per_agv_per_s"], 1e-9
+        )
     rows = []
     for floor in floors:
         for n in sizes:
@@ -180,12 +240,15 @@ def main(argv: list[str] | None = None) -> None:
         "dissemination margin (footprints, docs/traffic.md).\n\n"
         + markdown_table(header, rows)
         + "\n\n"
-        + _verdict(results, floors, sizes, heartbeats)
+        + _seed_table(by_seed, floors, heartbeats, [args.seed, *more_seeds], largest)
+        + _verdict(results, floors, sizes, heartbeats, by_seed)
     )
     command = (
         f".venv/bin/python -m bench.fleet_bandwidth --sizes {args.sizes} "
         f"--minutes {args.minutes:g} --heartbeats {args.heartbeats} --floors {args.floors} "
-        f"--seed {args.seed} --load {args.load:g}"
+        f"--seed {args.seed}"
+        + (f" --more-seeds {args.more_seeds}" if more_seeds else "")
+        + f" --load {args.load:g}"
     )
     publish("fleet_bandwidth", "Fleet bandwidth: scoped groups against broadcast", body, command)
 
