@@ -76,7 +76,7 @@ CORE_LAYERS = [
     {"messages", "events", "values"},
     {"codec", "outbox", "roles", "groups"},
     {"channel", "config"},
-    {"timers", "observers", "intake", "rest"},
+    {"timers", "observers", "intake", "rest", "view_index"},
     {"own", "channels"},
     {"plumbing", "liveness"},
     {"view", "session_state"},

@@ -382,6 +382,8 @@ class NodeMachine(Introspection):
                         view.forget(node)  # kept only for its roles, which ended
                     else:
                         self._depart(node, "failed")
+                for node in view.silent_since(now - timeout, stale=True):
+                    view.ask_snapshot(node, now)  # alive, but its properties stopped coming
                 self._timers.push(now + timeout / 3, action)
             case ExpireTombstone(initiator, session):
                 self._participations.expire_tombstone(initiator, session, now)

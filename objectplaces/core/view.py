@@ -10,11 +10,13 @@ one part and are forgotten together:
 * **liveness**: when each node was last heard, by any frame (property, beat or
   channel), and which rest it may take (``RestGrants``). The machine asks for the
   silent nodes and decides what departure means. A beat also says which publication
-  was the sender's latest: holding an older one, the view asks for a snapshot.
-* **the index** (§6): a uniform grid per position property that a declarative group
-  definition uses, and a running maximum per radius property, so that resolving a
-  group costs about O(neighbours) instead of O(view). Both are built lazily, the first
-  time a definition asks, and kept up to date from then on.
+  was the sender's latest: holding an older one, the view asks for a snapshot. A node
+  heard by its channels alone for a whole failure timeout (no property, no beat) is
+  alive, but its properties no longer reach us: it moved out of our cells and the
+  publication that said so was lost. The machine asks for those too (``stale``), and
+  the snapshot that answers shows where it went.
+* **the index** (§6, ``ViewIndex``): grids and maxima over the values, so that
+  resolving a group costs about O(neighbours) instead of O(view).
 * **the scope** (§5): under scoped dissemination the node hears only the cells it
   subscribes to. A node seen moving out of those cells is forgotten at once, because
   no later update would ever correct its stale position.
@@ -40,13 +42,14 @@ from types import MappingProxyType
 from typing import Any, Final
 
 from objectplaces.core import codec
-from objectplaces.core.groups import DefinitionLike, GroupDefinition
+from objectplaces.core.groups import DefinitionLike
 from objectplaces.core.messages import PropertyRequest, PropertyUpdate
 from objectplaces.core.observers import Observers
 from objectplaces.core.plumbing import Plumbing
 from objectplaces.core.rest import RestGrants
-from objectplaces.core.spatial import GridIndex, RunningMax, footprint_bounds
+from objectplaces.core.spatial import footprint_bounds
 from objectplaces.core.values import POSITION, RADIUS
+from objectplaces.core.view_index import ViewIndex
 
 __all__ = ["SNAPSHOT_RETRY", "Cell", "PropertyView"]
 
@@ -75,9 +78,9 @@ class PropertyView:
         "_cell_size",
         "_complete",
         "_footprint_margin",
+        "_fresh",
         "_heard",
-        "_indexes",
-        "_maxima",
+        "_index",
         "_node_id",
         "_observers",
         "_outbox",
@@ -107,9 +110,9 @@ class PropertyView:
         self._seqs: dict[str, dict[str, int] | int] = {}
         self._tops: dict[str, int] = {}  # per node, the highest seq it has in ``_seqs``
         self._heard: dict[str, float] = {}
+        self._fresh: dict[str, float] = {}  # when each node's properties or beats came
         self._resting = RestGrants(plumbing.config)  # nodes at rest (§2)
-        self._indexes: dict[str, GridIndex] = {}
-        self._maxima: dict[str, RunningMax] = {}
+        self._index = ViewIndex(self._props, self._cell_size)
         self._scope: frozenset[Cell] | None = None
         self._scope_bounds = (0, 0, -1, -1)  # first and last column and row of the scope
         self._complete: set[str] = set()  # nodes heard in a snapshot since they came in
@@ -134,7 +137,7 @@ class PropertyView:
             "heard": len(self._heard),
             "resting": len(self._resting),
             "asked": len(self._asked),
-            "indexed": sum(len(index) for index in self._indexes.values()),
+            "indexed": len(self._index),
         }
 
     def props_of(self, node: str) -> Mapping[str, Any] | None:
@@ -145,13 +148,15 @@ class PropertyView:
         """Whether ``node`` is in the view or was heard from at all."""
         return node in self._props or node in self._heard
 
-    def silent_since(self, cutoff: float) -> list[str]:
+    def silent_since(self, cutoff: float, *, stale: bool = False) -> list[str]:
         """Nodes last heard at or before ``cutoff``, sorted (never in set order); a node
-        at rest only once it is silent for as much longer as its rest allows."""
-        resting = self._resting
+        at rest only once it is silent for as much longer as its rest allows. With
+        ``stale``: nodes whose last property or beat came by then (heard since, if at
+        all, by their channels alone)."""
+        resting, times = self._resting, self._fresh if stale else self._heard
         return sorted(
             n
-            for n, heard in self._heard.items()
+            for n, heard in times.items()
             if heard <= cutoff and (not resting or heard + resting.extra(n) <= cutoff)
         )
 
@@ -176,7 +181,7 @@ class PropertyView:
         if source not in self._props:
             self._outbox.send(source, _REQUEST, "property")
             return
-        self._heard[source] = now
+        self._heard[source] = self._fresh[source] = now
         if rest is not None:
             self._resting.beat(source, rest)
         if seq > self._tops.get(source, -1) or source not in self._complete:
@@ -189,7 +194,7 @@ class PropertyView:
         The hottest path of a large network: every delivered update comes through here,
         so locals are bound once and nothing is allocated for an unchanged value.
         """
-        self._heard[source] = now
+        self._heard[source] = self._fresh[source] = now
         if self._resting and not update.full:  # a change: usual beats follow (§2)
             self._resting.ended(source)
         props = self._props.get(source)
@@ -227,7 +232,8 @@ class PropertyView:
             # same names): spell it out before some change and others do not.
             seqs = self._seqs[source] = dict.fromkeys(props, seqs)
         changed = False
-        indexes, maxima, observers = self._indexes, self._maxima, self._observers
+        index, observers = self._index, self._observers
+        indexes, maxima = index.indexes, index.maxima
         for name, value in values.items():
             if seq <= seqs.get(name, -1):
                 continue
@@ -237,10 +243,15 @@ class PropertyView:
             props[name] = value
             changed = True
             if name in indexes or name in maxima:
-                self._index(source, name, value)
+                index.set(source, name, value)
             if observers.watching_properties:
                 observers.property_changed(source, name, value)
         return changed
+
+    def ask_snapshot(self, node: str, now: float) -> None:
+        """Ask ``node`` for a snapshot (a stale node), unless asked within
+        ``SNAPSHOT_RETRY``."""
+        self._want_snapshot(node, now)
 
     def _want_snapshot(self, node: str, now: float) -> None:
         # Heard only in deltas: some of its properties may be missing (§5). Ask, but
@@ -249,17 +260,6 @@ class PropertyView:
         if asked is None or now - asked >= SNAPSHOT_RETRY:
             self._asked[node] = now
             self._outbox.send(node, _REQUEST, "property")
-
-    def _index(self, node: str, name: str, value: Any) -> None:
-        index = self._indexes.get(name)
-        if index is not None:
-            if isinstance(value, tuple | list) and len(value) == 2:
-                index.place(node, float(value[0]), float(value[1]))
-            else:
-                index.remove(node)
-        maximum = self._maxima.get(name)
-        if maximum is not None:
-            maximum.set(node, float(value) if isinstance(value, int | float) else 0.0)
 
     def forget(self, node: str, *, keep_liveness: bool = False) -> Mapping[str, Any] | None:
         """Drop what is known of ``node`` (but when it was last heard, with
@@ -271,12 +271,10 @@ class PropertyView:
         if not keep_liveness:
             self._heard.pop(node, None)
             self._resting.ended(node)
+        self._fresh.pop(node, None)
         self._complete.discard(node)
         self._asked.pop(node, None)
-        for index in self._indexes.values():
-            index.remove(node)
-        for maximum in self._maxima.values():
-            maximum.remove(node)
+        self._index.remove(node)
         return last
 
     # ------------------------------------------------------------------ scope (§5)
@@ -322,20 +320,8 @@ class PropertyView:
     # ------------------------------------------------------------------ groups (§6)
 
     def candidates(self, definition: DefinitionLike, own: Mapping[str, Any]) -> Iterable[str]:
-        """Nodes that may satisfy ``definition``: the index's neighbours, or everyone.
-
-        Only a declarative definition states its reach; any other callable is opaque
-        and must be tried on every node in the view.
-        """
-        if isinstance(definition, GroupDefinition):
-            reach = definition.reach(own, self._max_of)
-            if reach is not None:
-                position = own.get(reach.position)
-                if not isinstance(position, tuple | list) or len(position) != 2:
-                    return ()
-                index = self._index_for(reach.position)
-                return index.near(float(position[0]), float(position[1]), reach.radius)
-        return self._props.keys()
+        """Nodes that may satisfy ``definition``: the index's neighbours, or everyone."""
+        return self._index.candidates(definition, own)
 
     def matches(
         self, definition: DefinitionLike, own: Mapping[str, Any], node: str, sid: str = ""
@@ -378,22 +364,3 @@ class PropertyView:
         return frozenset(
             n for n in self.candidates(definition, own) if self.matches(definition, own, n)
         )
-
-    def _index_for(self, position: str) -> GridIndex:
-        index = self._indexes.get(position)
-        if index is None:
-            index = self._indexes[position] = GridIndex(self._cell_size)
-            for node, props in self._props.items():
-                value = props.get(position)
-                if isinstance(value, tuple | list) and len(value) == 2:
-                    index.place(node, float(value[0]), float(value[1]))
-        return index
-
-    def _max_of(self, name: str) -> float:
-        maximum = self._maxima.get(name)
-        if maximum is None:
-            maximum = self._maxima[name] = RunningMax()
-            for node, props in self._props.items():
-                value = props.get(name)
-                maximum.set(node, float(value) if isinstance(value, int | float) else 0.0)
-        return maximum.value

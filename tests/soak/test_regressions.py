@@ -253,3 +253,24 @@ def test_a_node_that_declined_and_took_its_initiator_for_failed_tells_it() -> No
     assert info.session_id == session.session_id
     assert info.pending == frozenset()
     assert info.members == frozenset()
+
+
+def test_a_member_whose_move_out_of_scope_was_lost_leaves_once_only_its_channel_is_heard() -> None:
+    # Found by soak seed 2754: a member moved out of its scoped initiator's cells, and
+    # the one publication that said so was lost. Its beats and republications went to
+    # its new cells only, while the session's frames (acks) kept it alive at the
+    # initiator: a member for ever, at a place it had left. Fixed in the core: a node
+    # heard by its channels alone for a failure timeout is asked for a snapshot.
+    net, greeter, roles, _ = _pair(seed=1, reach=5.0, a_radius=10.0, b_radius=10.0)
+    a, b = net.node("a"), net.node("b")
+    net.set_link("b", "a", both_ways=False, loss=1.0)
+    b.update_node_property("position", (200.0, 0.0))  # out of a's cells; a misses it
+    net.run_for(0.05)
+    net.set_link("b", "a", both_ways=False, loss=0.0)
+    for _ in range(20):  # ten seconds of a session that talks: b's acks come back
+        for member in sorted(greeter.members, key=str):
+            greeter.send(member, "ping")
+        net.run_for(0.5)
+    assert greeter.members == frozenset()
+    assert not roles[-1].active
+    assert "b" not in a.view()
