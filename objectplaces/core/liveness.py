@@ -24,8 +24,9 @@ as fit in a failure timeout, and announce the rest interval: a receiver waits fo
 node that much longer (``PropertyView``), and one that lost some of them learns the
 longer interval from another before its timeout for the usual one runs out, so the
 losses a timeout of three intervals survives are survived at rest too. The rarer beats
-that follow are plain: a receiver keeps what it granted. A publication ends the longer
-wait at every receiver that hears it, and the rest is announced again after it.
+that follow are plain: a receiver keeps what it granted. A change (a delta) ends the
+longer wait at every receiver that hears it, and after any publication the rest is
+announced again.
 A newcomer given a snapshot (or an asker) takes the node as beating at the usual
 interval, so the announcement after a snapshot goes to that peer alone: as many beats
 of its own, at the usual interval, and none again for as long (a peer out of scope
