@@ -12,10 +12,10 @@ from collections.abc import AsyncIterator
 
 import pytest
 
-from objectplaces import Initiator, Participant, groups
-from objectplaces.roles import ParticipantRef
+from objectplaces import Participant, groups
 from objectplaces.transport import zenoh_membership
 from objectplaces.zenoh_node import ZenohNode, start_zenoh_node
+from tests.mesh.test_links import Recorder
 from tests.waiting import until
 
 SECRET = b"fleet"
@@ -59,19 +59,6 @@ async def test_a_node_that_left_is_not_brought_back(monkeypatch: pytest.MonkeyPa
         await until_peers(a, [])
         await asyncio.sleep(0.5)  # several queries, some sent before b went
         assert a.peers() == []
-
-
-class Recorder(Initiator):
-    """Writes down who joins and leaves its group."""
-
-    def __init__(self) -> None:
-        self.log: list[tuple[str, str]] = []
-
-    def in_group(self, p: ParticipantRef) -> None:
-        self.log.append(("in", p.node_id))
-
-    def out_group(self, p: ParticipantRef) -> None:
-        self.log.append(("out", p.node_id))
 
 
 class Member(Participant):
