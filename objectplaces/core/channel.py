@@ -208,6 +208,11 @@ class Channel:
             heapq.heappop(heap)
         return heap[0][0] if heap else None
 
+    def break_span(self) -> float:
+        """Seconds from a frame's first transmission until, never acknowledged, it
+        breaks the channel (at the current retransmission timeout)."""
+        return self._rto * sum(min(1 << i, _MAX_BACKOFF) for i in range(self.max_tries))
+
     def due(self, now: float) -> list[bytes]:
         """Frames to retransmit at ``now``; marks the channel broken when one ran out of tries."""
         out: list[bytes] = []

@@ -368,7 +368,7 @@ class NodeMachine(Introspection):
             case Retransmit(target, channel, at):
                 if not channel.closed and self._channels.retransmit(target, channel, at, now):
                     if channel.outbound_to_participant:
-                        self._sessions.channel_broken(target, channel)
+                        self._sessions.channel_broken(target, channel, now)
                     else:
                         self._participations.channel_broken(target, channel, now)
             case Republish():

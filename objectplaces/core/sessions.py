@@ -340,14 +340,21 @@ class SessionTable:
             self._maybe_forget(session)
         return True
 
-    def channel_broken(self, target: str, channel: Channel) -> None:
-        """``target`` never acknowledged: it is gone from this channel's session."""
+    def channel_broken(self, target: str, channel: Channel, now: float) -> None:
+        """``target`` never acknowledged: it is gone from this channel's session. One
+        heard from meanwhile lives, and left our frames unacknowledged because it no
+        longer knows the session (it ended its role while we could not reach it, and
+        its LEFT was lost): if it still satisfies the definition, it is asked afresh,
+        as after its LEFT."""
         session = self._sessions.get(channel.session)
         if session is None:
             return
         member = session.members.get(target)
         if member is not None and member.channel is channel:
             self._remove(session, member, deactivate_at=None)
+            heard = self._view.last_heard(target)
+            if not session.stopped and heard is not None and heard > now - channel.break_span():
+                self._evaluate(session, target, now)
         if session.closing.get((target, channel.epoch)) is channel:
             del session.closing[(target, channel.epoch)]
         channel.closed = True

@@ -144,6 +144,10 @@ class PropertyView:
         """``node``'s properties (read-only), or None when it is not in the view."""
         return self._proxies.get(node)
 
+    def last_heard(self, node: str) -> float | None:
+        """When ``node`` was last heard, by any frame (None: not at all, or forgotten)."""
+        return self._heard.get(node)
+
     def knows(self, node: str) -> bool:
         """Whether ``node`` is in the view or was heard from at all."""
         return node in self._props or node in self._heard

@@ -274,3 +274,42 @@ def test_a_member_whose_move_out_of_scope_was_lost_leaves_once_only_its_channel_
     assert greeter.members == frozenset()
     assert not roles[-1].active
     assert "b" not in a.view()
+
+
+def test_a_member_that_ended_its_role_unheard_is_asked_again_once_its_channel_breaks() -> None:
+    # Found by soak seed 9935: a partition outlasted the participant's failure timeout
+    # for its initiator, but not the initiator's for the participant, which was at rest
+    # (a longer wait). The participant ended its role, its LEFT went into the partition
+    # until its tombstone expired, and it dropped the initiator's frames after the heal
+    # as those of a session it never had. The channel broke, the member was removed, and
+    # nothing asked it again: at rest, it published nothing that would. Fixed in the
+    # core: a broken channel re-evaluates its node, as a LEFT does.
+    net = SimulatedNetwork(
+        seed=1, property_interval=60.0, beat_interval=0.5, rest_beat_interval=10.0,
+        failure_timeout=1.5,
+    )  # fmt: skip
+    a, b = net.add_node("a"), net.add_node("b")
+    a.update_node_property("position", (0.0, 0.0))
+    b.update_node_property("position", (1.0, 0.0))
+    roles: list[Listener] = []
+
+    def make() -> Listener:
+        roles.append(Listener())
+        return roles[-1]
+
+    b.set_participant_factory("listener", make)
+    greeter = Greeter()
+    session = a.start_interaction(greeter, groups.within(5.0), "listener")
+    b.set_at_rest(True)
+    net.run_for(5.0)  # b's rest announced: a waits 30 s for it, b waits 2 s for a
+    assert roles[-1].active
+    net.partition(["a"], ["b"])
+    for member in sorted(greeter.members, key=str):
+        greeter.send(member, "into the cut")
+    net.run_for(15.0)  # b ended its role, and its tombstone expired; a still holds b
+    assert not roles[-1].active
+    assert "b" in {m.node_id for m in greeter.members}
+    net.heal()
+    net.run_for(60.0)
+    assert greeter.members == {ParticipantRef("b", session.session_id)}
+    assert roles[-1].active
