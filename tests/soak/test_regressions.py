@@ -47,11 +47,19 @@ class Listener(Participant):
 
 
 def _pair(
-    seed: int, *, reach: float = 5.0, a_radius: float | None = None, b_radius: float | None = None
+    seed: int,
+    *,
+    reach: float = 5.0,
+    a_radius: float | None = None,
+    b_radius: float | None = None,
+    **network: Any,
 ) -> tuple[SimulatedNetwork, Greeter, list[Listener], str]:
     """Initiator ``a`` with participant ``b`` (within ``reach``, each listening over its
-    radius) in one session, both settled."""
-    net = SimulatedNetwork(seed=seed, property_interval=0.5, failure_timeout=1.5)
+    radius) in one session, both settled; ``network``: the network's settings, over a
+    0.5 s heartbeat and a 1.5 s failure timeout."""
+    net = SimulatedNetwork(
+        **{"property_interval": 0.5, "failure_timeout": 1.5, **network}, seed=seed
+    )
     a = net.add_node("a", interest_radius=a_radius)
     b = net.add_node("b", interest_radius=b_radius)
     a.update_node_property("position", (0.0, 0.0))
@@ -283,23 +291,11 @@ def test_a_member_that_ended_its_role_unheard_is_asked_again_once_its_channel_br
     # until its tombstone expired, and it dropped the initiator's frames after the heal
     # as those of a session it never had. The channel broke, the member was removed, and
     # nothing asked it again: at rest, it published nothing that would. Fixed in the
-    # core: a broken channel re-evaluates its node, as a LEFT does.
-    net = SimulatedNetwork(
-        seed=1, property_interval=60.0, beat_interval=0.5, rest_beat_interval=10.0,
-        failure_timeout=1.5,
-    )  # fmt: skip
-    a, b = net.add_node("a"), net.add_node("b")
-    a.update_node_property("position", (0.0, 0.0))
-    b.update_node_property("position", (1.0, 0.0))
-    roles: list[Listener] = []
-
-    def make() -> Listener:
-        roles.append(Listener())
-        return roles[-1]
-
-    b.set_participant_factory("listener", make)
-    greeter = Greeter()
-    session = a.start_interaction(greeter, groups.within(5.0), "listener")
+    # core: a broken channel whose node was heard meanwhile asks it afresh, as a LEFT does.
+    net, greeter, roles, sid = _pair(
+        seed=1, property_interval=60.0, beat_interval=0.5, rest_beat_interval=10.0
+    )
+    b = net.node("b")
     b.set_at_rest(True)
     net.run_for(5.0)  # b's rest announced: a waits 30 s for it, b waits 2 s for a
     assert roles[-1].active
@@ -311,5 +307,5 @@ def test_a_member_that_ended_its_role_unheard_is_asked_again_once_its_channel_br
     assert "b" in {m.node_id for m in greeter.members}
     net.heal()
     net.run_for(60.0)
-    assert greeter.members == {ParticipantRef("b", session.session_id)}
+    assert greeter.members == {ParticipantRef("b", sid)}
     assert roles[-1].active
