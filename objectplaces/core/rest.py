@@ -4,8 +4,8 @@ A peer at rest beats every ``rest`` seconds instead of every ``beat_interval``, 
 so in its beats; the receiver then counts it failed only after ``failure_timeout``
 scaled by ``rest / beat_interval``, with ``rest`` capped at its own
 ``rest_beat_interval``. Only the beats that announce the rest say so; the plain beats
-that follow keep the grant. It ends with the peer's next change (a delta, a snapshot)
-or a beat that says its rest ended (0). The sender's side is
+that follow keep the grant. It ends with the peer's next change (a delta) or a beat
+that says its rest ended (0). The sender's side is
 :mod:`objectplaces.core.liveness`.
 """
 

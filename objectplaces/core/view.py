@@ -189,7 +189,7 @@ class PropertyView:
         if rest is not None:
             self._resting.beat(source, rest)
         if seq > self._tops.get(source, -1) or source not in self._complete:
-            self._want_snapshot(source, now)
+            self.ask_snapshot(source, now)
 
     def apply(self, source: str, update: PropertyUpdate, now: float) -> bool:
         """Take a property update from ``source`` at ``now`` (so it is heard, too); tell
@@ -221,7 +221,7 @@ class PropertyView:
                 complete.discard(source)
                 self._outbox.count("publications_missed")
             if source not in complete:
-                self._want_snapshot(source, now)
+                self.ask_snapshot(source, now)
         values = update.values
         if seq > top:
             tops[source] = seq
@@ -253,13 +253,9 @@ class PropertyView:
         return changed
 
     def ask_snapshot(self, node: str, now: float) -> None:
-        """Ask ``node`` for a snapshot (a stale node), unless asked within
-        ``SNAPSHOT_RETRY``."""
-        self._want_snapshot(node, now)
-
-    def _want_snapshot(self, node: str, now: float) -> None:
-        # Heard only in deltas: some of its properties may be missing (§5). Ask, but
-        # not again within SNAPSHOT_RETRY: the answer may simply still be on its way.
+        """Ask ``node`` for a snapshot: it is heard only in deltas, so some of its
+        properties may be missing (§5), or by its channels alone (stale). Not again
+        within ``SNAPSHOT_RETRY``: the answer may simply still be on its way."""
         asked = self._asked.get(node)
         if asked is None or now - asked >= SNAPSHOT_RETRY:
             self._asked[node] = now

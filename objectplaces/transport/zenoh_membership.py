@@ -3,7 +3,7 @@
 Every node holds the token ``alive/<node>/<incarnation>`` while its session lives and
 hears every token of its fleet. A token that appears is a node that joined (a newer
 incarnation: a restart, and the earlier run leaves every group); a token that goes and
-is not back within the grace (``zenoh_alive.TOKEN_GRACE``) is a node that is gone: it
+is not back within the grace (``ZenohOptions.token_grace``) is a node that is gone: it
 left, its process died, or its links fell silent past the lease. Either way it leaves
 every group then, with no heartbeat of ours. Every ``RECONCILE_EVERY`` seconds the node
 asks for every token up, so a token report lost while links churn is made good.
@@ -24,12 +24,13 @@ from objectplaces.transport.zenoh_alive import TOKEN_GRACE, AliveTable, Change
 from objectplaces.transport.zenoh_inbox import ZenohInbox
 from objectplaces.transport.zenoh_keys import FleetKeys
 
-__all__ = ["RECONCILE_EVERY", "Membership"]
+__all__ = ["QUERY_TIMEOUT", "RECONCILE_EVERY", "Membership"]
 
 RECONCILE_EVERY = 3.0
 """Seconds between two liveliness queries of every token up: a token report lost while
 links churn (many processes starting on a loaded machine) is made good by the next."""
-_QUERY_TIMEOUT = 2.0
+QUERY_TIMEOUT = 2.0
+"""Seconds a Zenoh query (of tokens, of properties) waits for its answers."""
 
 
 class Membership:
@@ -150,7 +151,7 @@ class Membership:
         self._queries += 1
         on_reply = inbox.alive_reply_callback(self.keys, self._queries)
         try:
-            session.liveliness().get(self.keys.alive_all(), on_reply, timeout=_QUERY_TIMEOUT)
+            session.liveliness().get(self.keys.alive_all(), on_reply, timeout=QUERY_TIMEOUT)
         except zenoh.ZError:
             self._count("dropped_query_failed")
         loop = asyncio.get_running_loop()

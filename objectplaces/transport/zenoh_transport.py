@@ -7,8 +7,9 @@ wildcard of full dissemination: Zenoh routes each update only to the nodes that 
 
 Membership is Zenoh's liveliness: every node holds a token while its session lives; a
 node whose token goes (it left, its process died, its links lapsed past the lease) and
-is not back within ``TOKEN_GRACE`` (a token redeclared as routes change is) is gone, and
-the machine lets it leave every group then, with no heartbeat of ours.
+is not back within the grace (``ZenohOptions.token_grace``; a token redeclared as routes
+change is) is gone, and the machine lets it leave every group then, with no heartbeat of
+ours.
 
 A node that starts hearing a cell asks the queryables there (``who/<cell>/*``), and a
 node that sees a new token asks that node; an asked node whose properties the asker
@@ -41,14 +42,13 @@ from objectplaces.transport.zenoh_config import (
 )
 from objectplaces.transport.zenoh_inbox import Item, ZenohInbox, direct
 from objectplaces.transport.zenoh_keys import FleetKeys
-from objectplaces.transport.zenoh_membership import Membership
+from objectplaces.transport.zenoh_membership import QUERY_TIMEOUT, Membership
 from objectplaces.transport.zenoh_publishers import PublisherCache
 
 __all__ = ["FrameDriver", "ZenohTransport"]
 
 log = logging.getLogger("objectplaces.zenoh")
 
-_QUERY_TIMEOUT = 2.0
 _ASK_AGAIN_AFTER = (0.3, 1.5)
 """Seconds after which an ask is repeated: an asked node's queryable, just moved to the
 cell we ask, may not have reached us yet (nor our subscription it), and a node without
@@ -285,7 +285,7 @@ class ZenohTransport:
         cells = None if self._subscription is None else sorted(self._subscription)
         payload = msgpack.packb([self.node_id, cells])
         try:
-            session.get(selector, _IGNORE_REPLY, payload=payload, timeout=_QUERY_TIMEOUT)
+            session.get(selector, _IGNORE_REPLY, payload=payload, timeout=QUERY_TIMEOUT)
         except zenoh.ZError:
             self._count("dropped_query_failed")
 
