@@ -129,7 +129,7 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
         "--heartbeat",
         type=float,
         help="liveness interval (default: the 1 s update interval): a node silent this long "
-        "sends a beat of a few bytes, every property is republished every sixty; a node "
+        "sends a beat of a few bytes, every property is republished every 600; a node "
         "unheard for three heartbeats counts as failed",
     )
     p.add_argument(

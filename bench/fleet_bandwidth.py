@@ -7,7 +7,7 @@ radius (``agv_app.traffic.reach``, the default), groups without the scope, and b
 the AGVs' nodes send per AGV per second, split into properties (beats, republications
 and changes) and sessions (channel frames and acks). Each configuration runs once with
 the heartbeat at ``t_update`` (1 s: the fleet's default, a beat from a node silent that
-long, every property republished every sixty heartbeats) and once with a slower one.
+long, every property republished every 600 heartbeats) and once with a slower one.
 Floors: the demo warehouse (56 m x 37.5 m, smaller than the radius) and a 300 m one-way
 loop (``agv_app.layout.loop``, longer than the radius).
 
@@ -234,7 +234,7 @@ def main(argv: list[str] | None = None) -> None:
         "and the observer hear every node in every mode. Violations: collisions and lock "
         "overlaps of the scoped and broadcast runs together. Heartbeat: a node that has "
         "published nothing for that long sends a beat (a few bytes); every property is "
-        "republished every sixty heartbeats; a node unheard for three heartbeats counts as "
+        "republished every 600 heartbeats; a node unheard for three heartbeats counts as "
         "failed. Property bytes include the beats. Interest radius: how far a scoped AGV "
         "listens; it publishes to the cells within its own hull length plus half the "
         "dissemination margin (footprints, docs/traffic.md).\n\n"

@@ -21,10 +21,12 @@ __all__ = [
     "rest_beat_argument",
 ]
 
-REPUBLISH_BEATS = 60
-"""Heartbeats between two republications of every property, by default: the last
-resort, since a beat carries the number of the latest publication and a receiver that
-is behind asks for a snapshot."""
+REPUBLISH_BEATS = 600
+"""Heartbeats between two republications of every property, by default (ten minutes at
+the 1 s heartbeat): the last resort, since a beat carries the number of the latest
+publication and a receiver that is behind asks for a snapshot. A republication goes to
+every listener with every property's name; once a minute it was a sixth of a fleet's
+bytes (docs/protocol.md §2)."""
 
 REST_BEAT_S = 5.0
 """Beat interval of an AGV at rest (parked at home, no task), by default."""

@@ -82,8 +82,8 @@ class FleetConfig:
             nothing for this long sends a beat of a few bytes (``NodeConfig.beat_interval``);
             a node unheard for three heartbeats counts as failed.
         republish: seconds between republications of every property, the last resort
-            against lost updates (None: sixty heartbeats; a loss is found by the next
-            frame of the node, publications being numbered without gaps).
+            against lost updates (None: ``REPUBLISH_BEATS`` heartbeats; a loss is found by
+            the next frame of the node, publications being numbered without gaps).
         rest_beat: an AGV parked at its home with no task is at rest and beats only this
             often (``NodeConfig.rest_beat_interval``; its heartbeat when that is longer),
             and so do the stations and the observer, which never move; their peers count

@@ -119,11 +119,12 @@ def run_floor(
     wait_for_drop: bool = True,
     advance_m: float = DEFAULT_ADVANCE_M,
     rest_beat: float | None = REST_BEAT_S,
+    republish: float | None = None,
     **options: Any,
 ) -> Fleet:
     """Tasks for 300 s, then 200 s more to finish them; every step checked for safety
     (a collision or a lock overlap raises). ``one_at_a_time``, ``wait_for_drop``,
-    ``advance_m`` and ``rest_beat`` as in :class:`FleetConfig`; ``options`` go to
+    ``advance_m``, ``rest_beat`` and ``republish`` as in :class:`FleetConfig`; ``options`` go to
     :class:`Fleet`."""
     cfg = FleetConfig(
         agvs=run.floor.agvs,
@@ -134,6 +135,7 @@ def run_floor(
         wait_for_drop=wait_for_drop,
         advance_m=advance_m,
         rest_beat=rest_beat,
+        republish=republish,
         fail_on_violation=True,
     )
     fleet = Fleet(run.floor.layout, cfg, **options)

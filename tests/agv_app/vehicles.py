@@ -16,12 +16,15 @@ class FoundAt(TypedDict):
 
     advance_m: float
     rest_beat: float | None
+    republish: float
 
 
-FOUND_AT: Final = FoundAt(advance_m=5.0, rest_beat=None)
+FOUND_AT: Final = FoundAt(advance_m=5.0, rest_beat=None, republish=60.0)
 """The settings the fleets that the before-and-after tests replay were found with: 5 m
-requests, and no rest beats (which widen the interest radius). With other settings
-their dynamics differ, and most of them no longer lock without the rule they show."""
+requests, no rest beats (which widen the interest radius) and every property
+republished every sixty heartbeats (a minute at the default heartbeat). With other
+settings their dynamics differ, and most of them no longer lock without the rule they
+show."""
 
 VehicleFactory = Callable[..., AgvController]
 """What ``Fleet(vehicle=...)`` takes: builds one AGV component."""

@@ -172,6 +172,14 @@ def test_idle_agvs_beat_instead_of_republishing_every_property() -> None:
     assert _sent(None, "beat", beats=False) == (0, 0)
 
 
+def test_idle_agvs_republish_every_property_only_every_ten_minutes() -> None:
+    """At the defaults the start's publication is all a parked AGV sends of its
+    properties for ten minutes: its beats carry the number a receiver checks."""
+    first = _sent(None, "property", seconds=5.0)
+    assert _sent(None, "property", seconds=595.0) == first
+    assert _sent(None, "property", seconds=605.0)[0] > first[0]
+
+
 def test_parked_agvs_beat_at_the_rest_interval() -> None:
     """Two idle AGVs at home for a minute: three beats a second apart, then one every
     five seconds, instead of one a second (the rest beats are three bytes longer)."""

@@ -44,7 +44,9 @@ def _gaps(vehicle: type[_Logged]) -> list[float]:
         scoped=True,
         heartbeat=10.0,
         wait_for_drop=False,  # as found: the queues the rule now holds back formed the ring
-        **FOUND_AT,
+        advance_m=FOUND_AT["advance_m"],
+        rest_beat=FOUND_AT["rest_beat"],
+        republish=600.0,  # sixty heartbeats, as found
         fail_on_violation=True,
     )
     fleet = Fleet(demo_warehouse(), config, vehicle=vehicle)
