@@ -127,6 +127,8 @@ class SimulatedNetwork:
             ``NodeConfig.rest_beat_interval``).
         failure_timeout: default failure timeout of new nodes (None: 3 intervals).
         retransmit_timeout: first retransmission delay of session channel frames.
+        probe_interval: how often an initiator probes its idle members (None: never;
+            ``NodeConfig.probe_interval``).
     """
 
     def __init__(
@@ -145,6 +147,7 @@ class SimulatedNetwork:
         rest_beat_interval: float | None = None,
         failure_timeout: float | None = None,
         retransmit_timeout: float = 0.2,
+        probe_interval: float | None = NodeConfig().probe_interval,
     ) -> None:
         self.seed = seed
         self._loop = EventLoop()
@@ -161,6 +164,7 @@ class SimulatedNetwork:
             failure_timeout=failure_timeout,
             cell_size=cell_size,
             retransmit_timeout=retransmit_timeout,
+            probe_interval=probe_interval,
         )
         self._nodes: dict[str, _SimNode] = {}
 
@@ -225,6 +229,7 @@ class SimulatedNetwork:
             footprint_margin=footprint_margin,
             cell_size=defaults.cell_size,
             retransmit_timeout=defaults.retransmit_timeout,
+            probe_interval=defaults.probe_interval,
         )
         space = space if space is not None else TupleSpace(clock=self._now)
         machine = NodeMachine(node_id, now=self.now, config=config, space=space)

@@ -91,6 +91,8 @@ class FleetConfig:
             for the longer wait (docs/traffic.md, "Idle AGVs").
         beats: False: no beats; every node republishes every property each heartbeat
             instead (how the fleet ran before beats; ``republish`` is then ignored).
+        probes: False: no node probes the idle members of its sessions
+            (``NodeConfig.probe_interval``; how the fleet ran before probes).
         load: target share of busy AGVs, in (0, 1]; the task rate follows from it and
             the layout (:mod:`agv_app.tasks.load`) unless ``task_interval`` is given.
         task_interval: mean seconds between new tasks (None: from ``load``).
@@ -134,6 +136,7 @@ class FleetConfig:
     republish: float | None = None
     rest_beat: float | None = REST_BEAT_S
     beats: bool = True
+    probes: bool = True
     load: float = DEFAULT_LOAD
     task_interval: float | None = None
     start_tasks: int | None = None
@@ -209,6 +212,7 @@ class Fleet(FleetSourceBase):
             beat_interval=liveness.beat_interval,
             rest_beat_interval=liveness.rest_beat_interval,
             failure_timeout=liveness.failure_timeout,
+            probe_interval=liveness.probe_interval if cfg.probes else None,
         )
         self.rng = random.Random(cfg.seed)
         self.metrics_raw = FleetMetrics()

@@ -51,6 +51,9 @@ class NodeConfig:
         retransmit_timeout: first retransmission of an unacknowledged channel frame.
         max_retransmissions: tries before a channel counts as broken (its peer gone).
         tombstone_ttl: how long a closed channel is remembered to drop its late frames.
+        probe_interval: an initiator sends ``PROBE`` to each idle member of a session
+            this often (a member that no longer knows the channel answers ``LEFT``,
+            docs/protocol.md §3); None: never.
         max_frame: largest frame accepted, in bytes.
         send_buffer: role messages a channel holds beyond its window of frames in
             flight; when full, a role's ``send`` returns False (docs/protocol.md §4).
@@ -66,6 +69,7 @@ class NodeConfig:
     retransmit_timeout: float = 0.2
     max_retransmissions: int = 12
     tombstone_ttl: float = 10.0
+    probe_interval: float | None = 10.0
     max_frame: int = codec.DEFAULT_MAX_FRAME
     send_buffer: int = 10_000
 

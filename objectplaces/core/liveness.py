@@ -91,7 +91,13 @@ class Liveness:
         self._outbox = outbox
         self._timers = timers
         self._last_published = now
-        for name in ("property_interval", "beat_interval", "rest_beat_interval", "failure_timeout"):
+        for name in (
+            "property_interval",
+            "beat_interval",
+            "rest_beat_interval",
+            "failure_timeout",
+            "probe_interval",
+        ):
             value = getattr(config, name)
             if value is not None and not value > 0:
                 raise LocalProtocolError(f"{name} must be > 0 seconds or None, got {value!r}")

@@ -49,6 +49,8 @@ class FrameKind(IntEnum):
     ROLE = 4  # either way: an application message between roles
     LEFT = 5  # participant -> initiator, out of band: the role ended on the participant's
     #           side without the initiator's word (it took the initiator for failed)
+    PROBE = 6  # initiator -> participant: nothing for the role; a member that no longer
+    #            knows the channel answers LEFT (an idle session's check, §3)
 
 
 @dataclass(slots=True, unsafe_hash=True)

@@ -384,6 +384,8 @@ class NodeMachine(Introspection):
                         self._depart(node, "failed")
                 for node in view.silent_since(now - timeout, stale=True):
                     view.ask_snapshot(node, now)  # alive, but its properties stopped coming
+                if self.config.probe_interval is not None:
+                    self._sessions.probe(now, self.config.probe_interval)
                 self._timers.push(now + timeout / 3, action)
             case ExpireTombstone(initiator, session):
                 self._participations.expire_tombstone(initiator, session, now)

@@ -33,7 +33,9 @@ activate us afresh), rather than send into a tombstone that would swallow every 
 The initiator may send nothing more, so ``LEFT`` is retransmitted with backoff until
 the initiator acknowledges it, the initiator is gone, or the tombstone expires. It
 carries the number after the last frame of our stream, and the initiator acks exactly
-that number, so no late ack of the stream is taken for it.
+that number, so no late ack of the stream is taken for it. Should every repeat be lost,
+the initiator's ``PROBE`` (sent to its idle members now and then) finds a channel we
+no longer know, and is answered with ``LEFT`` too.
 """
 
 from __future__ import annotations
@@ -163,6 +165,8 @@ class ParticipationTable:
                 # Only an activation opens a participation: a stray frame must not
                 # make state appear (a reordered one is retransmitted after the ACTIVATE).
                 self._outbox.count("dropped_unknown_session")
+                if frame.kind is FrameKind.PROBE:  # it holds us as a member: we are not
+                    self._tell_left(source, frame.session, frame.epoch, frame.seq)
                 return False
             owner = ParticipationOwner(source, frame.session, frame.epoch)
             channel = self._channels.open(
@@ -186,6 +190,8 @@ class ParticipationTable:
                 self._outbox.call(part.role.receive, (frame.payload,), part.ref.session_id)
             case FrameKind.DEACTIVATE:
                 self._end(part, now)
+            case FrameKind.PROBE:
+                pass  # acknowledged with the stream: we play the role
             case _:
                 self._outbox.count("dropped_unexpected_frame")
 

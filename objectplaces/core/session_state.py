@@ -63,11 +63,21 @@ class SessionState:
     declined: set[str] = field(default_factory=set)
     epochs: dict[str, int] = field(default_factory=dict)
     stopped: bool = False
+    probed_at: float = float("-inf")  # when its idle members were last probed
 
     @property
     def done(self) -> bool:
         """Stopped, and nothing of it left to wait for."""
         return self.stopped and not self.members and not self.closing
+
+    def to_probe(self, now: float, every: float) -> list[MemberState]:
+        """The joined members whose channels are idle, once every ``every`` seconds of
+        the session's life (an empty list in between). Nothing sent means nothing
+        to break: a member whose LEFT was lost would stay a member for good."""
+        if now < max(self.started_at, self.probed_at) + every:
+            return []
+        self.probed_at = now
+        return [m for m in self.members.values() if m.joined and m.channel.idle]
 
     def close(self, node: str, epoch: int | None = None) -> None:
         """Stop waiting for ``node``'s closing channel of ``epoch`` (None: all of them)."""

@@ -11,7 +11,8 @@ Failure detection is local and links can fail one way, so the two sides can disa
 about a membership. The table resolves it toward "not a member", the state a message
 can never be lost in: a peer taken for failed is deactivated all the same (it may still
 hear us), and a participant that reports ``LEFT`` (it took us for failed) is dropped
-and, if it still matches, activated afresh.
+and, if it still matches, activated afresh; idle members are probed now and then
+(``probe``), in case every repeat of a ``LEFT`` was lost.
 """
 
 from __future__ import annotations
@@ -243,6 +244,14 @@ class SessionTable:
         if member.joined and notify:
             ref = ParticipantRef(member.node, session.sid)
             self._outbox.call(session.role.out_group, (ref,), session.sid)
+
+    def probe(self, now: float, every: float) -> None:
+        """Send ``PROBE`` to the idle members of each live session, once every ``every``
+        seconds: one that no longer knows the channel answers ``LEFT`` (§3)."""
+        for session in self._sessions.values():
+            if not session.stopped:
+                for member in session.to_probe(now, every):
+                    self._channels.send(member.node, member.channel, FrameKind.PROBE, None, now)
 
     def _maybe_forget(self, session: SessionState) -> None:
         if session.done:

@@ -120,12 +120,13 @@ def run_floor(
     advance_m: float = DEFAULT_ADVANCE_M,
     rest_beat: float | None = REST_BEAT_S,
     republish: float | None = None,
+    probes: bool = True,
     **options: Any,
 ) -> Fleet:
     """Tasks for 300 s, then 200 s more to finish them; every step checked for safety
     (a collision or a lock overlap raises). ``one_at_a_time``, ``wait_for_drop``,
-    ``advance_m``, ``rest_beat`` and ``republish`` as in :class:`FleetConfig`; ``options`` go to
-    :class:`Fleet`."""
+    ``advance_m``, ``rest_beat``, ``republish`` and ``probes`` as in
+    :class:`FleetConfig`; ``options`` go to :class:`Fleet`."""
     cfg = FleetConfig(
         agvs=run.floor.agvs,
         seed=run.seed,
@@ -136,6 +137,7 @@ def run_floor(
         advance_m=advance_m,
         rest_beat=rest_beat,
         republish=republish,
+        probes=probes,
         fail_on_violation=True,
     )
     fleet = Fleet(run.floor.layout, cfg, **options)

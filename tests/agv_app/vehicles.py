@@ -17,14 +17,15 @@ class FoundAt(TypedDict):
     advance_m: float
     rest_beat: float | None
     republish: float
+    probes: bool
 
 
-FOUND_AT: Final = FoundAt(advance_m=5.0, rest_beat=None, republish=60.0)
+FOUND_AT: Final = FoundAt(advance_m=5.0, rest_beat=None, republish=60.0, probes=False)
 """The settings the fleets that the before-and-after tests replay were found with: 5 m
 requests, no rest beats (which widen the interest radius) and every property
-republished every sixty heartbeats (a minute at the default heartbeat). With other
-settings their dynamics differ, and most of them no longer lock without the rule they
-show."""
+republished every sixty heartbeats (a minute at the default heartbeat), no session
+probed. With other settings their dynamics differ, and most of them no longer lock
+without the rule they show."""
 
 VehicleFactory = Callable[..., AgvController]
 """What ``Fleet(vehicle=...)`` takes: builds one AGV component."""

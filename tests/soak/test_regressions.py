@@ -309,3 +309,51 @@ def test_a_member_that_ended_its_role_unheard_is_asked_again_once_its_channel_br
     net.run_for(60.0)
     assert greeter.members == {ParticipantRef("b", sid)}
     assert roles[-1].active
+
+
+@pytest.mark.parametrize("cut", [5.0, 20.0])
+def test_a_member_that_ended_its_role_unheard_is_asked_again_by_an_idle_initiator(
+    cut: float,
+) -> None:
+    # Found by soak seed 2999 (without republication): as in seed 9935, but the
+    # initiator had nothing to send, so no channel broke. The participant's LEFT was lost
+    # until its tombstone expired (after the heal: 5 s, each repeat lost; or during it:
+    # 20 s), and the initiator held a member that played no role, for good. Fixed in the
+    # core: an initiator probes its idle members, and a node that no longer knows the
+    # channel answers with LEFT.
+    net, greeter, roles, sid = _pair(
+        seed=1, property_interval=None, beat_interval=0.5, rest_beat_interval=10.0
+    )
+    b = net.node("b")
+    b.set_at_rest(True)
+    net.run_for(5.0)  # b's rest announced: a waits 30 s for it, b waits 1.5 s for a
+    net.partition(["a"], ["b"])
+    net.run_for(cut)  # b ended its role; a still holds b
+    assert not roles[-1].active
+    assert "b" in {m.node_id for m in greeter.members}
+    if cut < net.node("b").machine.config.tombstone_ttl:
+        net.set_link("b", "a", loss=1.0, both_ways=False)  # every repeat of b's LEFT is lost
+        net.heal()
+        net.run_for(net.node("b").machine.config.tombstone_ttl)
+        net.set_link("b", "a", loss=0.0, both_ways=False)
+    else:
+        net.heal()
+    net.run_for(60.0)
+    assert greeter.members == {ParticipantRef("b", sid)}
+    assert roles[-1].active
+
+
+def test_a_member_that_plays_its_role_takes_the_probes_unnoticed() -> None:
+    net, greeter, roles, sid = _pair(seed=1, property_interval=None, beat_interval=0.5)
+    a = net.node("a")
+    ttl = a.machine.config.tombstone_ttl
+    before = a.machine.sent_by_kind.get("channel", [0, 0])[0]
+    net.run_for(ttl - 2.0)  # the session is younger than the probes' interval
+    assert a.machine.sent_by_kind.get("channel", [0, 0])[0] == before
+    net.run_for(3 * ttl)
+    assert a.machine.sent_by_kind["channel"][0] >= before + 3  # a probe each interval
+    assert greeter.members == {ParticipantRef("b", sid)}
+    assert len(roles) == 1
+    assert roles[0].active
+    assert roles[0].heard == []
+    assert greeter.heard == []

@@ -229,7 +229,7 @@ class Scenario:
     duplicate: float
     reorder: float
     cell_size: float
-    property_interval: float
+    property_interval: float | None
     failure_timeout: float
     interest_radius: float | None
     arena: float
@@ -463,4 +463,7 @@ def generate(seed: int, *, chaos_steps: tuple[int, int] = (40, 100), phases: int
     # Rests as long as the timeout and longer: a peer that missed the announcement would
     # count the node failed before its next beat.
     rest = round(scenario.failure_timeout * rest_rng.uniform(0.7, 2.0), 3)
-    return dataclasses.replace(scenario, rest_beat_interval=rest)
+    # On half of them nothing is ever republished: the numbered publications and the
+    # beats alone repair every loss (the fleet republishes once in 600 beats).
+    republish = None if rest_rng.random() < 0.5 else scenario.property_interval
+    return dataclasses.replace(scenario, rest_beat_interval=rest, property_interval=republish)

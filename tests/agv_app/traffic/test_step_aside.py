@@ -47,6 +47,7 @@ def _gaps(vehicle: type[_Logged]) -> list[float]:
         advance_m=FOUND_AT["advance_m"],
         rest_beat=FOUND_AT["rest_beat"],
         republish=600.0,  # sixty heartbeats, as found
+        probes=FOUND_AT["probes"],
         fail_on_violation=True,
     )
     fleet = Fleet(demo_warehouse(), config, vehicle=vehicle)

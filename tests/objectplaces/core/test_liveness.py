@@ -40,7 +40,9 @@ def test_failure_timeout_is_three_of_the_shorter_liveness_interval() -> None:
     assert NodeConfig().effective_failure_timeout is None
 
 
-@pytest.mark.parametrize("name", ["beat_interval", "property_interval", "failure_timeout"])
+@pytest.mark.parametrize(
+    "name", ["beat_interval", "property_interval", "failure_timeout", "probe_interval"]
+)
 @pytest.mark.parametrize("value", [0.0, -1.0, float("nan")])
 def test_a_liveness_interval_must_be_positive(name: str, value: float) -> None:
     with pytest.raises(LocalProtocolError, match=f"{name} must be > 0"):
