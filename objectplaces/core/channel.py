@@ -35,13 +35,19 @@ from objectplaces.core import codec
 from objectplaces.core.errors import InvalidValueError
 from objectplaces.core.messages import ChannelAck, ChannelData, FrameKind
 
-__all__ = ["DEFAULT_SEND_BUFFER", "WINDOW", "Channel"]
+__all__ = ["DEFAULT_SEND_BUFFER", "WINDOW", "Channel", "retransmission_span"]
 
 WINDOW: Final = 256
 """Frames in flight per direction; the receiver buffers this many early frames."""
 DEFAULT_SEND_BUFFER: Final = 10_000
 """Role messages a channel holds beyond the window before ``send`` returns False."""
 _MAX_BACKOFF: Final = 16
+
+
+def retransmission_span(rto: float, max_tries: int) -> float:
+    """Seconds from a frame's first transmission until, never acknowledged, it breaks
+    its channel: its ``max_tries`` waits, each twice the one before up to 16 x ``rto``."""
+    return rto * sum(min(1 << i, _MAX_BACKOFF) for i in range(max_tries))
 
 
 class _InFlight:
@@ -211,7 +217,7 @@ class Channel:
     def break_span(self) -> float:
         """Seconds from a frame's first transmission until, never acknowledged, it
         breaks the channel (at the current retransmission timeout)."""
-        return self._rto * sum(min(1 << i, _MAX_BACKOFF) for i in range(self.max_tries))
+        return retransmission_span(self._rto, self.max_tries)
 
     def due(self, now: float) -> list[bytes]:
         """Frames to retransmit at ``now``; marks the channel broken when one ran out of tries."""

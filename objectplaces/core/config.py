@@ -50,7 +50,8 @@ class NodeConfig:
         cell_size: side of the grid cells used for dissemination scopes and the index.
         retransmit_timeout: first retransmission of an unacknowledged channel frame.
         max_retransmissions: tries before a channel counts as broken (its peer gone).
-        tombstone_ttl: how long a closed channel is remembered to drop its late frames.
+        tombstone_ttl: how long a closed channel is remembered to drop its late frames
+            (at least as long as a channel retransmits a frame before it breaks).
         probe_interval: an initiator sends ``PROBE`` to each idle member of a session
             this often (a member that no longer knows the channel answers ``LEFT``,
             docs/protocol.md §3); None: never.

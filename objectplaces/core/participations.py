@@ -20,7 +20,9 @@ retransmission of ``DECLINED`` is not cut short.
 
 When a participation ends (deactivated, initiator gone, channel broken, node leaving),
 its role hears ``out_group_of`` once, its timers are cancelled, and a *tombstone*
-remembers the closed (initiator, session, epoch) for ``tombstone_ttl``: late frames of
+remembers the closed (initiator, session, epoch) for ``tombstone_ttl``, and at least as
+long as a channel retransmits a frame before it breaks (an older epoch's ``ACTIVATE``,
+still retransmitted, must never find it gone and open a role): late frames of
 that channel are acknowledged (so the initiator stops retransmitting) and dropped,
 instead of being taken for a new activation. Tombstones expire on a timer, so memory
 stays bounded however many sessions a long run sees.
@@ -46,7 +48,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from objectplaces.core import codec
-from objectplaces.core.channel import Channel
+from objectplaces.core.channel import Channel, retransmission_span
 from objectplaces.core.config import ParticipationInfo
 from objectplaces.core.errors import LocalProtocolError
 from objectplaces.core.ids import InitiatorRef, session_id_for
@@ -103,6 +105,12 @@ class ParticipationTable:
         self._factories: dict[str, ParticipantFactory] = {}
         self._parts: dict[tuple[str, int], _Participation] = {}
         self._tombstones: dict[tuple[str, int], _Tombstone] = {}
+        # A tombstone outlives every retransmission of its channel and of any older
+        # epoch's (opened before it), so no such frame finds it gone (soak seed 1932).
+        self._tomb_life = max(
+            self._config.tombstone_ttl,
+            retransmission_span(self._config.retransmit_timeout, self._config.max_retransmissions),
+        )
 
     # ------------------------------------------------------------------ factories
 
@@ -264,7 +272,7 @@ class ParticipationTable:
         if self._parts.get(key) is part:
             del self._parts[key]
         part.channel.closed = True
-        expires = now + self._config.tombstone_ttl
+        expires = now + self._tomb_life
         tomb = self._tombstones[key] = _Tombstone(owner.epoch, expires)
         self._timers.push(expires, ExpireTombstone(owner.initiator, owner.session))
         # A declining one is told too: its DECLINED may be what was lost, and the

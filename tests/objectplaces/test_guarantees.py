@@ -11,6 +11,8 @@ from hypothesis import strategies as st
 from hypothesis.stateful import RuleBasedStateMachine, invariant, precondition, rule
 
 from objectplaces import Initiator, InitiatorRef, Participant, ParticipantRef, groups
+from objectplaces.core.channel import retransmission_span
+from objectplaces.core.config import NodeConfig
 from objectplaces.sim import SimulatedNetwork
 
 NAMES = ["a", "b", "c", "d", "e"]
@@ -100,7 +102,12 @@ class Guarantees(RuleBasedStateMachine):
     def teardown(self) -> None:
         for sid, (name, _) in sorted(self.live.items()):
             self.nodes[name].stop_interaction(sid)
-        self.net.run_for(40.0)  # retransmissions settle, tombstones expire
+        # Retransmissions settle (a channel breaks at the latest), then the tombstones
+        # made meanwhile expire (each lives as long as a channel retransmits).
+        config = NodeConfig()
+        self.net.run_for(
+            2 * retransmission_span(config.retransmit_timeout, config.max_retransmissions) + 1.0
+        )
         for role in self.roles:
             assert role.violations == []
         for node in self.nodes.values():

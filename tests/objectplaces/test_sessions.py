@@ -9,6 +9,7 @@ import pytest
 
 from objectplaces import Initiator, LocalProtocolError, Participant, ParticipantRef, groups
 from objectplaces.core import codec
+from objectplaces.core.channel import retransmission_span
 from objectplaces.core.messages import ChannelData, FrameKind
 from objectplaces.sim import SimulatedNetwork
 
@@ -202,7 +203,8 @@ def test_stop_deactivates_everyone_and_leaves_no_state(conditions: dict[str, Any
     net.run_for(3.0)
     assert sorted(e[0] for e in log if e[1] == "out_group_of") == list("bcde")
     assert n["a"].sessions() == []
-    net.run_for(10.0)  # tombstones of closed channels expire too
+    config = n["b"].machine.config  # tombstones of closed channels expire too, once no
+    net.run_for(retransmission_span(config.retransmit_timeout, config.max_retransmissions))
     assert set(all_state(net).values()) == {0}
     with pytest.raises(LocalProtocolError, match="unknown session"):
         n["a"].stop_interaction(session)

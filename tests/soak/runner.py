@@ -44,7 +44,7 @@ from tests.soak.invariants import (
 )
 from tests.soak.probes import AppFault
 from tests.soak.workload import Settle, Wait, generate
-from tests.soak.world import World
+from tests.soak.world import World, retransmission_time
 
 if TYPE_CHECKING:
     from rich.progress import Progress
@@ -113,7 +113,9 @@ def _capture(world: World) -> Iterator[None]:
 def _settle(world: World, result: RunResult, *, final: bool) -> list[str]:
     """Run until the checks of a calm world pass or the bound passes; what failed."""
     if final:
-        bound = forget_deadline(world) + world.config.tombstone_ttl + 1.0
+        config = world.config  # a tombstone lives as long as a channel retransmits, at least
+        life = max(config.tombstone_ttl, retransmission_time(config))
+        bound = forget_deadline(world) + life + 1.0
     else:
         bound = convergence_bound(world)
     start = world.now

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from objectplaces import NodeConfig, RoleActivator, Session, groups
+from objectplaces.core.channel import retransmission_span
 from objectplaces.groups import GroupDefinition
 from objectplaces.sim import SimulatedNetwork
 from tests.soak.probes import Ledger, ProbeInitiator, ProbeParticipant
@@ -61,9 +62,8 @@ def build_definition(spec: tuple[object, ...]) -> GroupDefinition:
 def retransmission_time(config: NodeConfig, transmissions: int | None = None) -> float:
     """How long a channel takes to transmit one frame ``transmissions`` times (by default
     as often as it ever does: then the channel gives up and counts as broken)."""
-    rto = config.retransmit_timeout
     tries = config.max_retransmissions if transmissions is None else transmissions
-    return float(sum(rto * min(2 ** (n - 1), 16) for n in range(1, tries + 1)))
+    return retransmission_span(config.retransmit_timeout, tries)
 
 
 @dataclass

@@ -8,6 +8,7 @@ import pytest
 
 from objectplaces import Initiator, InitiatorRef, Participant, ParticipantRef, groups
 from objectplaces.core import codec
+from objectplaces.core.channel import retransmission_span
 from objectplaces.core.config import NodeConfig
 from objectplaces.core.errors import LocalProtocolError
 from objectplaces.core.events import Broadcast, Send, Subscribe
@@ -143,11 +144,15 @@ def test_stop_at_a_given_time_deactivates_and_leaves_no_state() -> None:
     assert role.log == [("in", "b", 0.0)]  # the role asked for the stop: no out_group
     assert a.state_counts()["sessions"] == 0
     assert b.state_counts()["tombstones"] == 1
-    wire.run_until(6.0)  # the tombstone expires at 1.0 + 5.0
+    # The tombstone outlives a channel's retransmissions, longer than its 5 s here.
+    end = 1.0 + retransmission_span(0.2, 12)
+    wire.run_until(end - 0.01)
+    assert b.state_counts()["tombstones"] == 1
+    wire.run_until(end)
     assert set(a.state_counts().values()) == {0}
     assert set(b.state_counts().values()) == {0}
     with pytest.raises(LocalProtocolError, match="unknown session"):
-        a.stop_session(sid, now=6.0)
+        a.stop_session(sid, now=end)
 
 
 def test_a_participant_that_never_acks_breaks_the_channel_and_is_removed() -> None:

@@ -9,6 +9,7 @@ import pytest
 from objectplaces import Initiator, InitiatorRef, Participant, ParticipantRef, groups
 from objectplaces.core import codec
 from objectplaces.core.bindings import DriverLink, InitiatorContext, ParticipantContext
+from objectplaces.core.channel import retransmission_span
 from objectplaces.core.config import NodeConfig
 from objectplaces.core.errors import LocalProtocolError
 from objectplaces.core.events import Callback, Send, TimerHandle
@@ -241,6 +242,10 @@ class Voter(Participant):
         pass
 
 
+LIFE = retransmission_span(0.2, 12)
+"""How long the tables' tombstones live: as long as a channel retransmits (28.6 s)."""
+
+
 class ParticipantSide:
     def __init__(self) -> None:
         self.plumbing = Plumbing.build("b", NodeConfig(tombstone_ttl=5.0))
@@ -298,10 +303,30 @@ def test_deactivate_ends_the_role_and_a_tombstone_drops_late_frames(part: Partic
     assert sent(part.outbox) == [("a", ChannelAck(False, 1, 1, 1))]
     assert called(part.outbox) == []
     assert part.outbox.counters["dropped_stale"] == 1
-    assert part.timers.next_deadline() == 6.0  # the closed channel's timer is dead
-    assert part.timers.pop_due(6.0) == ExpireTombstone("a", 1)
-    part.table.expire_tombstone("a", 1, now=6.0)
+    expires = 1.0 + LIFE  # the closed channel's timer is dead
+    assert part.timers.next_deadline() == expires
+    assert part.timers.pop_due(expires) == ExpireTombstone("a", 1)
+    part.table.expire_tombstone("a", 1, now=expires)
     assert part.table.counts() == {"participations": 0, "tombstones": 0}
+
+
+def test_a_tombstone_outlives_every_retransmission_of_an_older_epoch(
+    part: ParticipantSide,
+) -> None:
+    # Soak seed 1932: epoch 4's ACTIVATE and DEACTIVATE went unacknowledged (loss), epoch
+    # 5 came and went, and epoch 4's ACTIVATE, retransmitted until its channel broke,
+    # arrived after epoch 5's tombstone (10 s) expired: it opened a role no session knew.
+    part.table.set_factory("voter", Voter)
+    part.frame(0, FrameKind.ACTIVATE, ["voter", "Requester"], epoch=5)
+    part.frame(1, FrameKind.DEACTIVATE, epoch=5)
+    called(part.outbox), sent(part.outbox)
+    assert part.plumbing.config.tombstone_ttl < LIFE
+    assert part.timers.next_deadline() == 1.0 + LIFE
+    late = 1.0 + LIFE - 0.01  # epoch 4's last retransmission, sent before epoch 5 opened
+    part.table.on_frame("a", ChannelData(True, 1, 4, 0, FrameKind.ACTIVATE, ["voter", "R"]), late)
+    assert sent(part.outbox) == [("a", ChannelAck(False, 1, 4, 0))]
+    assert called(part.outbox) == []
+    assert part.table.counts() == {"participations": 0, "tombstones": 1}
 
 
 def test_a_newer_epoch_supersedes_the_old_participation(part: ParticipantSide) -> None:
