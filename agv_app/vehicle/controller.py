@@ -638,7 +638,7 @@ class AgvController:
             return
         if requester.blocked_by:
             if (
-                self._must_yield(now)
+                (self._must_yield(now) and self._yield_place() is not None)
                 or self._must_drive_on(now, requester)
                 or self._must_detour(now, requester)
             ):
@@ -793,16 +793,24 @@ class AgvController:
             and now - self._route_started_at >= self.config.yield_after
         )
 
-    def _yield(self) -> None:
-        """Back off to a waiting place (home, else a free rest point), then go on."""
+    def _yield_place(self) -> str | None:
+        """Where yielding would take the AGV: its home, else a free rest point (which
+        becomes its home); None where there is no such place (every rest point taken).
+        Without one, a pending request is kept: withdrawn, it only started again."""
         dest = self._dest
-        assert dest is not None
         place: str | None = self.home
         if place in (self.point, dest) and self._relocate is not None:
             place = self._relocate(self)
             if place is not None:
                 self.home = place
-        if place is None or place in (self.point, dest):
+        return None if place is None or place in (self.point, dest) else place
+
+    def _yield(self) -> None:
+        """Back off to a waiting place (home, else a free rest point), then go on."""
+        dest = self._dest
+        assert dest is not None
+        place = self._yield_place()
+        if place is None:
             return
         phase = self.phase
         self._route_to(place)

@@ -155,3 +155,16 @@ def test_agvs_bound_to_drop_at_a_dead_end_dock_wait_less_than_the_stall_limit() 
     figures = run_two_way(_DROPS_AT_ONE_DOCK).summary()
     assert figures["collisions"] == figures["lock_overlaps"] == 0
     assert figures["deadlocks"] == 0, f"the longest wait {figures['max_wait']} s"
+
+
+# Seed 2579 of the floor runner (two-way seeds 2000-2999, on the tree before the fix
+# too): an AGV at the east dock, bound home across the whole track, was to yield, but
+# every rest point had its AGV, so there was nowhere to go; it withdrew its request
+# all the same, every second, and stood 184.7 s while the others crossed the track.
+_NOWHERE_TO_YIELD = draw_two_way_run(random.Random(2579))
+
+
+def test_an_agv_with_nowhere_to_yield_keeps_its_request() -> None:
+    figures = run_two_way(_NOWHERE_TO_YIELD).summary()
+    assert figures["collisions"] == figures["lock_overlaps"] == 0
+    assert figures["deadlocks"] == 0, f"the longest wait {figures['max_wait']} s"
