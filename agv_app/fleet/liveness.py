@@ -25,8 +25,8 @@ REPUBLISH_BEATS = 600
 """Heartbeats between two republications of every property, by default (ten minutes at
 the 1 s heartbeat): the last resort, since a beat carries the number of the latest
 publication and a receiver that is behind asks for a snapshot. A republication goes to
-every listener with every property's name; once a minute it was a sixth of a fleet's
-bytes (docs/protocol.md §2)."""
+every listener with every property's name; once a minute it was 14 % of what a fleet's
+AGVs sent (docs/protocol.md §2)."""
 
 REST_BEAT_S = 5.0
 """Beat interval of an AGV at rest (parked at home, no task), by default."""
