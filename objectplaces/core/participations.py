@@ -49,7 +49,7 @@ from typing import Any
 
 from objectplaces.core import codec
 from objectplaces.core.channel import Channel, retransmission_span
-from objectplaces.core.config import ParticipationInfo
+from objectplaces.core.config import NodeConfig, ParticipationInfo
 from objectplaces.core.errors import LocalProtocolError
 from objectplaces.core.ids import InitiatorRef, session_id_for
 from objectplaces.core.messages import ChannelAck, ChannelData, FrameKind
@@ -57,13 +57,23 @@ from objectplaces.core.plumbing import Plumbing
 from objectplaces.core.roles import Participant, ParticipantBinding, bind
 from objectplaces.core.timers import ExpireTombstone, ParticipationOwner, RepeatLeft
 
-__all__ = ["ParticipantFactory", "ParticipationTable"]
+__all__ = ["ParticipantFactory", "ParticipationTable", "tombstone_life"]
 
 log = logging.getLogger("objectplaces")
 
 ParticipantFactory = Callable[[], Participant]
 Binder = Callable[[ParticipationOwner, InitiatorRef], ParticipantBinding]
 """Makes the context a freshly activated participant role is bound to."""
+
+
+def tombstone_life(config: NodeConfig) -> float:
+    """How long a participant remembers a closed channel: ``tombstone_ttl``, and at least
+    as long as a channel retransmits a frame, so no frame of it or of an older epoch's
+    channel (opened before it) finds the tombstone gone (soak seed 1932)."""
+    return max(
+        config.tombstone_ttl,
+        retransmission_span(config.retransmit_timeout, config.max_retransmissions),
+    )
 
 
 @dataclass(slots=True)
@@ -105,12 +115,7 @@ class ParticipationTable:
         self._factories: dict[str, ParticipantFactory] = {}
         self._parts: dict[tuple[str, int], _Participation] = {}
         self._tombstones: dict[tuple[str, int], _Tombstone] = {}
-        # A tombstone outlives every retransmission of its channel and of any older
-        # epoch's (opened before it), so no such frame finds it gone (soak seed 1932).
-        self._tomb_life = max(
-            self._config.tombstone_ttl,
-            retransmission_span(self._config.retransmit_timeout, self._config.max_retransmissions),
-        )
+        self._tomb_life = tombstone_life(self._config)
 
     # ------------------------------------------------------------------ factories
 

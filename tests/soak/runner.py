@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 from types import FrameType
 from typing import TYPE_CHECKING
 
+from objectplaces.core.participations import tombstone_life
 from tests.soak.invariants import (
     channels_complete,
     convergence_bound,
@@ -44,7 +45,7 @@ from tests.soak.invariants import (
 )
 from tests.soak.probes import AppFault
 from tests.soak.workload import Settle, Wait, generate
-from tests.soak.world import World, retransmission_time
+from tests.soak.world import World
 
 if TYPE_CHECKING:
     from rich.progress import Progress
@@ -113,9 +114,7 @@ def _capture(world: World) -> Iterator[None]:
 def _settle(world: World, result: RunResult, *, final: bool) -> list[str]:
     """Run until the checks of a calm world pass or the bound passes; what failed."""
     if final:
-        config = world.config  # a tombstone lives as long as a channel retransmits, at least
-        life = max(config.tombstone_ttl, retransmission_time(config))
-        bound = forget_deadline(world) + life + 1.0
+        bound = forget_deadline(world) + tombstone_life(world.config) + 1.0
     else:
         bound = convergence_bound(world)
     start = world.now
