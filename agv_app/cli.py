@@ -136,7 +136,7 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
         "--rest-beat",
         type=rest_beat_argument,
         default=REST_BEAT_S,
-        help=f"an AGV parked at home with no task, the stations and the observer beat only "
+        help=f"an AGV parked at home with no task, the transport base and the observer beat only "
         f"this often (default {REST_BEAT_S:g} s, or the heartbeat when longer; 'none': as "
         "often as the others); a node at rest counts as failed after three of these",
     )

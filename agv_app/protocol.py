@@ -1,6 +1,6 @@
 """What every node of the AGV application agrees on, whichever role it plays.
 
-The ``kind`` property tells AGVs from stations (group definitions select on it), and
+The ``kind`` property tells AGVs from the transport base (group definitions select on it), and
 every role counts the messages it sends through one :data:`MessageTally`.
 """
 
@@ -11,13 +11,14 @@ from typing import Any
 
 from objectplaces.core.codec import encode_value
 
-__all__ = ["AGV_KIND", "OBSERVER_KIND", "STATION_KIND", "MessageTally", "tally_send"]
+__all__ = ["AGV_KIND", "BASE_KIND", "OBSERVER_KIND", "MessageTally", "tally_send"]
 
 AGV_KIND = "agv"
 """Value of the ``kind`` property every AGV publishes."""
 
-STATION_KIND = "station"
-"""Value of the ``kind`` property stations publish."""
+BASE_KIND = "base"
+"""Value of the ``kind`` property of the transport base, the node that runs the task
+assignment of every pick station (``agv_app.tasks.desk``)."""
 
 OBSERVER_KIND = "observer"
 """Value of the ``kind`` property of a process fleet's observer: a property to publish,

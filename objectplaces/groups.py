@@ -3,6 +3,7 @@ the declarative ones here, which serialise to JSON and resolve through a spatial
 
 from __future__ import annotations
 
+from objectplaces.core.group_json import definition_from_json
 from objectplaces.core.groups import (
     AllOf,
     AnyOf,
@@ -10,12 +11,13 @@ from objectplaces.core.groups import (
     CirclesOverlap,
     DefinitionLike,
     GroupDefinition,
+    Near,
     PropertyEquals,
     Within,
     circle_meets_box,
     circles_overlap,
-    definition_from_json,
     distance,
+    near,
     property_equals,
     within,
 )
@@ -27,12 +29,14 @@ __all__ = [
     "CirclesOverlap",
     "DefinitionLike",
     "GroupDefinition",
+    "Near",
     "PropertyEquals",
     "Within",
     "circle_meets_box",
     "circles_overlap",
     "definition_from_json",
     "distance",
+    "near",
     "property_equals",
     "within",
 ]

@@ -15,6 +15,7 @@ const GROUP_COLOR = getComputedStyle(document.documentElement).getPropertyValue(
 const TEMPLATES = {
   circles_overlap: { type: "circles_overlap", position: "position", radius: "hull_length" },
   within: { type: "within", distance: 20, position: "position" },
+  near: { type: "near", point: [20, 15], distance: 15, position: "position" },
   property_equals: { type: "property_equals", name: "status", value: "idle" },
   and: {
     type: "and",

@@ -75,7 +75,7 @@ CORE_LAYERS = [
     {"errors", "ids", "spatial"},
     {"messages", "events", "values"},
     {"codec", "outbox", "roles", "groups"},
-    {"channel", "config"},
+    {"channel", "config", "group_json"},
     {"timers", "observers", "intake", "rest", "view_index"},
     {"own", "channels"},
     {"plumbing", "liveness"},

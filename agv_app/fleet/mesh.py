@@ -49,7 +49,7 @@ from agv_app.geometry import XY
 from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
 from agv_app.layout.graph import Layout
 from agv_app.protocol import AGV_KIND, OBSERVER_KIND
-from agv_app.tasks.desk import TaskDesk, pick_stations, require_task_stations
+from agv_app.tasks.desk import BASE_ID, TaskDesk, require_task_stations
 from agv_app.tasks.free_flow import FreeFlowBound, FreeFlowTimer
 from agv_app.tasks.load import TaskArrivals
 from agv_app.traffic.monitor import SafetyMonitor
@@ -88,7 +88,8 @@ def _is_agv(props: Mapping[str, Any]) -> bool:
 
 
 class MeshFleet(FleetSourceBase):
-    """A ``FleetSource`` over the WebSocket mesh: AGV processes, stations, an observer.
+    """A ``FleetSource`` over the WebSocket mesh: AGV processes, a transport base, an
+    observer.
 
     Real-time processes cannot be paused: ``pause()`` stops issuing new automatic tasks
     (tasks created with ``create_task`` are still handed out, and the AGVs finish what
@@ -122,7 +123,7 @@ class MeshFleet(FleetSourceBase):
             times as seldom.
         republish_beats: liveness beats between two republications of every property,
             by every node (0: no beats, everything republished each ``t_update``).
-        rest_beat: an AGV parked at its home with no task, the stations and the
+        rest_beat: an AGV parked at its home with no task, the transport base and the
             observer beat only this often, and every node waits that much longer for
             them (None: no rest; with beats only; docs/protocol.md §2, "A node at rest").
         poll_interval: on Zenoh, the AGV processes hand received frames on every this
@@ -227,7 +228,7 @@ class MeshFleet(FleetSourceBase):
         self.observer: MeshNode | None = None
         self.display = DisplayCollector(on_report=self._on_report)
         """What each AGV process shows, reported to the observer (its display session)."""
-        self._station_nodes: dict[str, MeshNode] = {}
+        self._base: MeshNode | None = None
         self._watcher: asyncio.Task[None] | None = None
         self._started_at: float | None = None
         self._stopped = False
@@ -256,7 +257,7 @@ class MeshFleet(FleetSourceBase):
         return self.processes.exit_codes()
 
     async def start(self) -> None:
-        """Start the observer and station nodes and spawn the AGV processes.
+        """Start the observer and the transport base and spawn the AGV processes.
 
         Returns once the processes are spawned; :meth:`wait_ready` waits until the
         observer hears every AGV.
@@ -313,11 +314,9 @@ class MeshFleet(FleetSourceBase):
             link_args += ["--poll-interval", str(self.poll_interval)]
         link_args += ["--republish-beats", str(self.republish_beats)]
         link_args += ["--rest-beat", "none" if self.rest_beat is None else str(self.rest_beat)]
-        for sid in pick_stations(self.layout):
-            node = await start_node(f"st:{sid}", **link, **node_args)
-            self._station_nodes[sid] = node
-            self.desk.open_station(sid, node)
-        peers = 1 + len(self._station_nodes) + self.agv_count - 1
+        self._base = await start_node(BASE_ID, **link, **node_args)
+        self.desk.open_base(self._base)
+        peers = self.agv_count + 1  # the observer, the base and the other AGVs
         for i, (agv_id, home) in enumerate(zip(self.agv_ids, self.homes, strict=True)):
             self.processes.spawn(
                 agv_id,
@@ -379,8 +378,9 @@ class MeshFleet(FleetSourceBase):
                     await task
         self._watcher = self._monitor_task = None
         await self.processes.reap(self.stop_timeout)
-        for node in [*self._station_nodes.values(), *([self.observer] if self.observer else [])]:
-            await node.close()
+        for node in (self._base, self.observer):
+            if node is not None:
+                await node.close()
         if self._router is not None:
             await self._router.close()
             self._router = None
@@ -499,21 +499,17 @@ class MeshFleet(FleetSourceBase):
         return ((vehicle.x, vehicle.y), *points) if points else ()
 
     def nodes(self) -> Mapping[str, RoleActivator | RemoteNode]:
-        """The observer and the stations, and a read-only stand-in for every live AGV
-        the observer hears (its node runs in its process; ``agv_app.fleet.remote``)."""
+        """The observer and the transport base, and a read-only stand-in for every live
+        AGV the observer hears (its node runs in its process; ``agv_app.fleet.remote``)."""
         out: dict[str, RoleActivator | RemoteNode] = {}
-        if self.observer is not None and not self.observer.closed:
-            out[OBSERVER_ID] = self.observer
-        for node in self._station_nodes.values():
-            if not node.closed:
-                out[node.node_id] = node
+        for node in self._local_nodes():
+            out[node.node_id] = node
         self._note_exits()
         out.update(self.roster.nodes())
         return out
 
     def _local_nodes(self) -> list[MeshNode]:
-        nodes = [*self._station_nodes.values(), *([self.observer] if self.observer else [])]
-        return [n for n in nodes if not n.closed]
+        return [n for n in (self.observer, self._base) if n is not None and not n.closed]
 
     def _traffic(self) -> tuple[int, int]:
         """Frames and bytes on the links of the nodes in this process, each frame once

@@ -23,7 +23,7 @@ from agv_app.fleet.view import OBSERVER_ID, VehicleState, area_rings
 from agv_app.geometry import XY
 from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
 from agv_app.layout.graph import Layout
-from agv_app.tasks.desk import TaskDesk, pick_stations, require_task_stations
+from agv_app.tasks.desk import BASE_ID, TaskDesk, pick_stations, require_task_stations
 from agv_app.tasks.free_flow import FreeFlowBound, FreeFlowTimer
 from agv_app.tasks.load import (
     DEFAULT_LOAD,
@@ -86,13 +86,18 @@ class FleetConfig:
             the next frame of the node, publications being numbered without gaps).
         rest_beat: an AGV parked at its home with no task is at rest and beats only this
             often (``NodeConfig.rest_beat_interval``; its heartbeat when that is longer),
-            and so do the stations and the observer, which never move; their peers count
-            them failed after three of these. None: no rest. The interest radius allows
+            and so do the transport base and the observer, which never move; their
+            peers count them failed after three of these. None: no rest. The interest radius allows
             for the longer wait (docs/traffic.md, "Idle AGVs").
         beats: False: no beats; every node republishes every property each heartbeat
             instead (how the fleet ran before beats; ``republish`` is then ignored).
         probes: False: no node probes the idle members of its sessions
             (``NodeConfig.probe_interval``; how the fleet ran before probes).
+        station_nodes: each pick station's component on a node of its own,
+            ``st:<station id>``, as where every station is a computer of its own; False:
+            one transport base (``BASE_ID``) runs them all, and every AGV's properties
+            reach one listener for all the stations (docs/fleet.md, "The transport
+            base").
         load: target share of busy AGVs, in (0, 1]; the task rate follows from it and
             the layout (:mod:`agv_app.tasks.load`) unless ``task_interval`` is given.
         task_interval: mean seconds between new tasks (None: from ``load``).
@@ -137,6 +142,7 @@ class FleetConfig:
     rest_beat: float | None = REST_BEAT_S
     beats: bool = True
     probes: bool = True
+    station_nodes: bool = False
     load: float = DEFAULT_LOAD
     task_interval: float | None = None
     start_tasks: int | None = None
@@ -293,8 +299,11 @@ class Fleet(FleetSourceBase):
             )
             self._listen(agv_id, node)
             self.parking.claim(agv_id, home)
-        for sid in pick_stations(self.layout):
-            self.desk.open_station(sid, self.net.add_node(f"st:{sid}"))
+        if cfg.station_nodes:
+            for sid in pick_stations(self.layout):
+                self.desk.open_base(self.net.add_node(f"st:{sid}"), [sid])
+        else:
+            self.desk.open_base(self.net.add_node(BASE_ID))
         self.observer = self.net.add_node(OBSERVER_ID)
         self.observer.set_at_rest(True)  # it listens; it speaks only of failed AGVs
         self.stale_relay = None if self.interest_radius is None else StaleRelay(self.observer)
@@ -508,7 +517,7 @@ class Fleet(FleetSourceBase):
         return tuple(vehicle.route.slice(vehicle.s, vehicle.route.length).coords)
 
     def nodes(self) -> Mapping[str, RoleActivator]:
-        """Every live node: AGVs, stations and the observer."""
+        """Every live node: AGVs, the transport base and the observer."""
         return self.net.nodes
 
     def metrics(self) -> Mapping[str, float]:

@@ -24,6 +24,7 @@ from agv_app.tasks.book import (
     TaskState,
 )
 from agv_app.tasks.desk import (
+    BASE_ID,
     TaskDesk,
     drop_stations,
     pick_stations,
@@ -46,6 +47,7 @@ from agv_app.tasks.station import (
 )
 
 __all__ = [
+    "BASE_ID",
     "DEFAULT_HISTORY",
     "DEFAULT_LOAD",
     "LANE_M_PER_OPEN_TASK",

@@ -1,6 +1,6 @@
 """Task assignment: a station auctions a transport task among idle AGVs in range.
 
-* :class:`TaskAnnouncer` (initiator, on the station's node) starts a session with a
+* :class:`TaskAnnouncer` (initiator, run by a station on the transport base's node) starts a session with a
   declarative group (``within(range) & status == "idle"`` among AGVs), sends the task
   to every member, late joiners included, collects bids (route distance to the pick
   station) for a bidding window, awards the task to the best bid (lowest cost, then
@@ -51,10 +51,10 @@ class TaskSpec:
         return cls(str(fields[0]), str(fields[1]), str(fields[2]))
 
 
-def bidder_group(range_m: float | None) -> GroupDefinition:
-    """Idle AGVs within ``range_m`` of the station (anywhere when None)."""
+def bidder_group(range_m: float | None, station: tuple[float, float]) -> GroupDefinition:
+    """Idle AGVs within ``range_m`` of the ``station``'s point (anywhere when None)."""
     idle = groups.property_equals("kind", AGV_KIND) & groups.property_equals("status", "idle")
-    return idle if range_m is None else groups.within(range_m) & idle
+    return idle if range_m is None else groups.near(station, range_m) & idle
 
 
 class TaskAgent(Protocol):

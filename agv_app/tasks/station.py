@@ -1,7 +1,10 @@
-"""A station: a fixed node where transport tasks appear and are auctioned one at a time.
+"""A station: a place where transport tasks appear and are auctioned one at a time.
 
-The station publishes its position (and ``kind = "station"``), queues the tasks that
-appear at it, and runs a :class:`~agv_app.tasks.TaskAnnouncer` for the oldest. It
+A station is no node of its own: the fleet's transport base runs every station's
+component on its one node (``agv_app.tasks.desk``), so an AGV's properties reach one
+listener for all the stations, not one per station. The station queues the tasks that
+appear at it and runs a :class:`~agv_app.tasks.TaskAnnouncer` for the oldest, among
+the idle AGVs around its own point. It
 remembers which AGV won each task until that AGV publishes the task as done
 (``last_done``); if the winner's node fails first, the task goes back to the front of
 the queue (never lost) unless the winner is heard again within ``return_after`` seconds
@@ -35,7 +38,7 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 from agv_app.geometry import XY
-from agv_app.protocol import STATION_KIND, MessageTally
+from agv_app.protocol import MessageTally
 from agv_app.tasks.auction import TaskAnnouncer, TaskSpec, bidder_group
 from objectplaces import RoleActivator, Session
 
@@ -43,13 +46,13 @@ __all__ = ["Station"]
 
 
 class Station:
-    """The task-assignment component of one station node.
+    """The task-assignment component of one station.
 
     Args:
-        node: the station's node.
+        node: the node that runs it (the transport base's).
         station_id: the layout's station id.
         position: where it stands.
-        range_m: first auction range.
+        range_m: first auction range, around ``position``.
         window: bidding window, seconds.
         widen_after: seconds without a bid before the range doubles.
         on_assigned: called with ``(task, agv)`` on every award.
@@ -103,11 +106,6 @@ class Station:
         self._announcer: TaskAnnouncer | None = None
         self._range: float | None = range_m
         self._generation = 0
-        node.update_node_property("kind", STATION_KIND)
-        node.update_node_property("position", position)
-        # A station never moves and has said all it will say: its node beats as seldom
-        # as the fleet lets a node at rest (its sessions' frames go on as ever).
-        node.set_at_rest(True)
         node.register_node_departure_observer(self._departed)
         node.register_node_property_observer(
             self._property, names=("last_done", "reached_pick", "dropping_at")
@@ -178,7 +176,9 @@ class Station:
             task, window=self.window, on_awarded=self._awarded, tally=self._tally
         )
         self._announcer = announcer
-        self._session = self.node.start_interaction(announcer, bidder_group(self._range), "bidder")
+        self._session = self.node.start_interaction(
+            announcer, bidder_group(self._range, self.position), "bidder"
+        )
         self._generation += 1
         generation = self._generation
         self.node.call_later(self.widen_after, lambda: self._maybe_widen(generation))

@@ -27,14 +27,15 @@ __all__ = [
     "DefinitionLike",
     "GroupDefinition",
     "MaxOf",
+    "Near",
     "PropertyEquals",
     "Reach",
     "Within",
     "circle_meets_box",
     "circles_overlap",
-    "definition_from_json",
     "describe",
     "distance",
+    "near",
     "property_equals",
     "within",
 ]
@@ -46,16 +47,20 @@ MaxOf: TypeAlias = Callable[[str], float]
 
 
 class Reach:
-    """Candidates must lie within ``radius`` of the initiator's ``position`` property."""
+    """Candidates' ``position`` must lie within ``radius`` of ``centre``, or without one,
+    of the initiator's ``position`` property."""
 
-    __slots__ = ("position", "radius")
+    __slots__ = ("centre", "position", "radius")
 
-    def __init__(self, position: str, radius: float) -> None:
+    def __init__(
+        self, position: str, radius: float, centre: tuple[float, float] | None = None
+    ) -> None:
         self.position = position
         self.radius = radius
+        self.centre = centre
 
     def __repr__(self) -> str:
-        return f"Reach({self.position!r}, {self.radius!r})"
+        return f"Reach({self.position!r}, {self.radius!r}, {self.centre!r})"
 
 
 def _point(props: Props, name: str) -> tuple[float, float] | None:
@@ -228,6 +233,46 @@ class Within(GroupDefinition):
         return Reach(self.position, self.distance)
 
 
+class Near(GroupDefinition):
+    """Members: nodes within ``distance`` of the fixed ``point``, wherever the initiator
+    is (one node may run sessions about several places: a transport base, its stations'
+    auctions)."""
+
+    def __init__(
+        self, point: tuple[float, float], distance: float, position: str = "position"
+    ) -> None:
+        if not (
+            isinstance(point, tuple | list)
+            and len(point) == 2
+            and all(isinstance(v, int | float) and abs(v) <= MAX_COORDINATE for v in point)
+        ):
+            raise LocalProtocolError(
+                f"near: point must be two numbers within +-{MAX_COORDINATE:g}, got {point!r}"
+            )
+        if not (isinstance(distance, int | float) and distance >= 0 and math.isfinite(distance)):
+            raise LocalProtocolError(
+                f"near: distance must be a finite number >= 0, got {distance!r}"
+            )
+        self.point = (float(point[0]), float(point[1]))
+        self.distance = float(distance)
+        self.position = position
+
+    def __call__(self, initiator: Props, participant: Props) -> bool:
+        other = _point(participant, self.position)
+        return other is not None and math.dist(self.point, other) <= self.distance
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "type": "near",
+            "point": list(self.point),
+            "distance": self.distance,
+            "position": self.position,
+        }
+
+    def reach(self, initiator: Props, max_of: MaxOf) -> Reach | None:
+        return Reach(self.position, self.distance, self.point)
+
+
 class PropertyEquals(GroupDefinition):
     """Members: nodes whose property ``name`` equals ``value``."""
 
@@ -277,12 +322,12 @@ class AnyOf(GroupDefinition):
         return {"type": "or", "of": [part.to_json() for part in self.parts]}
 
     def reach(self, initiator: Props, max_of: MaxOf) -> Reach | None:
-        # A disjunction is bounded only if every part is, around the same position.
+        # A disjunction is bounded only if every part is, around the same centre.
         reaches = [part.reach(initiator, max_of) for part in self.parts]
         if not reaches or any(r is None for r in reaches):
             return None
         bounded = [r for r in reaches if r is not None]
-        if len({r.position for r in bounded}) != 1:
+        if len({(r.position, r.centre) for r in bounded}) != 1:
             return None
         return max(bounded, key=lambda r: r.radius)
 
@@ -312,54 +357,11 @@ def within(distance: float, position: str = "position") -> Within:
     return Within(distance, position)
 
 
+def near(point: tuple[float, float], distance: float, position: str = "position") -> Near:
+    """Nodes whose ``position`` lies within ``distance`` of ``point``."""
+    return Near(point, distance, position)
+
+
 def property_equals(name: str, value: Any) -> PropertyEquals:
     """Nodes whose property ``name`` equals ``value``."""
     return PropertyEquals(name, value)
-
-
-def _string(obj: Mapping[str, Any], key: str, default: str) -> str:
-    value = obj.get(key, default)
-    if not isinstance(value, str) or not value:
-        raise LocalProtocolError(
-            f"group definition field {key!r} must be a non-empty string, got {value!r}"
-        )
-    return value
-
-
-def definition_from_json(obj: Any) -> GroupDefinition:
-    """Build a declarative definition from its JSON form (see each class's ``to_json``).
-
-    Raises:
-        LocalProtocolError: the object is not a valid definition; the message says why.
-    """
-    if not isinstance(obj, Mapping):
-        raise LocalProtocolError(f"a group definition is a JSON object, got {obj!r}")
-    kind = obj.get("type")
-    match kind:
-        case "circles_overlap":
-            return CirclesOverlap(
-                _string(obj, "position", "position"), _string(obj, "radius", "hull_length")
-            )
-        case "circle_meets_box":
-            return CircleMeetsBox(
-                obj.get("box"),  # type: ignore[arg-type]  # checked there
-                _string(obj, "position", "position"),
-                _string(obj, "radius", "hull_length"),
-            )
-        case "within":
-            if "distance" not in obj:
-                raise LocalProtocolError("group definition 'within' needs a 'distance'")
-            return Within(obj["distance"], _string(obj, "position", "position"))
-        case "property_equals":
-            if "value" not in obj:
-                raise LocalProtocolError("group definition 'property_equals' needs a 'value'")
-            return PropertyEquals(_string(obj, "name", ""), obj["value"])
-        case "and" | "or":
-            parts = obj.get("of")
-            if not isinstance(parts, list) or not parts:
-                raise LocalProtocolError(f"group definition {kind!r} needs a non-empty list 'of'")
-            built = [definition_from_json(part) for part in parts]
-            return AllOf(*built) if kind == "and" else AnyOf(*built)
-        case _:
-            known = "circles_overlap, circle_meets_box, within, property_equals, and, or"
-            raise LocalProtocolError(f"unknown group definition type {kind!r} (known: {known})")

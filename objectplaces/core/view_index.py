@@ -66,7 +66,7 @@ class ViewIndex:
         if isinstance(definition, GroupDefinition):
             reach = definition.reach(own, self._max_of)
             if reach is not None:
-                position = own.get(reach.position)
+                position = own.get(reach.position) if reach.centre is None else reach.centre
                 if not isinstance(position, tuple | list) or len(position) != 2:
                     return ()
                 index = self._index_for(reach.position)

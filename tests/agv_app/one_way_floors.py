@@ -121,11 +121,12 @@ def run_floor(
     rest_beat: float | None = REST_BEAT_S,
     republish: float | None = None,
     probes: bool = True,
+    station_nodes: bool = False,
     **options: Any,
 ) -> Fleet:
     """Tasks for 300 s, then 200 s more to finish them; every step checked for safety
     (a collision or a lock overlap raises). ``one_at_a_time``, ``wait_for_drop``,
-    ``advance_m``, ``rest_beat``, ``republish`` and ``probes`` as in
+    ``advance_m``, ``rest_beat``, ``republish``, ``probes`` and ``station_nodes`` as in
     :class:`FleetConfig`; ``options`` go to :class:`Fleet`."""
     cfg = FleetConfig(
         agvs=run.floor.agvs,
@@ -138,6 +139,7 @@ def run_floor(
         rest_beat=rest_beat,
         republish=republish,
         probes=probes,
+        station_nodes=station_nodes,
         fail_on_violation=True,
     )
     fleet = Fleet(run.floor.layout, cfg, **options)

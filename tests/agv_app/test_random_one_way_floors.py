@@ -239,12 +239,20 @@ class _Detouring(AgvController):
 @pytest.mark.timeout(300)
 def test_a_full_loop_opens_when_an_agv_at_a_fork_takes_another_way() -> None:
     locked = run_floor(
-        _QUEUED, republish=60.0, probes=False, vehicle=vehicle_with(detour_after=None)
+        _QUEUED,
+        republish=60.0,
+        probes=False,
+        station_nodes=True,
+        vehicle=vehicle_with(detour_after=None),
     ).summary()
     assert locked["deadlocks"] >= 3
     _Detouring.log.clear()
     figures = run_floor(
-        _QUEUED, republish=60.0, probes=False, vehicle=vehicle_with(_Detouring)
+        _QUEUED,
+        republish=60.0,
+        probes=False,
+        station_nodes=True,
+        vehicle=vehicle_with(_Detouring),
     ).summary()
     assert figures["deadlocks"] == figures["collisions"] == figures["lock_overlaps"] == 0
     assert figures["tasks_completed"] > 1.5 * locked["tasks_completed"]

@@ -11,6 +11,7 @@ import httpx
 import pytest
 
 from agv_app.fleet import Fleet, FleetConfig
+from agv_app.tasks import BASE_ID
 from tests.dashboard.browser import BROWSER_MARKS, chromium_page, load_dashboard
 from tests.dashboard.canvas import LEGEND_BORDER_RGB, PIXEL
 from tests.dashboard.served import Served, wait_for
@@ -88,7 +89,7 @@ def test_a_typed_definition_is_shown_live_on_the_map(groups_page: tuple[Any, Ser
     )
     page.select_option("#groups-node", "agv-01")
     # Every template is a definition the server takes.
-    for kind in ("circles_overlap", "within", "property_equals", "and", "or"):
+    for kind in ("circles_overlap", "within", "near", "property_equals", "and", "or"):
         page.select_option("#groups-template", kind)
         assert json.loads(page.locator("#groups-definition").input_value())["type"] == kind
     definition = {"type": "within", "distance": 1000}
@@ -99,13 +100,16 @@ def test_a_typed_definition_is_shown_live_on_the_map(groups_page: tuple[Any, Ser
         params={"node": "agv-01", "definition": json.dumps(definition)},
         timeout=5,
     ).json()["members"]
-    assert len(expected) >= 3, "the other AGVs and the stations are within 1 km"
+    assert len(expected) >= 3, "the other AGVs and the transport base are within 1 km"
     page.wait_for_function("window.__groupsPanel.members.length > 0", timeout=5_000)
     assert set(page.evaluate("window.__groupsPanel.members")) == set(expected)
     page.wait_for_function("window.__groupsPanel.drawn >= 3", timeout=5_000)
-    # A member standing still (a station's node) is ringed in the legend's colour.
-    assert "st:pick-A1-1" in expected
-    at = page.evaluate("window.__dashboard.stationScreenPosition('pick-A1-1')")
+    # A member standing still (the transport base) is ringed in the legend's colour.
+    assert BASE_ID in expected
+    base = httpx.get(f"{served.url}/api/nodes/{BASE_ID}", timeout=5).json()
+    at = page.evaluate(
+        "([x, y]) => window.__dashboard.screenPosition(x, y)", base["properties"]["position"]
+    )
     ring = page.evaluate(LEGEND_BORDER_RGB, "#legend .sw.group")
     pixel = page.evaluate(PIXEL, [at["x"] + 14, at["y"]])
     # Within a few levels of the legend's colour: the ring's edge is antialiased.

@@ -10,6 +10,7 @@ from hypothesis import strategies as st
 
 from objectplaces import LocalProtocolError, groups
 from objectplaces.core.spatial import GridIndex, RunningMax
+from objectplaces.core.view_index import ViewIndex
 
 
 def props(x: float, y: float, r: float = 1.0, **extra: object) -> dict[str, object]:
@@ -45,9 +46,32 @@ def test_within_and_property_equals_and_combinations() -> None:
     assert not either(props(0, 0), props(50, 50))
 
 
+def test_near_asks_only_the_candidates_distance_to_its_point() -> None:
+    defn = groups.near((10, 0), 5.0)
+    for initiator in (props(100, 100), {}):  # wherever the initiator is, if anywhere
+        assert defn(initiator, props(13, 4))  # 3-4-5
+        assert not defn(initiator, props(13, 4.01))
+        assert not defn(initiator, {"hull_length": 1})  # no position
+    assert groups.near((0, 0), 1, position="pos")({}, {"pos": (0.5, 0.5)})
+    with pytest.raises(LocalProtocolError, match="two numbers"):
+        groups.near((0, float("inf")), 1)
+
+
+def test_a_node_without_a_position_finds_the_candidates_near_a_point() -> None:
+    view = {f"n{i}": props(float(i), 0.0) for i in range(100)}
+    index = ViewIndex(view, cell_size=5.0)
+    defn = groups.near((50, 0), 2.0) & groups.property_equals("hull_length", 1.0)
+    candidates = set(index.candidates(defn, {}))
+    assert {"n48", "n49", "n50", "n51", "n52"} <= candidates
+    assert len(candidates) < 40  # the grid's cells about the point, not the whole view
+    assert {n for n in candidates if defn({}, view[n])} == {"n48", "n49", "n50", "n51", "n52"}
+
+
 @pytest.mark.parametrize(
     "defn",
     [
+        groups.near((3.0, -4.0), 10.0),
+        groups.near((1, 2), 5, position="pos") & groups.property_equals("status", "idle"),
         groups.circles_overlap(),
         groups.circles_overlap(position="pos", radius="r"),
         groups.within(12.5),
@@ -72,6 +96,11 @@ def test_json_round_trip(defn: groups.GroupDefinition) -> None:
         ({"type": "nearest"}, "unknown group definition type 'nearest'"),
         ({"type": "within"}, "needs a 'distance'"),
         ({"type": "within", "distance": -1}, "finite number >= 0"),
+        ({"type": "near", "distance": 1}, "needs a 'point' and a 'distance'"),
+        ({"type": "near", "point": [0, 0]}, "needs a 'point' and a 'distance'"),
+        ({"type": "near", "point": [0], "distance": 1}, "two numbers"),
+        ({"type": "near", "point": [0, "1"], "distance": 1}, "two numbers"),
+        ({"type": "near", "point": [0, 0], "distance": math.nan}, "finite number >= 0"),
         ({"type": "property_equals", "name": "x"}, "needs a 'value'"),
         ({"type": "and", "of": []}, "non-empty list 'of'"),
         ({"type": "circles_overlap", "position": 3}, "non-empty string"),
@@ -99,6 +128,14 @@ def test_reach_bounds_candidates() -> None:
     assert both.reach(props(0, 0), max_of).radius == 7.0  # type: ignore[union-attr]
     assert (groups.within(7) | groups.property_equals("a", 1)).reach(props(0, 0), max_of) is None
     assert (groups.within(7) | groups.within(9)).reach(props(0, 0), max_of).radius == 9.0  # type: ignore[union-attr]
+    at_point = groups.near((5, 5), 7).reach({}, max_of)
+    assert at_point is not None
+    assert (at_point.centre, at_point.radius) == ((5.0, 5.0), 7.0)
+    same = groups.near((5, 5), 7) | groups.near((5, 5), 9)
+    assert same.reach({}, max_of).radius == 9.0  # type: ignore[union-attr]
+    # About two points, or a point and the initiator: no one bound holds both.
+    assert (groups.near((5, 5), 7) | groups.near((0, 0), 9)).reach({}, max_of) is None
+    assert (groups.near((5, 5), 7) | groups.within(9)).reach(props(5, 5), max_of) is None
 
 
 points = st.lists(st.tuples(st.floats(-100, 100), st.floats(-100, 100)), min_size=0, max_size=40)

@@ -12,6 +12,7 @@ import pytest
 from agv_app.fleet import OBSERVER_ID, MeshFleet
 from agv_app.fleet.agv_process import StepLag, parse_args, process_liveness
 from agv_app.fleet.liveness import REPUBLISH_BEATS, REST_BEAT_S
+from agv_app.tasks import BASE_ID
 from objectplaces.cli import build_parser
 
 pytestmark = [pytest.mark.processes, pytest.mark.timeout(150)]
@@ -41,7 +42,7 @@ async def test_agv_processes_on_zenoh_take_a_task(mode: str) -> None:
                 await fleet.wait_ready()
         except TimeoutError:
             pytest.fail(f"unheard: {fleet.missing()}; logs: {fleet.child_logs()}")
-        assert set(fleet.nodes()) == {OBSERVER_ID, *AGVS, *(f"st:{s}" for s in fleet.stations)}
+        assert set(fleet.nodes()) == {OBSERVER_ID, BASE_ID, *AGVS}
         assert fleet.observer is not None
         # A client has no address of its own: it reaches the fleet through the router.
         assert (fleet.observer.address == "") == (mode == "client")

@@ -16,6 +16,7 @@ import pytest
 from starlette.exceptions import StarletteDeprecationWarning
 
 from agv_app.fleet import OBSERVER_ID, MeshFleet
+from agv_app.tasks import BASE_ID
 from dashboard.app import create_app
 
 with warnings.catch_warnings():
@@ -65,7 +66,7 @@ async def test_agv_processes_take_a_task_and_are_reaped() -> None:
             assert v.status == "idle"
             assert v.task_id is None
             assert v.locked, f"{v.id} holds its own hull from the start"
-        assert set(fleet.nodes()) == {OBSERVER_ID, *AGVS, *(f"st:{s}" for s in fleet.stations)}
+        assert set(fleet.nodes()) == {OBSERVER_ID, BASE_ID, *AGVS}
 
         task = fleet.create_task(PICK)
         taken = None

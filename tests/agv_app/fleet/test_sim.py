@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 
 from agv_app.fleet import Fleet, FleetConfig, demo_source
 from agv_app.layout.demo import demo_warehouse
+from agv_app.tasks import BASE_ID
 from agv_app.traffic import SafetyViolation
 from objectplaces.runtime.sim import GC_ALLOCATIONS
 
@@ -64,7 +65,8 @@ def test_demo_source_is_a_fleet_source_and_steps_in_fixed_increments() -> None:
     fleet = demo_source(agvs=3, seed=2, load=0.7)
     ids = set(fleet.nodes())
     assert {"agv-01", "agv-02", "agv-03", fleet.observer_id} <= ids
-    assert any(i.startswith("st:") for i in ids)
+    assert BASE_ID in ids
+    assert "position" in fleet.nodes()[BASE_ID].properties
     assert "position" not in fleet.nodes()[fleet.observer_id].properties
     fleet.advance(0.25)
     assert fleet.now == pytest.approx(0.2)

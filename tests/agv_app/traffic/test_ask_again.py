@@ -192,8 +192,11 @@ def _sessions_and_safety(reuse: bool) -> tuple[int, int, dict[str, Any]]:
         Requester.ask_again = lambda self, *a, **k: False  # type: ignore[method-assign]
     try:
         # As measured, with 5 m requests: a held-up one is asked again shorter (5, 2.5,
-        # 1.25 m), on its open session, more often than with the default 3 m.
-        config = FleetConfig(agvs=20, seed=2, load=0.9, advance_m=5.0, fail_on_violation=True)
+        # 1.25 m), on its open session, more often than with the default 3 m; each
+        # station on its own node.
+        config = FleetConfig(
+            agvs=20, seed=2, load=0.9, advance_m=5.0, station_nodes=True, fail_on_violation=True
+        )
         fleet = Fleet(None, config)
         fleet.run(90.0)
     finally:

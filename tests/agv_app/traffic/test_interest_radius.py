@@ -20,6 +20,7 @@ from agv_app.fleet.view import OBSERVER_ID
 from agv_app.layout import Layout, Point, Segment, Station
 from agv_app.layout.demo import demo_warehouse
 from agv_app.layout.loop import long_loop
+from agv_app.tasks import BASE_ID, pick_stations
 from agv_app.traffic.deadlock import StopPlan, clearance_for, followable_segments
 from agv_app.traffic.reach import (
     dissemination_margin,
@@ -121,11 +122,9 @@ def test_a_radius_too_small_is_caught() -> None:
     assert fleet.monitor.lock_overlaps > 0
 
 
-def test_stations_and_observer_hear_every_node(scoped_run: tuple[Fleet, ScopeWatch]) -> None:
+def test_the_base_and_observer_hear_every_node(scoped_run: tuple[Fleet, ScopeWatch]) -> None:
     fleet, _ = scoped_run
-    stations = [n for n in fleet.nodes() if n.startswith("st:")]
-    assert stations
-    for node_id in [OBSERVER_ID, *stations]:
+    for node_id in [OBSERVER_ID, BASE_ID]:
         assert set(fleet.nodes()[node_id].view()) >= set(fleet.agvs)
 
 
@@ -194,19 +193,24 @@ def test_parked_agvs_beat_at_the_rest_interval() -> None:
     )
 
 
-def test_stations_and_the_observer_are_at_rest_from_the_start() -> None:
+@pytest.mark.parametrize("station_nodes", [False, True])
+def test_the_stations_and_the_observer_are_at_rest_from_the_start(station_nodes: bool) -> None:
     """They never move and have said all they will at start: three beats a second
     apart, then one every rest interval, as parked AGVs."""
 
     def beats(rest_beat: float | None) -> dict[str, int]:
-        fleet = Fleet(config=FleetConfig(agvs=2, start_tasks=0, load=0.01, rest_beat=rest_beat))
+        config = FleetConfig(
+            agvs=2, start_tasks=0, load=0.01, rest_beat=rest_beat, station_nodes=station_nodes
+        )
+        fleet = Fleet(config=config)
         fleet.run(60.0)
         per_node = fleet.net.stats().per_node
-        quiet = [OBSERVER_ID, *(f"st:{sid}" for sid in fleet.desk.stations)]
+        quiet = [n for n in fleet.nodes() if n not in fleet.agvs]
         return {node: per_node[node].sent.get("beat", (0, 0))[0] for node in quiet}
 
     usual, resting = beats(None), beats(REST_BEAT_S)
-    assert len(usual) > 10  # the observer and the demo's stations
+    # The observer and the base, or the observer and the demo's stations.
+    assert len(usual) == (1 + len(pick_stations(demo_warehouse())) if station_nodes else 2)
     for node, frames in resting.items():
         # About 59 beats to each listener against 3 + 11 (3 s, then one every 5 s).
         assert 0.2 < frames / usual[node] < 0.3, (node, frames, usual[node])

@@ -48,6 +48,7 @@ def _gaps(vehicle: type[_Logged]) -> list[float]:
         rest_beat=FOUND_AT["rest_beat"],
         republish=600.0,  # sixty heartbeats, as found
         probes=FOUND_AT["probes"],
+        station_nodes=FOUND_AT["station_nodes"],
         fail_on_violation=True,
     )
     fleet = Fleet(demo_warehouse(), config, vehicle=vehicle)
