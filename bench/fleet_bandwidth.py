@@ -230,14 +230,14 @@ def main(argv: list[str] | None = None) -> None:
     body = (
         f"Seed {args.seed}, load {args.load:g}, {args.minutes:g} simulated minutes per run, "
         "t_update 1 s (safe time 2 s), 5 ms delay. B/s per AGV: every frame the AGVs' nodes "
-        "sent, per AGV per simulated second (a frame to k nodes counts k times); stations "
-        "and the observer hear every node in every mode. Violations: collisions and lock "
-        "overlaps of the scoped and broadcast runs together. Heartbeat: a node that has "
-        "published nothing for that long sends a beat (a few bytes); every property is "
-        "republished every 600 heartbeats; a node unheard for three heartbeats counts as "
-        "failed. Property bytes include the beats. Interest radius: how far a scoped AGV "
-        "listens; it publishes to the cells within its own hull length plus half the "
-        "dissemination margin (footprints, docs/traffic.md).\n\n"
+        "sent, per AGV per simulated second (a frame to k nodes counts k times); the "
+        "transport base and the observer hear every node in every mode. Violations: "
+        "collisions and lock overlaps of the scoped and broadcast runs together. Heartbeat: a"
+        " node that has published nothing for that long sends a beat (a few bytes); every "
+        "property is republished every 600 heartbeats; a node unheard for three heartbeats "
+        "counts as failed. Property bytes include the beats. Interest radius: how far a "
+        "scoped AGV listens; it publishes to the cells within its own hull length plus half "
+        "the dissemination margin (footprints, docs/traffic.md).\n\n"
         + markdown_table(header, rows)
         + "\n\n"
         + _seed_table(by_seed, floors, heartbeats, [args.seed, *more_seeds], largest)

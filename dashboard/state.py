@@ -167,7 +167,8 @@ class DashboardState:
         return nodes[node_id]
 
     def fixed_positions(self) -> dict[str, list[float]]:
-        """Where the nodes that are not vehicles stand (stations), for session lines."""
+        """Where the nodes that are not vehicles stand (the transport base), for session
+        lines."""
         vehicles = {v.id for v in self.source.vehicles()}
         out: dict[str, list[float]] = {}
         for node_id, node in sorted(self.source.nodes().items()):
