@@ -163,6 +163,27 @@ def test_the_box_reach_holds_every_member(
 
 
 @given(
+    view=st.lists(st.tuples(coordinate, coordinate), max_size=40),
+    point=st.tuples(coordinate, coordinate),
+    distance=st.floats(0, 80),
+    cell=st.sampled_from([1.0, 7.5, 25.0]),
+    own=st.one_of(st.none(), st.tuples(coordinate, coordinate)),
+)
+def test_the_index_finds_every_member_near_a_point(
+    view: list[tuple[float, float]],
+    point: tuple[float, float],
+    distance: float,
+    cell: float,
+    own: tuple[float, float] | None,
+) -> None:
+    nodes = {f"n{i}": props(x, y) for i, (x, y) in enumerate(view)}
+    defn = groups.near(point, distance)
+    initiator = {} if own is None else props(*own)  # where the initiator is plays no part
+    members = {n for n, p in nodes.items() if defn(initiator, p)}
+    assert members <= set(ViewIndex(nodes, cell).candidates(defn, initiator))
+
+
+@given(
     points=points,
     centre=st.tuples(st.floats(-100, 100), st.floats(-100, 100)),
     radius=st.floats(0, 80),
