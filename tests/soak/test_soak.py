@@ -23,7 +23,7 @@ from tests.soak.probes import (
     ParticipantHeard,
 )
 from tests.soak.runner import RunResult, main, parse_seeds, replay_command, run_seed
-from tests.soak.workload import Inject, Link, Settle, Step, generate
+from tests.soak.workload import Inject, Link, Settle, Start, Step, generate
 
 CI_SEEDS = list(range(1, 21))
 SEEDS = [int(os.environ["OP_SEED"])] if os.environ.get("OP_SEED") else CI_SEEDS
@@ -93,6 +93,10 @@ def test_the_fixed_seeds_exercise_every_kind_of_trouble() -> None:
         "Settle",
     }
     assert expected <= set(kinds)
+    definitions = {
+        step.definition[0] for s in scenarios for step in s.steps if isinstance(step, Start)
+    }
+    assert definitions == {"overlap", "within", "near", "overlap_team", "within_or_team"}
     forgeries = {step.kind for s in scenarios for step in s.steps if isinstance(step, Inject)}
     assert forgeries == set(FORGERIES)
     links = [step for s in scenarios for step in s.steps if isinstance(step, Link)]

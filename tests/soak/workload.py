@@ -69,8 +69,8 @@ class Move:
 class Start:
     """``node`` starts session ``label`` asking for ``role`` over ``definition``.
 
-    ``definition`` is ("overlap",), ("within", d), ("overlap_team", team) or
-    ("within_or_team", d, team); the runner builds the declarative definition.
+    ``definition`` is ("overlap",), ("within", d), ("near", x, y, d), ("overlap_team",
+    team) or ("within_or_team", d, team); the runner builds the declarative definition.
     """
 
     node: str
@@ -247,11 +247,14 @@ class _Builder:
         scenario_ids: list[str],
         arena: float,
         rest_rng: random.Random | None = None,
+        near_rng: random.Random | None = None,
     ) -> None:
         self.rng = rng
         # Draws of its own for nodes coming to rest and leaving it: the other steps of
         # a seed are the same with beats and rest as without.
         self.rest_rng = rest_rng
+        # And for groups about a fixed point: a seed's other steps are as before them.
+        self.near_rng = near_rng
         self.arena = arena
         self.live: list[str] = []
         self.gone: list[str] = []  # crashed or left: may restart
@@ -301,7 +304,13 @@ class _Builder:
         if not self.scoped:
             # A disjunction has no reach: only full dissemination sees every candidate.
             choices.append(("within_or_team", d, team))
-        return rng.choice(choices)
+        choice = rng.choice(choices)
+        near = self.near_rng
+        if choice[0] == "within" and not self.scoped and near is not None and near.random() < 0.5:
+            # About a point anywhere in the arena, which a scoped initiator may not hear.
+            x, y = (round(near.uniform(0, self.arena), 3) for _ in range(2))
+            return ("near", x, y, d)
+        return choice
 
     def chaos_step(self) -> None:
         rng = self.rng
@@ -423,7 +432,13 @@ def generate(seed: int, *, chaos_steps: tuple[int, int] = (40, 100), phases: int
     # drawn apart so that the rest of the scenario is the same either way.
     rest_rng = random.Random(f"rest:{seed}")
     resting = rest_rng.random() < 0.5
-    builder = _Builder(rng, ids[count:], arena, rest_rng if resting else None)
+    builder = _Builder(
+        rng,
+        ids[count:],
+        arena,
+        rest_rng if resting else None,
+        near_rng=random.Random(f"near:{seed}"),
+    )
     builder.scoped = rng.random() < 0.4
     interest_radius = round(rng.uniform(14.0, 20.0), 3) if builder.scoped else None
     initial = []

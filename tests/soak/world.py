@@ -52,6 +52,8 @@ def build_definition(spec: tuple[object, ...]) -> GroupDefinition:
             return groups.circles_overlap()
         case ("within", float(d)):
             return groups.within(d)
+        case ("near", float(x), float(y), float(d)):
+            return groups.near((x, y), d)
         case ("overlap_team", str(team)):
             return groups.circles_overlap() & groups.property_equals("team", team)
         case ("within_or_team", float(d), str(team)):
