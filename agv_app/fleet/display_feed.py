@@ -4,7 +4,7 @@ An AGV process's display (its pose, the dashboard's finer ``state`` with the tas
 belongs to, its size, its ``locked`` and ``requested`` projections, its ``route`` ahead,
 and the ``sessions``, ``roles`` and ``traffic`` of its node) is read by the observer and
 by nobody else. Published as node properties, every change was a frame to every node
-that hears the AGV: on the demo floor every other AGV and every station, for a pose
+that hears the AGV: on the demo floor every other AGV and the transport base, for a pose
 twice a second. So the observer starts one session whose group is every AGV
 (:func:`display_group`), each AGV plays :class:`DisplayReporter` in it, and the
 display's changes go to the observer over that session's channel, reliable and in
