@@ -1,7 +1,7 @@
 """What every node of the AGV application agrees on, whichever role it plays.
 
-The ``kind`` property tells AGVs from the transport base (group definitions select on it), and
-every role counts the messages it sends through one :data:`MessageTally`.
+The ``kind`` property tells AGVs from the transport base (group definitions select on
+it), and every role counts the messages it sends through one :data:`MessageTally`.
 """
 
 from __future__ import annotations

@@ -87,8 +87,8 @@ class FleetConfig:
         rest_beat: an AGV parked at its home with no task is at rest and beats only this
             often (``NodeConfig.rest_beat_interval``; its heartbeat when that is longer),
             and so do the transport base and the observer, which never move; their
-            peers count them failed after three of these. None: no rest. The interest radius allows
-            for the longer wait (docs/traffic.md, "Idle AGVs").
+            peers count them failed after three of these. None: no rest. The interest
+            radius allows for the longer wait (docs/traffic.md, "Idle AGVs").
         beats: False: no beats; every node republishes every property each heartbeat
             instead (how the fleet ran before beats; ``republish`` is then ignored).
         probes: False: no node probes the idle members of its sessions

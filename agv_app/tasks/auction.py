@@ -1,12 +1,11 @@
 """Task assignment: a station auctions a transport task among idle AGVs in range.
 
 * :class:`TaskAnnouncer` (initiator, run by a station on the transport base's node)
-  starts a session with a declarative group (``near(station, range) & status ==
-  "idle"`` among AGVs), sends the task
-  to every member, late joiners included, collects bids (route distance to the pick
-  station) for a bidding window, awards the task to the best bid (lowest cost, then
-  lowest node id) and stops. Without a bid it keeps waiting; the station may restart it
-  with a wider range.
+  starts a session with a declarative group (``near(station, range) & status == "idle"``
+  among AGVs), sends the task to every member, late joiners included, collects bids
+  (route distance to the pick station) for a bidding window, awards the task to the best
+  bid (lowest cost, then lowest node id) and stops. Without a bid it keeps waiting; the
+  station may restart it with a wider range.
 * :class:`Bidder` (participant, on every AGV) bids when its AGV is free. An AGV bids in
   one auction at a time (a ``("bid", session)`` tuple in its space), so an award always
   finds it free: the award is final and a task is never given to two AGVs.

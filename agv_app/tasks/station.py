@@ -3,17 +3,16 @@
 A station is no node of its own: the fleet's transport base runs every station's
 component on its one node (``agv_app.tasks.desk``), so an AGV's properties reach one
 listener for all the stations, not one per station. The station queues the tasks that
-appear at it and runs a :class:`~agv_app.tasks.TaskAnnouncer` for the oldest, among
-the idle AGVs around its own point. It
-remembers which AGV won each task until that AGV publishes the task as done
-(``last_done``); if the winner's node fails first, the task goes back to the front of
-the queue (never lost) unless the winner is heard again within ``return_after`` seconds
-still carrying it: under message loss a live node is now and then counted as failed
-(a few beats lost in a row), and giving its task to a second AGV would have two carry
-it. One heard again with another task (taken while it dwells at this task's drop
-station, before it reports this one done) gets another ``return_after``.
-Without a bid for ``widen_after`` seconds the auction restarts with twice the range,
-and finally with no range limit.
+appear at it and runs a :class:`~agv_app.tasks.TaskAnnouncer` for the oldest, among the
+idle AGVs around its own point. It remembers which AGV won each task until that AGV
+publishes the task as done (``last_done``); if the winner's node fails first, the task
+goes back to the front of the queue (never lost) unless the winner is heard again within
+``return_after`` seconds still carrying it: under message loss a live node is now and
+then counted as failed (a few beats lost in a row), and giving its task to a second AGV
+would have two carry it. One heard again with another task (taken while it dwells at
+this task's drop station, before it reports this one done) gets another
+``return_after``. Without a bid for ``widen_after`` seconds the auction restarts with
+twice the range, and finally with no range limit.
 
 A station calls one AGV at a time (``one_at_a_time``): it starts the auction of its
 next task only once every AGV it awarded a task has reached it (``reached_pick``, which
