@@ -23,6 +23,7 @@ from agv_app.layout.json_format import load_any
 from agv_app.tasks.admission import LANE_M_PER_OPEN_TASK, carried_tasks
 from agv_app.tasks.desk import parse_max_open
 from agv_app.tasks.load import DEFAULT_LOAD
+from objectplaces.arguments import POSITIVE, number, whole
 
 __all__ = [
     "DEFAULT_AGVS",
@@ -83,19 +84,23 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
     )
     p.add_argument(
         "--agvs",
-        type=int,
+        type=whole(at_least=1),
         help=f"number of AGVs (default: {DEFAULT_AGVS}, or fewer if the layout has fewer "
         "parking places)",
     )
-    p.add_argument("--minutes", type=float, default=60.0, help="simulated minutes")
+    p.add_argument("--minutes", type=POSITIVE, default=60.0, help="simulated minutes")
     p.add_argument("--seed", type=int, default=1, help="random seed")
     p.add_argument(
         "--layout",
         help="layout file (.json or openTCS .xml), or generated:N for a large warehouse "
         "with room for N AGVs; default: demo",
     )
-    p.add_argument("--delay", type=float, default=5.0, help="one-way network delay, ms")
-    p.add_argument("--loss", type=float, default=0.0, help="frame loss probability")
+    p.add_argument(
+        "--delay", type=number(at_least=0), default=5.0, help="one-way network delay, ms"
+    )
+    p.add_argument(
+        "--loss", type=number(at_least=0, below=1), default=0.0, help="frame loss probability"
+    )
     p.add_argument(
         "--broadcast", action="store_true", help="vote with every AGV (no collision groups)"
     )
@@ -108,14 +113,14 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
     )
     p.add_argument(
         "--load",
-        type=float,
+        type=number(above=0, at_most=1),
         default=DEFAULT_LOAD,
         help="target share of busy AGVs, in (0, 1]; the task rate follows from it and the "
         f"layout's stations (default: {DEFAULT_LOAD})",
     )
     p.add_argument(
         "--task-interval",
-        type=float,
+        type=POSITIVE,
         help="mean seconds between new tasks (overrides --load's rate, no tasks at the start)",
     )
     p.add_argument(
@@ -127,7 +132,7 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
     )
     p.add_argument(
         "--heartbeat",
-        type=float,
+        type=POSITIVE,
         help="liveness interval (default: the 1 s update interval): a node silent this long "
         "sends a beat of a few bytes, every property is republished every 600; a node "
         "unheard for three heartbeats counts as failed",
@@ -151,22 +156,6 @@ def run_sim(args: argparse.Namespace) -> int:
     Returns:
         0 if every safety figure is zero, 1 if not, 2 on bad arguments or layout.
     """
-    bad_agvs = args.agvs is not None and args.agvs < 1
-    if bad_agvs or args.minutes <= 0 or not 0.0 <= args.loss < 1.0 or args.delay < 0:
-        print("objectplaces sim: need --agvs >= 1, --minutes > 0, 0 <= --loss < 1", file=sys.stderr)
-        return 2
-    if not 0.0 < args.load <= 1.0:
-        print(
-            f"objectplaces sim: --load is the share of AGVs kept busy, in (0, 1]; got {args.load}",
-            file=sys.stderr,
-        )
-        return 2
-    if args.task_interval is not None and not args.task_interval > 0:
-        print(
-            f"objectplaces sim: --task-interval must be more than 0 s; got {args.task_interval}",
-            file=sys.stderr,
-        )
-        return 2
     if isinstance(args.max_open_tasks, int) and args.max_open_tasks < 1:
         print(
             f"objectplaces sim: --max-open-tasks must be at least 1; got {args.max_open_tasks}",

@@ -17,6 +17,8 @@ import webbrowser
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
+from objectplaces.arguments import number, whole
+
 if TYPE_CHECKING:
     from dashboard.source import FleetSource
 
@@ -62,17 +64,19 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
         ),
     )
     parser.add_argument("--host", default="127.0.0.1", help="address to listen on")
-    parser.add_argument("--port", type=int, default=8000, help="port to listen on")
+    parser.add_argument(
+        "--port", type=whole(at_least=0, at_most=65535), default=8000, help="port to listen on"
+    )
     parser.add_argument(
         "--agvs",
-        type=int,
+        type=whole(at_least=1),
         default=None,
         help="number of AGVs of one simulated fleet (default 12); not with --processes",
     )
     parser.add_argument("--seed", type=int, default=1, help="random seed of the fleet")
     parser.add_argument(
         "--load",
-        type=float,
+        type=number(above=0, at_most=1),
         default=None,
         help="share of AGVs kept busy, in (0, 1]; the task rate follows from the layout "
         "(default: the fleet's, 0.7)",
@@ -87,7 +91,7 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
     )
     parser.add_argument(
         "--processes",
-        type=int,
+        type=whole(at_least=0),
         default=0,
         help="run every AGV as its own process on the WebSocket mesh (this many AGVs and "
         "processes); not with --agvs",
@@ -191,21 +195,6 @@ def run_demo(args: argparse.Namespace, *, builder: SourceBuilder = build_source)
         print(
             f"objectplaces demo: give --agvs {args.agvs} (one simulated fleet) or "
             f"--processes {args.processes} (one process per AGV), not both",
-            file=sys.stderr,
-        )
-        return 2
-    if args.agvs is not None and args.agvs < 1:
-        print(f"objectplaces demo: --agvs must be at least 1, got {args.agvs}", file=sys.stderr)
-        return 2
-    if args.load is not None and not 0.0 < args.load <= 1.0:
-        print(
-            f"objectplaces demo: --load is the share of AGVs kept busy, in (0, 1]; got {args.load}",
-            file=sys.stderr,
-        )
-        return 2
-    if args.processes < 0:
-        print(
-            f"objectplaces demo: --processes must be 0 or more, got {args.processes}",
             file=sys.stderr,
         )
         return 2

@@ -38,11 +38,13 @@ from typing import Any
 
 from objectplaces import groups
 from objectplaces.activator import Session
+from objectplaces.arguments import POSITIVE, whole
 from objectplaces.core.errors import LocalProtocolError
 from objectplaces.core.groups import GroupDefinition
 from objectplaces.core.ids import InitiatorRef, ParticipantRef
 from objectplaces.core.roles import Initiator, Participant
 from objectplaces.mesh import MeshNode, MeshOptions, start_node
+from objectplaces.transport.options import MIN_FRAME
 from objectplaces.zenoh_node import ZenohNode
 
 __all__ = [
@@ -162,7 +164,7 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
     )
     parser.add_argument("--mode", choices=["peer", "client"], default="peer", help="zenoh mode")
     parser.add_argument("--fleet", default="default", help="zenoh: the fleet's name")
-    parser.add_argument("--lease", type=float, default=10.0, help="zenoh: link lease, s")
+    parser.add_argument("--lease", type=POSITIVE, default=10.0, help="zenoh: link lease, s")
     parser.add_argument(
         "--join", action="append", default=[], metavar="HOST:PORT", help="a node to join through"
     )
@@ -177,23 +179,23 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
         metavar="NAME=JSON",
         help="a property to publish, e.g. position=[1,2]",
     )
-    parser.add_argument("--interest-radius", type=float, help="scoped dissemination radius")
-    parser.add_argument("--property-interval", type=float, default=1.0, help="heartbeat, s")
+    parser.add_argument("--interest-radius", type=POSITIVE, help="scoped dissemination radius, m")
+    parser.add_argument("--property-interval", type=POSITIVE, default=1.0, help="heartbeat, s")
     parser.add_argument(
         "--beat-interval",
-        type=float,
+        type=POSITIVE,
         help="send a beat of a few bytes after this long without a publication, s "
         "(default: none, the property interval is the heartbeat)",
     )
-    parser.add_argument("--failure-timeout", type=float, help="failure timeout, s")
-    parser.add_argument("--run-seconds", type=float, default=3600.0, help="stop after this")
+    parser.add_argument("--failure-timeout", type=POSITIVE, help="failure timeout, s")
+    parser.add_argument("--run-seconds", type=POSITIVE, default=3600.0, help="stop after this")
     parser.add_argument("--role", choices=["none", "collector", "echo"], default="none")
     parser.add_argument("--group", type=_group, default="within:5", help="within:D or circles")
-    parser.add_argument("--tick", type=float, default=0.2, help="echo role tick period, s")
+    parser.add_argument("--tick", type=POSITIVE, default=0.2, help="echo role tick period, s")
     parser.add_argument("--control", action="store_true", help="read JSON commands on stdin")
-    parser.add_argument("--flood-rate", type=float, help="frames/s a peer may send")
-    parser.add_argument("--flood-burst", type=float, help="frames a peer may send at once")
-    parser.add_argument("--max-frame", type=int, help="largest frame accepted, bytes")
+    parser.add_argument("--flood-rate", type=POSITIVE, help="frames/s a peer may send")
+    parser.add_argument("--flood-burst", type=POSITIVE, help="frames a peer may send at once")
+    parser.add_argument("--max-frame", type=whole(at_least=MIN_FRAME), help="largest frame, bytes")
     parser.add_argument("--log-level", default="WARNING", help="logging level on stderr")
     parser.set_defaults(func=run_node)
 

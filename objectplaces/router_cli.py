@@ -17,6 +17,7 @@ import asyncio
 import contextlib
 import sys
 
+from objectplaces.arguments import POSITIVE
 from objectplaces.core.errors import LocalProtocolError
 from objectplaces.node_cli import emit, read_secret
 from objectplaces.zenoh_router import start_router
@@ -43,8 +44,8 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
     )
     parser.add_argument("--secret-file", help="file holding the fleet secret")
     parser.add_argument("--fleet", default="default", help="the fleet's name")
-    parser.add_argument("--lease", type=float, default=10.0, help="link lease, s")
-    parser.add_argument("--run-seconds", type=float, default=3600.0, help="stop after this")
+    parser.add_argument("--lease", type=POSITIVE, default=10.0, help="link lease, s")
+    parser.add_argument("--run-seconds", type=POSITIVE, default=3600.0, help="stop after this")
     parser.set_defaults(func=run_router)
 
 

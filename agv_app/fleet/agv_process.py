@@ -57,6 +57,7 @@ from agv_app.traffic.reach import interest_radius
 from agv_app.vda5050.process import bridge_for, vehicle_class
 from agv_app.vehicle.controller import AgvConfig, AgvController
 from agv_app.vehicle.kinematics import VehicleSpec
+from objectplaces.arguments import POSITIVE, number, whole
 from objectplaces.core.config import NodeConfig
 from objectplaces.core.errors import LocalProtocolError
 from objectplaces.mesh import MeshNode, start_node
@@ -65,6 +66,7 @@ from objectplaces.zenoh_node import ZenohNode, start_zenoh_node
 __all__ = [
     "DisplayPublisher",
     "StepLag",
+    "build_parser",
     "dissemination_radius",
     "main",
     "parse_args",
@@ -237,8 +239,8 @@ class DisplayPublisher:
                 feed.set("traffic", traffic_wire(node.stats()))
 
 
-def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
-    """Parse the command line (``sys.argv[1:]`` when ``argv`` is None)."""
+def build_parser() -> argparse.ArgumentParser:
+    """The command line's parser (``parse_args`` also checks ``--interest-radius``)."""
     parser = argparse.ArgumentParser(
         prog="python -m agv_app.fleet.agv_process",
         description="Run one AGV of the demo warehouse as a node on the WebSocket mesh.",
@@ -263,13 +265,13 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     )
     parser.add_argument(
         "--poll-interval",
-        type=float,
+        type=number(at_least=0, at_most=1),
         default=POLL_INTERVAL_S,
         help="zenoh: hand received frames on every this many s (0: each at once)",
     )
     parser.add_argument(
         "--republish-beats",
-        type=int,
+        type=whole(at_least=0),
         default=REPUBLISH_BEATS,
         help="liveness beats between republications (0: republish every t-update)",
     )
@@ -286,23 +288,31 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     )
     parser.add_argument("--home", required=True, help="layout point of the AGV's parking spot")
     parser.add_argument("--seed", type=int, default=1, help="seeds the start-up stagger")
-    parser.add_argument("--run-seconds", type=float, default=86_400.0, help="stop after this")
-    parser.add_argument("--dt", type=float, default=0.1, help="control step, s")
-    parser.add_argument("--t-update", type=float, default=1.0, help="property interval, s")
-    parser.add_argument("--publish-interval", type=float, default=0.2, help="pose updates, s")
+    parser.add_argument("--run-seconds", type=POSITIVE, default=86_400.0, help="stop after this")
+    parser.add_argument("--dt", type=POSITIVE, default=0.1, help="control step, s")
+    parser.add_argument("--t-update", type=POSITIVE, default=1.0, help="property interval, s")
+    parser.add_argument("--publish-interval", type=POSITIVE, default=0.2, help="pose updates, s")
     parser.add_argument(
         "--introspection-interval",
-        type=float,
+        type=POSITIVE,
         default=1.0,
         help="least time between two publications of sessions, roles and traffic, s",
     )
     parser.add_argument(
-        "--expect-peers", type=int, default=0, help="wait for this many linked peers first"
+        "--expect-peers",
+        type=whole(at_least=0),
+        default=0,
+        help="wait for this many linked peers first",
     )
     parser.add_argument(
-        "--settle-timeout", type=float, default=20.0, help="longest wait for those peers, s"
+        "--settle-timeout",
+        type=number(at_least=0),
+        default=20.0,
+        help="longest wait for those peers, s",
     )
-    parser.add_argument("--dwell", type=float, default=5.0, help="seconds at a station")
+    parser.add_argument(
+        "--dwell", type=number(at_least=0), default=5.0, help="seconds at a station"
+    )
     parser.add_argument(
         "--interest-radius",
         default="auto",
@@ -313,19 +323,18 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument(
         "--vda5050", default=None, metavar="mqtt://HOST:PORT", help="speak VDA 5050 over MQTT"
     )
+    return parser
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """Parse the command line (``sys.argv[1:]`` when ``argv`` is None)."""
+    parser = build_parser()
     args = parser.parse_args(argv)
     if args.interest_radius not in ("auto", "none"):
         try:
-            args.interest_radius = float(args.interest_radius)
-        except ValueError:
-            args.interest_radius = -1.0
-        if not (args.interest_radius > 0 and math.isfinite(args.interest_radius)):
+            args.interest_radius = POSITIVE(args.interest_radius)
+        except argparse.ArgumentTypeError:
             parser.error("--interest-radius must be 'auto', 'none' or a number > 0")
-    if not 0 <= args.poll_interval <= 1.0:
-        parser.error(f"--poll-interval must be in [0, 1], got {args.poll_interval!r}")
-    for name in ("dt", "t_update", "publish_interval", "introspection_interval", "run_seconds"):
-        if not getattr(args, name) > 0:
-            parser.error(f"--{name.replace('_', '-')} must be > 0, got {getattr(args, name)!r}")
     return args
 
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from objectplaces.arguments import POSITIVE
 from objectplaces.core.config import NodeConfig
 
 __all__ = [
@@ -70,9 +71,6 @@ def rest_beat_argument(text: str) -> float | None:
     if text.strip().lower() == "none":
         return None
     try:
-        seconds = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected seconds or 'none', got {text!r}") from None
-    if not 0 < seconds < float("inf"):
-        raise argparse.ArgumentTypeError(f"expected seconds > 0 or 'none', got {text!r}")
-    return seconds
+        return POSITIVE(text)
+    except argparse.ArgumentTypeError:
+        raise argparse.ArgumentTypeError(f"expected seconds > 0 or 'none', got {text!r}") from None

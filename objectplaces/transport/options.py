@@ -7,7 +7,10 @@ from dataclasses import dataclass
 from objectplaces.core import codec
 from objectplaces.core.errors import LocalProtocolError
 
-__all__ = ["MeshOptions", "PeerStats"]
+__all__ = ["MIN_FRAME", "MeshOptions", "PeerStats"]
+
+MIN_FRAME = 64
+"""The smallest ``max_frame`` a mesh takes, bytes: room for a handshake and a beat."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -63,7 +66,7 @@ class MeshOptions:
             raise LocalProtocolError(
                 f"backoff_max must be >= backoff_initial, got {self.backoff_max!r}"
             )
-        if self.max_frame < 64 or self.queue_size < 1 or self.max_links < 1:
+        if self.max_frame < MIN_FRAME or self.queue_size < 1 or self.max_links < 1:
             raise LocalProtocolError(f"limits too small in {self!r}")
         if self.max_peers < self.max_links:
             raise LocalProtocolError(

@@ -107,7 +107,9 @@ def test_exit_status_is_one_when_a_safety_figure_is_not_zero(
 
 
 def test_bad_arguments_and_a_bad_layout_exit_two(tmp_path: Path) -> None:
-    assert main(["sim", "--agvs", "0", "--quiet"]) == 2
+    with pytest.raises(SystemExit) as exit_:
+        main(["sim", "--agvs", "0", "--quiet"])
+    assert exit_.value.code == 2
     bad = tmp_path / "bad.json"
     bad.write_text("{")
     assert main(["sim", "--layout", str(bad), "--quiet"]) == 2
@@ -132,24 +134,29 @@ def test_sim_runs_at_the_default_load_and_reports_the_new_figures(tmp_path: Path
 def test_sim_refuses_a_load_outside_zero_to_one(
     load: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    assert main(["sim", "--agvs", "2", "--minutes", "1", "--load", load]) == 2
-    err = capsys.readouterr().err
-    assert "--load" in err
-    assert f"got {float(load)}" in err
+    with pytest.raises(SystemExit) as exit_:
+        main(["sim", "--agvs", "2", "--minutes", "1", "--load", load])
+    assert exit_.value.code == 2
+    assert f"argument --load: expected a number in (0, 1], got {load!r}" in (
+        capsys.readouterr().err
+    )
 
 
 def test_sim_refuses_a_task_interval_that_is_not_positive(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
-    assert main(["sim", "--agvs", "2", "--minutes", "1", "--task-interval", "0"]) == 2
-    assert "--task-interval must be more than 0 s; got 0.0" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exit_:
+        main(["sim", "--agvs", "2", "--minutes", "1", "--task-interval", "0"])
+    assert exit_.value.code == 2
+    assert "argument --task-interval: expected a number > 0, got '0'" in capsys.readouterr().err
 
 
 def test_sim_refuses_a_bad_rest_beat(capsys: pytest.CaptureFixture[str]) -> None:
     args = ["sim", "--agvs", "2", "--minutes", "1", "--quiet", "--rest-beat"]
     for bad, said in (
         ("0", "expected seconds > 0 or 'none'"),
-        ("soon", "expected seconds or 'none'"),
+        ("soon", "expected seconds > 0 or 'none'"),
+        ("nan", "expected seconds > 0 or 'none'"),
     ):
         with pytest.raises(SystemExit) as exit_:
             main([*args, bad])

@@ -1,0 +1,104 @@
+"""Number options of the command lines: finite and within their range, or a clear error.
+
+argparse's ``type=float`` takes ``nan``, ``inf`` and ``1e999``, and a run handed such a
+value fails deep inside with a traceback, or never ends. Each number option declares
+its range here instead (``type=number(above=0)``), so a bad value stops the parse with
+the option's name, what it takes and what it got, and exit status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+__all__ = ["POSITIVE", "NumberArgument", "number", "whole"]
+
+
+class NumberArgument:
+    """An argparse ``type``: a finite number, whole or not, within bounds.
+
+    Args:
+        above, at_least: the lower bound, strict or not (None: none).
+        below, at_most: the upper bound, strict or not (None: none).
+        whole: only whole numbers (the value is then an ``int``).
+    """
+
+    __slots__ = ("above", "at_least", "at_most", "below", "whole")
+
+    def __init__(
+        self,
+        *,
+        above: float | None = None,
+        at_least: float | None = None,
+        below: float | None = None,
+        at_most: float | None = None,
+        whole: bool = False,
+    ) -> None:
+        self.above, self.at_least, self.below, self.at_most = above, at_least, below, at_most
+        self.whole = whole
+
+    def admits(self, value: float) -> bool:
+        """Whether ``value`` is finite and within the bounds."""
+        return (
+            (isinstance(value, int) or math.isfinite(value))
+            and (self.above is None or value > self.above)
+            and (self.at_least is None or value >= self.at_least)
+            and (self.below is None or value < self.below)
+            and (self.at_most is None or value <= self.at_most)
+        )
+
+    def __str__(self) -> str:
+        kind = "a whole number" if self.whole else "a number"
+        low = (
+            ("(", self.above)
+            if self.above is not None
+            else ("[", self.at_least)
+            if self.at_least is not None
+            else None
+        )
+        high = (
+            (")", self.below)
+            if self.below is not None
+            else ("]", self.at_most)
+            if self.at_most is not None
+            else None
+        )
+        if low is not None and high is not None:
+            return f"{kind} in {low[0]}{low[1]:g}, {high[1]:g}{high[0]}"
+        if low is not None:
+            return f"{kind} {'>' if low[0] == '(' else '>='} {low[1]:g}"
+        if high is not None:
+            return f"{kind} {'<' if high[0] == ')' else '<='} {high[1]:g}"
+        return kind
+
+    def __call__(self, text: str) -> float:
+        try:
+            value: float = int(text, 10) if self.whole else float(text)
+        except ValueError:
+            value = math.nan
+        if not self.admits(value):
+            raise argparse.ArgumentTypeError(f"expected {self}, got {text!r}")
+        return value
+
+    def __repr__(self) -> str:
+        return f"NumberArgument({self})"
+
+
+def number(
+    *,
+    above: float | None = None,
+    at_least: float | None = None,
+    below: float | None = None,
+    at_most: float | None = None,
+) -> NumberArgument:
+    """An argparse ``type`` for a finite number within the given bounds."""
+    return NumberArgument(above=above, at_least=at_least, below=below, at_most=at_most)
+
+
+def whole(*, at_least: int | None = None, at_most: int | None = None) -> NumberArgument:
+    """An argparse ``type`` for a whole number within the given bounds (an ``int``)."""
+    return NumberArgument(at_least=at_least, at_most=at_most, whole=True)
+
+
+POSITIVE = number(above=0)
+"""A finite number > 0: a duration, a rate, a distance."""
