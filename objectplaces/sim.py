@@ -177,6 +177,11 @@ class SimulatedNetwork:
         return self._loop.now
 
     @property
+    def cell_size(self) -> float:
+        """The side of the grid cells its nodes publish and subscribe in, metres."""
+        return self._defaults.cell_size
+
+    @property
     def loop(self) -> EventLoop:
         """The event loop (to schedule application work in virtual time)."""
         return self._loop

@@ -40,6 +40,7 @@ from agv_app.vehicle.controller import DEFAULT_ADVANCE_M, AgvConfig, AgvControll
 from agv_app.vehicle.kinematics import VehicleSpec
 from objectplaces import RoleActivator
 from objectplaces.core.config import NodeConfig
+from objectplaces.core.spatial import MAX_SCOPE_CELLS, footprint_cells
 from objectplaces.runtime.sim import collections_spaced
 from objectplaces.sim import SimulatedNetwork
 
@@ -325,9 +326,14 @@ class Fleet(FleetSourceBase):
             return None
         if cfg.interest_radius is not None:
             return cfg.interest_radius
-        return interest_radius(
+        radius = interest_radius(
             self.layout, self.spec, self.agv_config, footprints=cfg.footprints, **self._timing()
         )
+        # A floor whose runs are so long that the square of cells about the radius is more
+        # than a node may subscribe to: every node hears every node, which is always safe.
+        if footprint_cells(radius, 0.0, self.net.cell_size) > MAX_SCOPE_CELLS:
+            return None
+        return radius
 
     def _footprint_margin(self) -> float | None:
         if self.interest_radius is None or not self.config.footprints:

@@ -52,10 +52,18 @@ from agv_app.layout.elements import (
 )
 from agv_app.layout.search import Arc, shortest_paths, strong_components
 
-__all__ = ["Layout"]
+__all__ = ["MAX_FLOOR_COORDINATE_M", "Layout"]
 
 
 _MIN_SEGMENT_M = 1e-6
+
+MAX_FLOOR_COORDINATE_M = 1e6
+"""How far from the origin a point of a floor plan may lie, metres: a plant in millimetres
+read as metres still fits, and a position beyond it is a mistake, not a floor."""
+
+
+def _on_floor(x: float, y: float) -> bool:
+    return abs(x) <= MAX_FLOOR_COORDINATE_M and abs(y) <= MAX_FLOOR_COORDINATE_M
 
 
 class Layout:
@@ -112,6 +120,11 @@ class Layout:
                 raise LayoutError(f"duplicate point id {p.id!r}")
             if not (math.isfinite(p.x) and math.isfinite(p.y)):
                 raise LayoutError(f"point {p.id!r}: non-finite position {(p.x, p.y)!r}")
+            if not _on_floor(p.x, p.y):
+                raise LayoutError(
+                    f"point {p.id!r}: position {(p.x, p.y)!r} lies beyond "
+                    f"+-{MAX_FLOOR_COORDINATE_M:g} m"
+                )
             self._points[p.id] = p
         self._segments: dict[str, Segment] = {}
         self._segment_coords: dict[str, tuple[XY, ...]] = {}
@@ -178,6 +191,11 @@ class Layout:
         for v in seg.via:
             if not (math.isfinite(v[0]) and math.isfinite(v[1])):
                 raise LayoutError(f"segment {seg.id!r}: non-finite via vertex {v!r}")
+            if not _on_floor(*v):
+                raise LayoutError(
+                    f"segment {seg.id!r}: via vertex {v!r} lies beyond "
+                    f"+-{MAX_FLOOR_COORDINATE_M:g} m"
+                )
         coords = (self._points[seg.start].xy, *seg.via, self._points[seg.end].xy)
         for k, ((x0, y0), (x1, y1)) in enumerate(itertools.pairwise(coords)):
             if math.hypot(x1 - x0, y1 - y0) < _MIN_SEGMENT_M:

@@ -30,7 +30,7 @@ from agv_app.layout.elements import (
     Station,
     StationKind,
 )
-from agv_app.layout.graph import Layout
+from agv_app.layout.graph import MAX_FLOOR_COORDINATE_M, Layout
 
 __all__ = [
     "FORMAT",
@@ -143,8 +143,10 @@ def _check_semantics(doc: Mapping[str, Any]) -> None:
         where = f"$.points[{i}]"
         if p["id"] in points:
             raise LayoutFileError(f"duplicate point id {p['id']!r}", where=f"{where}.id")
-        if not (math.isfinite(p["x"]) and math.isfinite(p["y"])):
-            raise LayoutFileError(f"point {p['id']!r}: non-finite position", where=where)
+        for axis in ("x", "y"):
+            fault = _coordinate_fault(p[axis])
+            if fault is not None:
+                raise LayoutFileError(f"point {p['id']!r}: {fault}", where=f"{where}.{axis}")
         points[p["id"]] = (p["x"], p["y"])
     seen: set[str] = set()
     for i, s in enumerate(doc["segments"]):
@@ -157,6 +159,14 @@ def _check_semantics(doc: Mapping[str, Any]) -> None:
                 raise LayoutFileError(
                     f"segment {s['id']!r}: unknown {key} point {s[key]!r}", where=f"{where}.{key}"
                 )
+        for j, vertex in enumerate(s.get("via", ())):
+            for c, value in enumerate(vertex):
+                fault = _coordinate_fault(value)
+                if fault is not None:
+                    raise LayoutFileError(
+                        f"segment {s['id']!r}: via vertex {j}: {fault}",
+                        where=f"{where}.via[{j}][{c}]",
+                    )
         coords = [points[s["start"]], *(tuple(v) for v in s.get("via", ())), points[s["end"]]]
         for k in range(len(coords) - 1):
             (x0, y0), (x1, y1) = coords[k], coords[k + 1]
@@ -181,6 +191,20 @@ def _check_semantics(doc: Mapping[str, Any]) -> None:
                 raise LayoutFileError(
                     f"block {name!r}: unknown member {m!r}", where=f"$.blocks[{name!r}][{k}]"
                 )
+
+
+def _coordinate_fault(value: float) -> str | None:
+    """Why ``value`` (a JSON number, of any size) is no coordinate on a floor; None if it
+    is one. Compared before any float conversion: a whole number of 400 digits is a JSON
+    number too."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return "non-finite position"
+    if not abs(value) <= MAX_FLOOR_COORDINATE_M:
+        shown = repr(value)
+        if len(shown) > 24:
+            shown = f"{shown[:8]}... ({len(shown)} characters)"
+        return f"position {shown} lies beyond +-{MAX_FLOOR_COORDINATE_M:g} m"
+    return None
 
 
 def layout_to_json(layout: Layout) -> dict[str, Any]:

@@ -22,6 +22,7 @@ from agv_app.layout import (
     Station,
 )
 from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
+from agv_app.layout.graph import MAX_FLOOR_COORDINATE_M
 from agv_app.layout.json_format import (
     layout_from_json,
     layout_schema,
@@ -94,6 +95,19 @@ def test_repeated_via_vertex() -> None:
 def test_non_finite_point() -> None:
     with pytest.raises(LayoutError, match="point 'a': non-finite"):
         Layout([Point("a", math.nan, 0)], [])
+
+
+def test_a_point_or_vertex_beyond_the_floor_bound() -> None:
+    far = MAX_FLOOR_COORDINATE_M * 1.5
+    with pytest.raises(LayoutError, match=r"point 'b': position .* lies beyond"):
+        Layout([Point("a", 0, 0), Point("b", 0, far)], [Segment("s", "a", "b")])
+    with pytest.raises(LayoutError, match=r"segment 's': via vertex .* lies beyond"):
+        Layout(
+            [Point("a", 0, 0), Point("b", 4, 0)],
+            [Segment("s", "a", "b", via=((-far, 1.0),))],
+        )
+    edge = Layout([Point("a", 0, 0), Point("b", MAX_FLOOR_COORDINATE_M, 0)], [])
+    assert edge.bounds()[2] == MAX_FLOOR_COORDINATE_M
 
 
 def test_parallel_segments_in_same_direction() -> None:
@@ -481,6 +495,14 @@ def test_json_file_errors(tmp_path: Path) -> None:
     bad.write_text(huge)
     with pytest.raises(LayoutFileError, match="point 'b': non-finite position"):
         load_layout(bad)
+    bad.write_text(json.dumps(GOOD).replace('"x": 10', '"x": 1e300', 1))
+    with pytest.raises(LayoutFileError, match=r"point 'b': position .* lies beyond"):
+        load_layout(bad)
+    # A whole number of 400 digits is a JSON number too: refused, never an overflow.
+    bad.write_text(json.dumps(GOOD).replace('"x": 10', '"x": 1' + "0" * 400, 1))
+    with pytest.raises(LayoutFileError, match=r"\(401 characters\) lies beyond") as exc:
+        load_layout(bad)
+    assert exc.value.where == "$.points[1].x"
 
 
 def test_layout_without_name_takes_file_stem(tmp_path: Path) -> None:

@@ -456,3 +456,30 @@ def test_requests_with_direction_claims_stay_within_the_bound() -> None:
     bound = longest_no_rest_zone(layout, CLEARANCE)
     assert zone <= bound
     assert request <= 1.25 * advance + bound
+
+
+def test_a_floor_too_long_for_the_cells_of_its_radius_is_heard_whole() -> None:
+    """A two-way lane 30 km long: the radius it bounds (about the lane) would subscribe
+    each AGV to millions of cells; the fleet has every node hear every node instead."""
+    far = 30_000.0
+    points = [Point("w", 0, 0), Point("e", far, 0)]
+    points += [Point(p, x, y) for p, x, y in (("wp", 0, 5), ("ws", 0, -5))]
+    points += [Point(p, far, y) for p, y in (("ep", 5), ("es", -5))]
+    segments = [
+        Segment(f"{a}-{b}", a, b, bidirectional=True)
+        for a, b in (("w", "e"), ("w", "wp"), ("w", "ws"), ("e", "ep"), ("e", "es"))
+    ]
+    stations = [
+        Station("park-w", "wp", "parking"),
+        Station("park-e", "ep", "parking"),
+        Station("dock-w", "ws", "pickdrop"),
+        Station("dock-e", "es", "pickdrop"),
+    ]
+    layout = Layout(points, segments, stations, name="long-lane")
+    assert interest_radius(layout, SPEC, AgvConfig()) > far
+    fleet = Fleet(layout, FleetConfig(agvs=2, seed=1, start_tasks=1, load=0.5))
+    assert fleet.interest_radius is None
+    assert fleet.footprint_margin is None
+    fleet.run(20.0)
+    assert fleet.summary()["collisions"] == fleet.summary()["lock_overlaps"] == 0
+    assert {n for agv in fleet.agvs.values() for n in agv.node.view()} >= set(fleet.agvs)
