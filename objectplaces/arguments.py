@@ -1,4 +1,7 @@
-"""Number options of the command lines: finite and within their range, or a clear error.
+"""Typed options of the command lines: a bad value stops the parse with exit status 2
+and a line that names the option, what it takes and what it got.
+
+Numbers are finite and within their range, or a clear error.
 
 argparse's ``type=float`` takes ``nan``, ``inf`` and ``1e999``, and a run handed such a
 value fails deep inside with a traceback, or never ends. Each number option declares
@@ -9,9 +12,22 @@ the option's name, what it takes and what it got, and exit status 2.
 from __future__ import annotations
 
 import argparse
+import json
 import math
+from typing import Any
 
-__all__ = ["POSITIVE", "NumberArgument", "number", "whole"]
+from objectplaces import groups
+from objectplaces.core.errors import LocalProtocolError
+from objectplaces.core.groups import GroupDefinition
+
+__all__ = [
+    "POSITIVE",
+    "NumberArgument",
+    "group_argument",
+    "number",
+    "property_argument",
+    "whole",
+]
 
 
 class NumberArgument:
@@ -102,3 +118,35 @@ def whole(*, at_least: int | None = None, at_most: int | None = None) -> NumberA
 
 POSITIVE = number(above=0)
 """A finite number > 0: a duration, a rate, a distance."""
+
+
+def group_argument(spec: str) -> GroupDefinition:
+    """``within:D`` (the nodes within ``D`` metres, 5 when left out) or ``circles``."""
+    kind, _, arg = spec.partition(":")
+    try:
+        if kind == "within":
+            return groups.within(_DISTANCE(arg) if arg else 5.0)
+        if kind == "circles" and not arg:
+            return groups.circles_overlap()
+    except (argparse.ArgumentTypeError, LocalProtocolError):
+        pass
+    raise argparse.ArgumentTypeError(
+        f"expected within:D (D a distance >= 0, m) or circles, got {spec!r}"
+    )
+
+
+def property_argument(spec: str) -> tuple[str, Any]:
+    """``NAME=JSON``: a property's name and value (text that is not JSON stays text)."""
+    name, sep, value = spec.partition("=")
+    if not sep or not name:
+        raise argparse.ArgumentTypeError(f"property must be NAME=JSON, got {spec!r}")
+    try:
+        parsed = json.loads(value)
+    except json.JSONDecodeError:
+        parsed = value
+    if name == "position" and isinstance(parsed, list):
+        parsed = tuple(parsed)
+    return name, parsed
+
+
+_DISTANCE = number(at_least=0)

@@ -36,11 +36,9 @@ import time
 from pathlib import Path
 from typing import Any
 
-from objectplaces import groups
 from objectplaces.activator import Session
-from objectplaces.arguments import POSITIVE, whole
+from objectplaces.arguments import POSITIVE, group_argument, property_argument, whole
 from objectplaces.core.errors import LocalProtocolError
-from objectplaces.core.groups import GroupDefinition
 from objectplaces.core.ids import InitiatorRef, ParticipantRef
 from objectplaces.core.roles import Initiator, Participant
 from objectplaces.mesh import MeshNode, MeshOptions, start_node
@@ -118,28 +116,6 @@ class EchoVoter(Participant):
         self.call_later(self.tick, self._on_tick)
 
 
-def _group(spec: str) -> GroupDefinition:
-    kind, _, arg = spec.partition(":")
-    if kind == "within":
-        return groups.within(float(arg or 5.0))
-    if kind == "circles":
-        return groups.circles_overlap()
-    raise argparse.ArgumentTypeError(f"unknown group {spec!r} (within:D or circles)")
-
-
-def _property(spec: str) -> tuple[str, Any]:
-    name, sep, value = spec.partition("=")
-    if not sep or not name:
-        raise argparse.ArgumentTypeError(f"property must be NAME=JSON, got {spec!r}")
-    try:
-        parsed = json.loads(value)
-    except json.JSONDecodeError:
-        parsed = value
-    if name == "position" and isinstance(parsed, list):
-        parsed = tuple(parsed)
-    return name, parsed
-
-
 def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the ``node`` subcommand to the ``objectplaces`` command line."""
     parser = subcommands.add_parser(
@@ -174,7 +150,7 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
     parser.add_argument(
         "--property",
         action="append",
-        type=_property,
+        type=property_argument,
         default=[],
         metavar="NAME=JSON",
         help="a property to publish, e.g. position=[1,2]",
@@ -190,7 +166,9 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
     parser.add_argument("--failure-timeout", type=POSITIVE, help="failure timeout, s")
     parser.add_argument("--run-seconds", type=POSITIVE, default=3600.0, help="stop after this")
     parser.add_argument("--role", choices=["none", "collector", "echo"], default="none")
-    parser.add_argument("--group", type=_group, default="within:5", help="within:D or circles")
+    parser.add_argument(
+        "--group", type=group_argument, default="within:5", help="within:D or circles"
+    )
     parser.add_argument("--tick", type=POSITIVE, default=0.2, help="echo role tick period, s")
     parser.add_argument("--control", action="store_true", help="read JSON commands on stdin")
     parser.add_argument("--flood-rate", type=POSITIVE, help="frames/s a peer may send")
@@ -203,7 +181,10 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
 def read_secret(args: argparse.Namespace) -> bytes:
     """The secret from ``args.secret_file``, else from the environment (exits if neither)."""
     if args.secret_file is not None:
-        return Path(args.secret_file).read_bytes().rstrip(b"\r\n")
+        try:
+            return Path(args.secret_file).read_bytes().rstrip(b"\r\n")
+        except OSError as exc:
+            raise SystemExit(f"objectplaces: cannot read --secret-file: {exc}") from None
     value = os.environ.get(SECRET_ENV, "")
     if not value:
         raise SystemExit(f"objectplaces: give --secret-file or set {SECRET_ENV}")

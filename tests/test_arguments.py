@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import argparse
 import math
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -13,8 +14,16 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from agv_app.fleet import agv_process
-from objectplaces.arguments import POSITIVE, NumberArgument, number, whole
+from objectplaces.arguments import (
+    POSITIVE,
+    NumberArgument,
+    group_argument,
+    number,
+    property_argument,
+    whole,
+)
 from objectplaces.cli import build_parser
+from objectplaces.node_cli import read_secret
 
 # What each parser needs besides the option under test.
 REQUIRED = {
@@ -181,3 +190,40 @@ def test_any_text_gives_a_number_in_range_or_a_clear_refusal(
     assert isinstance(value, int) or math.isfinite(value)
     assert above is None or value > above
     assert at_most is None or value <= at_most
+
+
+@pytest.mark.parametrize(
+    ("spec", "members"),
+    [("within:2.5", {"near"}), ("within:", {"near"}), ("circles", {"near"})],
+)
+def test_a_group_option_names_a_group(spec: str, members: set[str]) -> None:
+    definition = group_argument(spec)
+    own = {"position": (0.0, 0.0), "hull_length": 1.0}
+    near = {"position": (1.0, 0.0), "hull_length": 1.0}
+    far = {"position": (50.0, 0.0), "hull_length": 1.0}
+    chosen = {name for name, props in (("near", near), ("far", far)) if definition(own, props)}
+    assert chosen == members
+
+
+@pytest.mark.parametrize("spec", ["within:nan", "within:-1", "within:inf", "within:x", "circles:3"])
+def test_a_bad_group_option_is_refused_with_what_it_takes(spec: str) -> None:
+    with pytest.raises(argparse.ArgumentTypeError) as refused:
+        group_argument(spec)
+    assert str(refused.value) == (
+        f"expected within:D (D a distance >= 0, m) or circles, got {spec!r}"
+    )
+
+
+def test_a_property_option_is_a_name_and_a_json_value() -> None:
+    assert property_argument("position=[1, 2]") == ("position", (1, 2))
+    assert property_argument("kind=agv") == ("kind", "agv")  # not JSON: text
+    assert property_argument('tags={"a": [1]}') == ("tags", {"a": [1]})
+    for bad in ("position", "=3"):
+        with pytest.raises(argparse.ArgumentTypeError, match="property must be NAME=JSON"):
+            property_argument(bad)
+
+
+def test_a_secret_file_that_cannot_be_read_stops_the_node_with_a_line(tmp_path: Path) -> None:
+    args = argparse.Namespace(secret_file=tmp_path / "missing")
+    with pytest.raises(SystemExit, match=r"cannot read --secret-file: .*missing"):
+        read_secret(args)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import Any
 
@@ -13,6 +14,12 @@ __all__ = ["WIRE_MARGIN_M", "Coords", "coords_to_polygon", "polygon_to_coords"]
 
 WIRE_MARGIN_M = 0.02
 """How far :func:`polygon_to_coords` grows a shape so that rounding never shrinks it."""
+
+_MIN_HOLE_M2 = 0.01
+"""Holes smaller than this (a 10 cm square) are filled on the wire: slivers that the
+union of a projection's rectangles leaves at a sharp turn, which rounding to
+centimetres would collapse into rings of one or two vertices. Filling a hole only
+grows the area."""
 
 Coords = list[list[list[float]]]
 """Wire form of an area: polygons -> rings (exterior first) -> flat ``[x0, y0, x1, y1, ...]``."""
@@ -37,9 +44,26 @@ def polygon_to_coords(area: Area, *, margin_m: float = WIRE_MARGIN_M) -> Coords:
     for poly in parts:
         if poly.is_empty:
             continue
-        rings = [poly.exterior, *poly.interiors]
-        out.append([_ring_flat(r) for r in rings])
+        shell = _ring_flat(poly.exterior)
+        if len(shell) < 6:  # too small to keep a shape at centimetres: its box, rounded out
+            shell = _box_flat(poly.bounds)
+        holes = [_ring_flat(r) for r in poly.interiors]
+        out.append([shell, *(h for h in holes if len(h) >= 6 and _area(h) >= _MIN_HOLE_M2)])
     return out
+
+
+def _box_flat(bounds: tuple[float, float, float, float]) -> list[float]:
+    """The ring of the box ``bounds``, rounded outwards to centimetres."""
+    x0, y0 = (math.floor(v * 100) / 100 for v in bounds[:2])
+    x1, y1 = (math.ceil(v * 100) / 100 for v in bounds[2:])
+    return [x0, y0, x1, y0, x1, y1, x0, y1]
+
+
+def _area(flat: list[float]) -> float:
+    """The area a flat ring encloses (shoelace)."""
+    xs, ys = flat[0::2], flat[1::2]
+    n = len(xs)
+    return abs(sum(xs[k] * ys[(k + 1) % n] - xs[(k + 1) % n] * ys[k] for k in range(n))) / 2
 
 
 def _ring_flat(ring: Any) -> list[float]:

@@ -5,10 +5,12 @@ from __future__ import annotations
 import math
 
 import pytest
+import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from agv_app.geometry import (
+    WIRE_MARGIN_M,
     Area,
     Polyline,
     Pose,
@@ -243,6 +245,25 @@ def test_wire_form_never_shrinks(p: Polyline, f0: float, f1: float) -> None:
     back = coords_to_polygon(polygon_to_coords(a))
     assert back.contains(a, tolerance_m=1e-9)
     assert back.area_m2 - a.area_m2 < 0.05 * (a.geom.length + 1)
+
+
+def test_a_sliver_hole_at_a_sharp_turn_is_filled_on_the_wire() -> None:
+    # Found by test_wire_form_never_shrinks: at this turn the union of the projection's
+    # rectangles leaves a hole 1 mm round, which rounding collapsed into a ring of one
+    # vertex, and every receiver refused the request.
+    p = Polyline([(-13.3, -11.8), (0.0, -20.8), (0.0, 0.0)])
+    a = hull_projection(p, 0.0, 0.5 * p.length, length=L, width=W)
+    assert list(a.geom.buffer(WIRE_MARGIN_M, join_style="mitre").interiors)
+    coords = polygon_to_coords(a)
+    assert [len(rings) for rings in coords] == [1]
+    assert coords_to_polygon(coords).contains(a, tolerance_m=1e-9)
+
+
+def test_a_shape_too_small_for_centimetres_goes_as_its_box() -> None:
+    tiny = Area(shapely.box(0.001, 0.001, 0.004, 0.003))
+    coords = polygon_to_coords(tiny, margin_m=0)
+    assert coords == [[[0.0, 0.0, 0.01, 0.0, 0.01, 0.01, 0.0, 0.01]]]
+    assert coords_to_polygon(coords).contains(tiny)
 
 
 def test_area_helpers() -> None:
