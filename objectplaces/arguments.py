@@ -1,12 +1,10 @@
 """Typed options of the command lines: a bad value stops the parse with exit status 2
 and a line that names the option, what it takes and what it got.
 
-Numbers are finite and within their range, or a clear error.
-
 argparse's ``type=float`` takes ``nan``, ``inf`` and ``1e999``, and a run handed such a
 value fails deep inside with a traceback, or never ends. Each number option declares
-its range here instead (``type=number(above=0)``), so a bad value stops the parse with
-the option's name, what it takes and what it got, and exit status 2.
+its range here instead (``type=number(above=0)``); group and property options of
+``objectplaces node`` are read here too.
 """
 
 from __future__ import annotations
