@@ -63,26 +63,15 @@ class NumberArgument:
 
     def __str__(self) -> str:
         kind = "a whole number" if self.whole else "a number"
-        low = (
-            ("(", self.above)
-            if self.above is not None
-            else ("[", self.at_least)
-            if self.at_least is not None
-            else None
-        )
-        high = (
-            (")", self.below)
-            if self.below is not None
-            else ("]", self.at_most)
-            if self.at_most is not None
-            else None
-        )
+        low, high = _end(self.above, self.at_least), _end(self.below, self.at_most)
         if low is not None and high is not None:
-            return f"{kind} in {low[0]}{low[1]:g}, {high[1]:g}{high[0]}"
+            opens = "(" if low[1] else "["
+            closes = ")" if high[1] else "]"
+            return f"{kind} in {opens}{low[0]:g}, {high[0]:g}{closes}"
         if low is not None:
-            return f"{kind} {'>' if low[0] == '(' else '>='} {low[1]:g}"
+            return f"{kind} {'>' if low[1] else '>='} {low[0]:g}"
         if high is not None:
-            return f"{kind} {'<' if high[0] == ')' else '<='} {high[1]:g}"
+            return f"{kind} {'<' if high[1] else '<='} {high[0]:g}"
         return kind
 
     def __call__(self, text: str) -> float:
@@ -96,6 +85,13 @@ class NumberArgument:
 
     def __repr__(self) -> str:
         return f"NumberArgument({self})"
+
+
+def _end(strict: float | None, loose: float | None) -> tuple[float, bool] | None:
+    """One end of a range: its value and whether it is strict (None: open)."""
+    if strict is not None:
+        return strict, True
+    return None if loose is None else (loose, False)
 
 
 def number(
