@@ -64,7 +64,7 @@ def fleet_size(layout: Layout | None, asked: int | None) -> int:
     return asked
 
 
-def max_open_argument(text: str) -> int | str:
+def max_open_argument(text: str) -> int | str | None:
     """``--max-open-tasks``: :func:`~agv_app.tasks.desk.parse_max_open`, for argparse."""
     try:
         return parse_max_open(text)
@@ -126,9 +126,11 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
     p.add_argument(
         "--max-open-tasks",
         type=max_open_argument,
+        default="auto",
         help="tasks on the floor at once, at most; newer ones wait at the task desk, oldest "
-        "first; 'auto': a limit that starts at what the floor's lanes carry, is cut at "
-        "every wait over a minute and grows while the floor delivers (default: no limit)",
+        "first; 'auto' (default): a limit that starts at what the floor's lanes carry, is "
+        "cut at every wait over a minute and grows while the floor delivers; 'none': no "
+        "limit",
     )
     p.add_argument(
         "--heartbeat",
@@ -221,7 +223,8 @@ def run_sim(args: argparse.Namespace) -> int:
             f"objectplaces sim: {figures['deadlocks']:.0f} waits passed "
             f"{fleet.stalls.limit_s:.0f} s. A fleet larger than its floor carries fills the "
             "lanes: --max-open-tasks K keeps K tasks on the floor and the rest at the task "
-            f"desk{about}; --max-open-tasks auto finds the number as the fleet runs "
+            f"desk{about}; --max-open-tasks auto (the default) finds the number as the "
+            "fleet runs "
             '(docs/fleet.md, "More AGVs than the floor carries")',
             file=sys.stderr,
         )

@@ -114,7 +114,8 @@ def _jobs(
     configs: list[tuple[str, dict[str, Any]]] = [
         ("demo, defaults (beat 1 s)", {}),
         ("demo, heartbeat 10 s", {"heartbeat": 10.0}),
-        (EVERY_WINNER, {"one_at_a_time": False}),
+        # No limit on the tasks on the floor either: the case keeps every AGV busy.
+        (EVERY_WINNER, {"one_at_a_time": False, "max_open_tasks": None}),
     ]
     for label, options in configs:
         for agvs, secs in zip(sizes, seconds, strict=True):

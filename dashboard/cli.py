@@ -47,7 +47,7 @@ def is_loopback(host: str) -> bool:
         return False
 
 
-def _max_open_tasks(text: str) -> int | str:
+def _max_open_tasks(text: str) -> int | str | None:
     """``--max-open-tasks``: a whole number or ``auto``, read as ``objectplaces sim``
     reads it."""
     return importlib.import_module("agv_app.cli").max_open_argument(text)  # type: ignore[no-any-return]
@@ -84,10 +84,10 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
     parser.add_argument(
         "--max-open-tasks",
         type=_max_open_tasks,
-        default=None,
+        default="auto",
         help="tasks on the floor at once, at most; newer ones wait at the task desk, oldest "
-        "first; 'auto': a limit that follows the floor's long waits (default: no limit; for "
-        "fleets larger than the floor carries)",
+        "first; 'auto' (default): a limit that follows the floor's long waits; 'none': no "
+        "limit",
     )
     parser.add_argument(
         "--processes",
@@ -140,8 +140,8 @@ def build_source(args: argparse.Namespace) -> FleetSource:
         extra: dict[str, str] = {} if vda5050 is None else {"vda5050": vda5050}
         if getattr(args, "transport", "websocket") != "websocket":
             extra["transport"] = args.transport
-        limit = getattr(args, "max_open_tasks", None)
-        extra_limit: dict[str, int | str] = {} if limit is None else {"max_open_tasks": limit}
+        limit = getattr(args, "max_open_tasks", "auto")
+        extra_limit: dict[str, int | str | None] = {"max_open_tasks": limit}
         return make(
             agvs=args.agvs,
             seed=args.seed,

@@ -25,7 +25,7 @@ def demo_source(
     load: float | None = None,
     vda5050: str | None = None,
     transport: str = "websocket",
-    max_open_tasks: int | str | None = None,
+    max_open_tasks: int | str | None = "auto",
 ) -> Fleet | MeshFleet:
     """The fleet ``objectplaces demo`` shows: the demo warehouse, tasks arriving for ever.
 
@@ -43,8 +43,8 @@ def demo_source(
     master control sends orders (docs/vda5050.md).
 
     ``max_open_tasks`` keeps at most that many tasks on the floor; the others wait at
-    the task desk (:class:`~agv_app.tasks.desk.TaskDesk`; None: no limit; ``"auto"``: a
-    limit that follows the floor's long waits).
+    the task desk (:class:`~agv_app.tasks.desk.TaskDesk`; ``"auto"``, the default: a
+    limit that follows the floor's long waits; None: no limit).
 
     Raises:
         ValueError: ``processes`` is negative or more than the layout can park, or

@@ -106,9 +106,9 @@ class FleetConfig:
             rate follows from the load and ``task_until`` is not 0, else none).
         task_until: no new tasks after this time (None: never).
         max_open_tasks: tasks on the floor at once, at most (handed to the stations and
-            not yet done); the others wait at the desk, oldest first (None: no limit;
-            ``"auto"``: a limit that follows the floor's long waits,
-            :class:`~agv_app.tasks.admission.AdaptiveLimit`;
+            not yet done); the others wait at the desk, oldest first (``"auto"``, the
+            default: a limit that follows the floor's long waits,
+            :class:`~agv_app.tasks.admission.AdaptiveLimit`; None: no limit;
             :class:`~agv_app.tasks.desk.TaskDesk`).
         one_at_a_time: a station calls one AGV at a time: it auctions its next task
             once the last winner has reached it and no AGV is bound to drop there
@@ -148,7 +148,7 @@ class FleetConfig:
     task_interval: float | None = None
     start_tasks: int | None = None
     task_until: float | None = None
-    max_open_tasks: int | str | None = None
+    max_open_tasks: int | str | None = "auto"
     one_at_a_time: bool = True
     wait_for_drop: bool = True
     deadlock_after: float = STALL_LIMIT_S

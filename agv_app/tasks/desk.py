@@ -102,19 +102,21 @@ def check_max_open(max_open: object) -> None:
         raise ValueError(f"max_open must be a whole number >= 1, 'auto' or None, got {max_open!r}")
 
 
-def parse_max_open(text: str) -> int | str:
-    """A command line's limit on open tasks: ``"auto"`` or a whole number (checked to
-    be at least 1 with :func:`check_max_open`).
+def parse_max_open(text: str) -> int | str | None:
+    """A command line's limit on open tasks: ``"auto"``, ``"none"`` (no limit: None) or
+    a whole number (checked to be at least 1 with :func:`check_max_open`).
 
     Raises:
-        ValueError: neither.
+        ValueError: none of them.
     """
     if text == "auto":
         return text
+    if text == "none":
+        return None
     try:
         return int(text)
     except ValueError:
-        raise ValueError(f"a whole number or 'auto', got {text!r}") from None
+        raise ValueError(f"a whole number, 'auto' or 'none', got {text!r}") from None
 
 
 class TaskDesk:

@@ -122,12 +122,13 @@ def run_floor(
     republish: float | None = None,
     probes: bool = True,
     station_nodes: bool = False,
+    max_open_tasks: int | str | None = "auto",
     **options: Any,
 ) -> Fleet:
     """Tasks for 300 s, then 200 s more to finish them; every step checked for safety
     (a collision or a lock overlap raises). ``one_at_a_time``, ``wait_for_drop``,
-    ``advance_m``, ``rest_beat``, ``republish``, ``probes`` and ``station_nodes`` as in
-    :class:`FleetConfig`; ``options`` go to :class:`Fleet`."""
+    ``advance_m``, ``rest_beat``, ``republish``, ``probes``, ``station_nodes`` and
+    ``max_open_tasks`` as in :class:`FleetConfig`; ``options`` go to :class:`Fleet`."""
     cfg = FleetConfig(
         agvs=run.floor.agvs,
         seed=run.seed,
@@ -140,6 +141,7 @@ def run_floor(
         republish=republish,
         probes=probes,
         station_nodes=station_nodes,
+        max_open_tasks=max_open_tasks,
         fail_on_violation=True,
     )
     fleet = Fleet(run.floor.layout, cfg, **options)

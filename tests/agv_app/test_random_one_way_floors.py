@@ -243,6 +243,7 @@ def test_a_full_loop_opens_when_an_agv_at_a_fork_takes_another_way() -> None:
         republish=60.0,
         probes=False,
         station_nodes=True,
+        max_open_tasks=None,
         vehicle=vehicle_with(detour_after=None),
     ).summary()
     assert locked["deadlocks"] >= 3
@@ -252,6 +253,7 @@ def test_a_full_loop_opens_when_an_agv_at_a_fork_takes_another_way() -> None:
         republish=60.0,
         probes=False,
         station_nodes=True,
+        max_open_tasks=None,
         vehicle=vehicle_with(_Detouring),
     ).summary()
     assert figures["deadlocks"] == figures["collisions"] == figures["lock_overlaps"] == 0

@@ -19,16 +19,23 @@ class FoundAt(TypedDict):
     republish: float
     probes: bool
     station_nodes: bool
+    max_open_tasks: int | str | None
 
 
 FOUND_AT: Final = FoundAt(
-    advance_m=5.0, rest_beat=None, republish=60.0, probes=False, station_nodes=True
+    advance_m=5.0,
+    rest_beat=None,
+    republish=60.0,
+    probes=False,
+    station_nodes=True,
+    max_open_tasks=None,
 )
 """The settings the fleets that the before-and-after tests replay were found with: 5 m
 requests, no rest beats (which widen the interest radius) and every property
 republished every sixty heartbeats (a minute at the default heartbeat), no session
-probed, each station on a node of its own. With other settings their dynamics differ,
-and most of them no longer lock without the rule they show."""
+probed, each station on a node of its own, no limit on the tasks on the floor. With
+other settings their dynamics differ, and most of them no longer lock without the rule
+they show."""
 
 VehicleFactory = Callable[..., AgvController]
 """What ``Fleet(vehicle=...)`` takes: builds one AGV component."""

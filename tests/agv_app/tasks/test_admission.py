@@ -154,7 +154,7 @@ def test_the_cli_takes_auto_and_refuses_words(capsys: pytest.CaptureFixture[str]
     assert "open_tasks_limit" in capsys.readouterr().out
     with pytest.raises(SystemExit):
         main([*args, "often"])
-    assert "a whole number or 'auto', got 'often'" in capsys.readouterr().err
+    assert "a whole number, 'auto' or 'none', got 'often'" in capsys.readouterr().err
 
 
 def test_a_simulated_fleet_tells_its_desk_of_every_long_wait() -> None:

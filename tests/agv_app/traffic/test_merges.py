@@ -128,6 +128,7 @@ def test_a_floor_without_boxes_no_longer_locks_at_its_merges(seed: int) -> None:
         one_at_a_time=False,
         rest_beat=None,
         station_nodes=True,  # as found
+        max_open_tasks=None,  # as found
         fail_on_violation=True,
     )
     locked = Fleet(layout, config, vehicle=vehicle_with(clear_merges=False))

@@ -49,6 +49,7 @@ def _gaps(vehicle: type[_Logged]) -> list[float]:
         republish=600.0,  # sixty heartbeats, as found
         probes=FOUND_AT["probes"],
         station_nodes=FOUND_AT["station_nodes"],
+        max_open_tasks=FOUND_AT["max_open_tasks"],
         fail_on_violation=True,
     )
     fleet = Fleet(demo_warehouse(), config, vehicle=vehicle)
