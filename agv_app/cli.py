@@ -20,7 +20,7 @@ from agv_app.layout.elements import LayoutError
 from agv_app.layout.generated import generated_warehouse, parse_generated
 from agv_app.layout.graph import Layout
 from agv_app.layout.json_format import load_any
-from agv_app.tasks.admission import LANE_M_PER_OPEN_TASK, carried_tasks
+from agv_app.tasks.admission import CROWDED, LANE_M_PER_OPEN_TASK, carried_tasks
 from agv_app.tasks.desk import parse_max_open
 from agv_app.tasks.load import DEFAULT_LOAD
 from objectplaces.arguments import POSITIVE, number, whole
@@ -126,11 +126,11 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
     p.add_argument(
         "--max-open-tasks",
         type=max_open_argument,
-        default="auto",
+        default=CROWDED,
         help="tasks on the floor at once, at most; newer ones wait at the task desk, oldest "
-        "first; 'auto' (default): a limit that starts at what the floor's lanes carry, is "
-        "cut at every wait over a minute and grows while the floor delivers; 'none': no "
-        "limit",
+        "first; 'auto': a limit that starts at what the floor's lanes carry, is cut at "
+        "every wait over a minute and grows while the floor delivers; 'none': no limit; "
+        "'crowded' (default): auto for a fleet larger than its floor carries, else none",
     )
     p.add_argument(
         "--heartbeat",
@@ -215,7 +215,7 @@ def run_sim(args: argparse.Namespace) -> int:
         )
     for violation in fleet.monitor.violations:
         print(f"VIOLATION {violation}", file=sys.stderr)
-    if figures["deadlocks"] and args.max_open_tasks is None:
+    if figures["deadlocks"] and fleet.desk.admission is None and fleet.desk.max_open is None:
         carried = carried_tasks(fleet.layout)
         per = f"one per {LANE_M_PER_OPEN_TASK:g} m of lane"
         about = "" if carried is None else f"; this floor carries about {carried} ({per})"
@@ -223,8 +223,7 @@ def run_sim(args: argparse.Namespace) -> int:
             f"objectplaces sim: {figures['deadlocks']:.0f} waits passed "
             f"{fleet.stalls.limit_s:.0f} s. A fleet larger than its floor carries fills the "
             "lanes: --max-open-tasks K keeps K tasks on the floor and the rest at the task "
-            f"desk{about}; --max-open-tasks auto (the default) finds the number as the "
-            "fleet runs "
+            f"desk{about}; --max-open-tasks auto finds the number as the fleet runs "
             '(docs/fleet.md, "More AGVs than the floor carries")',
             file=sys.stderr,
         )

@@ -84,10 +84,10 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
     parser.add_argument(
         "--max-open-tasks",
         type=_max_open_tasks,
-        default="auto",
+        default="crowded",  # agv_app.tasks.admission.CROWDED
         help="tasks on the floor at once, at most; newer ones wait at the task desk, oldest "
-        "first; 'auto' (default): a limit that follows the floor's long waits; 'none': no "
-        "limit",
+        "first; 'auto': a limit that follows the floor's long waits; 'none': no limit; "
+        "'crowded' (default): auto for a fleet larger than its floor carries, else none",
     )
     parser.add_argument(
         "--processes",
@@ -140,7 +140,7 @@ def build_source(args: argparse.Namespace) -> FleetSource:
         extra: dict[str, str] = {} if vda5050 is None else {"vda5050": vda5050}
         if getattr(args, "transport", "websocket") != "websocket":
             extra["transport"] = args.transport
-        limit = getattr(args, "max_open_tasks", "auto")
+        limit = getattr(args, "max_open_tasks", "crowded")
         extra_limit: dict[str, int | str | None] = {"max_open_tasks": limit}
         return make(
             agvs=args.agvs,

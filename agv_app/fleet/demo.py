@@ -7,6 +7,7 @@ import argparse
 from agv_app.fleet.mesh import MeshFleet
 from agv_app.fleet.sim import Fleet, FleetConfig
 from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
+from agv_app.tasks.admission import CROWDED, limit_for
 from agv_app.tasks.load import DEFAULT_LOAD, check_load, initial_tasks, task_interval_for_load
 from agv_app.vehicle.kinematics import VehicleSpec
 
@@ -25,7 +26,7 @@ def demo_source(
     load: float | None = None,
     vda5050: str | None = None,
     transport: str = "websocket",
-    max_open_tasks: int | str | None = "auto",
+    max_open_tasks: int | str | None = CROWDED,
 ) -> Fleet | MeshFleet:
     """The fleet ``objectplaces demo`` shows: the demo warehouse, tasks arriving for ever.
 
@@ -43,8 +44,10 @@ def demo_source(
     master control sends orders (docs/vda5050.md).
 
     ``max_open_tasks`` keeps at most that many tasks on the floor; the others wait at
-    the task desk (:class:`~agv_app.tasks.desk.TaskDesk`; ``"auto"``, the default: a
-    limit that follows the floor's long waits; None: no limit).
+    the task desk (:class:`~agv_app.tasks.desk.TaskDesk`; ``"auto"``: a limit that
+    follows the floor's long waits; None: no limit; the default,
+    :data:`~agv_app.tasks.admission.CROWDED`: ``"auto"`` for a fleet larger than its
+    floor carries, else none).
 
     Raises:
         ValueError: ``processes`` is negative or more than the layout can park, or
@@ -83,7 +86,7 @@ def demo_source(
             start_tasks=initial_tasks(agvs=processes, load=load),
             dwell=dwell,
             transport=transport,
-            max_open_tasks=max_open_tasks,
+            max_open_tasks=limit_for(max_open_tasks, layout, processes),
         )
     config = FleetConfig(
         agvs=agvs or DEMO_AGVS, seed=seed, load=load, max_open_tasks=max_open_tasks

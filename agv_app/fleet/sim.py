@@ -23,6 +23,7 @@ from agv_app.fleet.view import OBSERVER_ID, VehicleState, area_rings
 from agv_app.geometry import XY
 from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
 from agv_app.layout.graph import Layout
+from agv_app.tasks.admission import CROWDED, limit_for
 from agv_app.tasks.desk import BASE_ID, TaskDesk, pick_stations, require_task_stations
 from agv_app.tasks.free_flow import FreeFlowBound, FreeFlowTimer
 from agv_app.tasks.load import (
@@ -106,9 +107,11 @@ class FleetConfig:
             rate follows from the load and ``task_until`` is not 0, else none).
         task_until: no new tasks after this time (None: never).
         max_open_tasks: tasks on the floor at once, at most (handed to the stations and
-            not yet done); the others wait at the desk, oldest first (``"auto"``, the
-            default: a limit that follows the floor's long waits,
+            not yet done); the others wait at the desk, oldest first (``"auto"``: a
+            limit that follows the floor's long waits,
             :class:`~agv_app.tasks.admission.AdaptiveLimit`; None: no limit;
+            :data:`~agv_app.tasks.admission.CROWDED`, the default: ``"auto"`` for a
+            fleet larger than its floor carries, else none;
             :class:`~agv_app.tasks.desk.TaskDesk`).
         one_at_a_time: a station calls one AGV at a time: it auctions its next task
             once the last winner has reached it and no AGV is bound to drop there
@@ -148,7 +151,7 @@ class FleetConfig:
     task_interval: float | None = None
     start_tasks: int | None = None
     task_until: float | None = None
-    max_open_tasks: int | str | None = "auto"
+    max_open_tasks: int | str | None = CROWDED
     one_at_a_time: bool = True
     wait_for_drop: bool = True
     deadlock_after: float = STALL_LIMIT_S
@@ -256,7 +259,7 @@ class Fleet(FleetSourceBase):
                 station_range=cfg.station_range,
                 tally=self.metrics_raw.tally,
                 on_created=self.free_flow.add,
-                max_open=cfg.max_open_tasks,
+                max_open=limit_for(cfg.max_open_tasks, self.layout, cfg.agvs),
                 one_at_a_time=cfg.one_at_a_time,
                 wait_for_drop=cfg.wait_for_drop,
             ),

@@ -25,7 +25,14 @@ import math
 from agv_app.layout.graph import Layout
 from agv_app.traffic.deadlock import followable_segments
 
-__all__ = ["LANE_M_PER_OPEN_TASK", "AdaptiveLimit", "carried_tasks"]
+__all__ = ["CROWDED", "LANE_M_PER_OPEN_TASK", "AdaptiveLimit", "carried_tasks", "limit_for"]
+
+CROWDED = "crowded"
+"""The fleets' default limit on open tasks: the automatic one (``"auto"``) for a fleet
+with more AGVs than its floor carries tasks (:func:`carried_tasks`), none otherwise. A
+fleet that small never puts more AGVs on the lanes than they carry, and a limit would
+only hold tasks back from the stations' queues; a larger one can fill a one-way loop
+(docs/fleet.md, "More AGVs than the floor carries")."""
 
 LANE_M_PER_OPEN_TASK = 20.0
 """Metres of lane a floor needs for each task on it at once, about, once its lanes
@@ -47,6 +54,16 @@ def carried_tasks(layout: Layout) -> int | None:
     )
     carried = math.floor(lanes / LANE_M_PER_OPEN_TASK)
     return carried if carried >= 1 else None
+
+
+def limit_for(choice: int | str | None, layout: Layout, agvs: int) -> int | str | None:
+    """The limit on open tasks ``agvs`` AGVs on ``layout`` run with when ``choice`` is
+    asked for: :data:`CROWDED` is ``"auto"`` or None by the fleet's size; any other
+    choice stands."""
+    if choice != CROWDED:
+        return choice
+    carried = carried_tasks(layout)
+    return "auto" if carried is not None and agvs > carried else None
 
 
 class AdaptiveLimit:

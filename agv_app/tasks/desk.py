@@ -25,7 +25,7 @@ from collections.abc import Callable, Iterable
 
 from agv_app.layout.graph import Layout
 from agv_app.protocol import BASE_KIND, MessageTally
-from agv_app.tasks.admission import AdaptiveLimit, carried_tasks
+from agv_app.tasks.admission import CROWDED, AdaptiveLimit, carried_tasks
 from agv_app.tasks.auction import TaskSpec
 from agv_app.tasks.book import DEFAULT_HISTORY, TaskBook
 from agv_app.tasks.station import Station
@@ -103,20 +103,21 @@ def check_max_open(max_open: object) -> None:
 
 
 def parse_max_open(text: str) -> int | str | None:
-    """A command line's limit on open tasks: ``"auto"``, ``"none"`` (no limit: None) or
-    a whole number (checked to be at least 1 with :func:`check_max_open`).
+    """A command line's limit on open tasks: ``"auto"``, ``"crowded"``
+    (:data:`~agv_app.tasks.admission.CROWDED`), ``"none"`` (no limit: None) or a whole
+    number (checked to be at least 1 with :func:`check_max_open`).
 
     Raises:
         ValueError: none of them.
     """
-    if text == "auto":
+    if text in ("auto", CROWDED):
         return text
     if text == "none":
         return None
     try:
         return int(text)
     except ValueError:
-        raise ValueError(f"a whole number, 'auto' or 'none', got {text!r}") from None
+        raise ValueError(f"a whole number, 'auto', 'crowded' or 'none', got {text!r}") from None
 
 
 class TaskDesk:

@@ -122,7 +122,7 @@ def test_the_automatic_limit_reaches_the_fleet(capsys: pytest.CaptureFixture[str
     assert auto.desk.admission is not None  # type: ignore[attr-defined]
     with pytest.raises(SystemExit):
         parse("--max-open-tasks", "often")
-    assert "a whole number, 'auto' or 'none', got 'often'" in capsys.readouterr().err
+    assert "a whole number, 'auto', 'crowded' or 'none', got 'often'" in capsys.readouterr().err
 
 
 def test_a_limit_below_one_is_refused(capsys: pytest.CaptureFixture[str]) -> None:

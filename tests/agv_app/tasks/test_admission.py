@@ -11,10 +11,11 @@ from hypothesis import strategies as st
 from agv_app.fleet import Fleet, FleetConfig
 from agv_app.fleet.stalls import StallWatch
 from agv_app.layout.demo import demo_warehouse
-from agv_app.tasks.admission import AdaptiveLimit, carried_tasks
+from agv_app.tasks.admission import CROWDED, AdaptiveLimit, carried_tasks, limit_for
 from agv_app.tasks.desk import TaskDesk, pick_stations
 from objectplaces.cli import main
 from objectplaces.sim import SimulatedNetwork
+from tests.agv_app.two_way_floors import two_docks_one_lane
 
 
 def test_a_long_wait_cuts_to_three_quarters_of_the_tasks_on_the_floor() -> None:
@@ -154,7 +155,7 @@ def test_the_cli_takes_auto_and_refuses_words(capsys: pytest.CaptureFixture[str]
     assert "open_tasks_limit" in capsys.readouterr().out
     with pytest.raises(SystemExit):
         main([*args, "often"])
-    assert "a whole number, 'auto' or 'none', got 'often'" in capsys.readouterr().err
+    assert "a whole number, 'auto', 'crowded' or 'none', got 'often'" in capsys.readouterr().err
 
 
 def test_a_simulated_fleet_tells_its_desk_of_every_long_wait() -> None:
@@ -168,3 +169,19 @@ def test_a_simulated_fleet_tells_its_desk_of_every_long_wait() -> None:
     assert fleet.desk.limit < start
     assert fleet.desk.admission is not None
     assert fleet.desk.admission.cuts == 1
+
+
+def test_by_default_a_fleet_larger_than_its_floor_carries_has_the_automatic_limit() -> None:
+    demo = demo_warehouse()
+    carried = carried_tasks(demo)
+    assert carried == 22
+    assert limit_for(CROWDED, demo, carried) is None
+    assert limit_for(CROWDED, demo, carried + 1) == "auto"
+    for choice in (None, "auto", 5):
+        assert limit_for(choice, demo, 50) == choice
+    assert Fleet(None, FleetConfig(agvs=20, seed=1)).desk.admission is None
+    assert Fleet(None, FleetConfig(agvs=50, seed=1)).desk.admission is not None
+    # No lane to fill: every two-way run ends in a dead end.
+    docks = two_docks_one_lane()
+    assert carried_tasks(docks) is None
+    assert limit_for(CROWDED, docks, 4) is None
