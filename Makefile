@@ -1,5 +1,6 @@
 # Two entry points: `make demo` (install, then run the fleet demo with its dashboard)
-# and `make test` (install, then run the whole suite). Both build .venv from this
+# and `make test` (install, then run the whole suite, then the tests of the compiled
+# packages again on the compiled build: tests/compiled_suite.py). Both build .venv from this
 # project's own files, so a fresh machine needs nothing installed by hand.
 PYTHON ?= python3.11
 VENV := .venv
@@ -28,6 +29,7 @@ test: $(STAMP) chromium mosquitto
 	$(BIN)/ruff check .
 	$(BIN)/mypy
 	$(BIN)/python -m pytest -n 2
+	$(BIN)/python -m tests.compiled_suite
 
 lint: $(STAMP)
 	$(BIN)/ruff check .

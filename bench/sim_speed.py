@@ -7,7 +7,10 @@ the generated large warehouse (``generated:1000``). Each run is a child process 
 own; the figure is its CPU time for the simulated time, the fleet's construction left
 out.
 
-``--against DIR`` runs every job a second time with the tree checked out at ``DIR``,
+``--compiled`` runs every job a second time on the compiled build (the simulation's
+modules compiled with mypyc: ``agv_app.fleet.compiled``, built first when the cache has
+none for this source), side by side, and says whether it gave the same metrics (it
+must). ``--against DIR`` runs every job once more with the tree checked out at ``DIR``,
 side by side in the same run, and says whether both trees gave the same metrics (a
 pure speedup must). The layout travels to both trees as a JSON file, so a tree without
 the generated warehouse runs it too. ``--repeat N`` runs every job N times (the two
@@ -15,8 +18,8 @@ trees alternating) and keeps each tree's least CPU time: on a shared machine the
 of others only ever adds to it.
 
     python -m bench.sim_speed [--sizes 20,50,100,200] [--seconds 60,60,30,20]
-                              [--large 1000] [--large-seconds 5] [--against DIR]
-                              [--repeat 1]
+                              [--large 1000] [--large-seconds 5] [--compiled]
+                              [--against DIR] [--repeat 1]
 """
 
 from __future__ import annotations
@@ -30,9 +33,11 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
+from agv_app.fleet.compiled import sim_build
 from agv_app.layout import save_layout
 from agv_app.layout.generated import generated_warehouse
 from bench.report import markdown_table, publish
+from objectplaces.compiled import ensure_built
 
 __all__ = ["GOALS", "main", "measure_in_tree"]
 
@@ -142,6 +147,9 @@ def main(argv: list[str] | None = None) -> None:
         "--large", type=int, default=1000, help="AGVs on the generated warehouse (0: none)"
     )
     parser.add_argument("--large-seconds", type=float, default=5.0)
+    parser.add_argument(
+        "--compiled", action="store_true", help="also run the compiled build, side by side"
+    )
     parser.add_argument("--against", type=Path, help="a checkout to compare with, side by side")
     parser.add_argument(
         "--repeat", type=int, default=1, help="runs of each job; each tree's least CPU counts"
@@ -155,6 +163,12 @@ def main(argv: list[str] | None = None) -> None:
         seconds *= len(sizes)
     if len(seconds) != len(sizes):
         parser.error("--seconds needs one value, or one per size")
+    # (name, tree) of every tree run beside this checkout's source.
+    others: list[tuple[str, Path]] = []
+    if args.compiled:
+        others.append(("compiled", ensure_built(sim_build(), report=print)))
+    if args.against is not None:
+        others.append(("before", args.against))
     with tempfile.TemporaryDirectory() as tmp:
         layout = None
         if args.large:
@@ -165,15 +179,17 @@ def main(argv: list[str] | None = None) -> None:
         for label, agvs, secs, path, options in _jobs(
             sizes, seconds, args.large, args.large_seconds, layout
         ):
-            trees = [ROOT] if args.against is None else [ROOT, args.against]
-            now, *others = _least(trees, args.repeat, (agvs, secs, path, options))
+            trees = [ROOT, *(tree for _, tree in others)]
+            now, *beside = _least(trees, args.repeat, (agvs, secs, path, options))
             speed = _speed(secs, now["cpu"])
             s = now["summary"]
             row: list[object] = [label, agvs, secs, speed]
-            for before in others:
-                old = _speed(secs, before["cpu"])
-                same = "yes" if before["summary"] == s else "no"
-                row += [old, round(speed / old, 2), same]
+            by_tree = {"source": speed}
+            for (name, _), result in zip(others, beside, strict=True):
+                other = by_tree[name] = _speed(secs, result["cpu"])
+                same = "yes" if result["summary"] == s else "no"
+                ratio = other / speed if name == "compiled" else speed / other
+                row += [other, round(ratio, 2), same]
             row += [
                 round(1.0 - s["idle_share"], 2),
                 s["messages"],
@@ -183,16 +199,20 @@ def main(argv: list[str] | None = None) -> None:
             rows.append(row)
             print(row, file=sys.stderr, flush=True)
             if agvs in GOALS:
-                met.setdefault(agvs, []).append((label, speed))
+                met.setdefault(agvs, []).append((label, by_tree.get("compiled", speed)))
     header = ["fleet", "AGVs", "sim s", "sim s per CPU s"]
-    if args.against is not None:
-        header += ["before", "now / before", "same metrics"]
+    for name, _ in others:
+        if name == "compiled":
+            header += ["compiled", "compiled / source", "same metrics"]
+        else:
+            header += ["before", "now / before", "same metrics"]
     header += ["busy share", "frames sent", "collisions", "lock overlaps"]
     goal_rows = []
     for agvs, speeds in sorted(met.items()):
         goal = GOALS[agvs]
         judged = [speed for label, speed in speeds if label == EVERY_WINNER]
-        measured = "; ".join(f"{label}: {speed:g}x" for label, speed in speeds)
+        built = " compiled" if args.compiled else ""
+        measured = "; ".join(f"{label}: {speed:g}x{built}" for label, speed in speeds)
         verdict = "yes" if judged and min(judged) >= goal else "no"
         goal_rows.append([f"{agvs} AGVs >= {goal:g}x real time", measured, verdict])
     command = ".venv/bin/python -m bench.sim_speed " + " ".join(
@@ -210,7 +230,14 @@ def main(argv: list[str] | None = None) -> None:
         "of what the fleet sends must not). Busy share: the AGVs' time with a task. The "
         "goals are judged on the rows with every winner called at once: the default "
         "stations call one AGV at a time and keep most of a large fleet at home on this "
-        "floor, which simulates faster by doing less.\n\n"
+        "floor, which simulates faster by doing less."
+        + (
+            " Compiled: the same jobs on the compiled build (the simulation's modules "
+            "compiled with mypyc), the goals judged on its figures."
+            if args.compiled
+            else ""
+        )
+        + "\n\n"
         + markdown_table(header, rows)
         + "\n\n"
         + markdown_table(["goal", "measured", "met"], goal_rows)

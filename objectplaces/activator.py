@@ -11,6 +11,8 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+from mypy_extensions import mypyc_attr
+
 from objectplaces.core.config import ParticipationInfo, SessionInfo
 from objectplaces.core.errors import LocalProtocolError
 from objectplaces.core.events import TimerHandle
@@ -74,6 +76,7 @@ class NodeStats:
         return sum(v[1] for v in self.received.values())
 
 
+@mypyc_attr(allow_interpreted_subclasses=True)
 class RoleActivator:
     """Start and stop sessions, publish properties, register participant roles.
 

@@ -56,6 +56,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     """
     parser = build_parser()
     args = parser.parse_args(argv)
+    # A command that starts itself again in another process (``sim --compiled``)
+    # passes on the arguments it was given.
+    args.command_line = list(argv) if argv is not None else sys.argv[1:]
     func: Callable[[argparse.Namespace], int] | None = getattr(args, "func", None)
     if func is None:
         parser.print_help()

@@ -6,9 +6,10 @@ for message. Every frame goes through the wire codec, so ``stats()`` counts real
 
 from __future__ import annotations
 
+import enum
 import random
 from collections.abc import Callable, Iterable, Mapping
-from typing import Any
+from typing import Any, Final, Literal
 
 from objectplaces.activator import RoleActivator
 from objectplaces.core.errors import LocalProtocolError
@@ -23,7 +24,14 @@ from tuplespace import TupleSpace
 
 __all__ = ["SimulatedNetwork"]
 
-_UNSET: Any = object()
+
+class _Default(enum.Enum):
+    """The value of an ``add_node`` option left to the network's default."""
+
+    UNSET = enum.auto()
+
+
+_UNSET: Final = _Default.UNSET
 
 
 class _SimNode:
@@ -192,10 +200,10 @@ class SimulatedNetwork:
         *,
         interest_radius: float | None = None,
         footprint_margin: float | None = None,
-        property_interval: float | None = _UNSET,
-        beat_interval: float | None = _UNSET,
-        rest_beat_interval: float | None = _UNSET,
-        failure_timeout: float | None = _UNSET,
+        property_interval: float | Literal[_Default.UNSET] | None = _UNSET,
+        beat_interval: float | Literal[_Default.UNSET] | None = _UNSET,
+        rest_beat_interval: float | Literal[_Default.UNSET] | None = _UNSET,
+        failure_timeout: float | Literal[_Default.UNSET] | None = _UNSET,
         space: TupleSpace | None = None,
     ) -> RoleActivator:
         """Add a node (a restarted node may reuse the id of a removed one).

@@ -11,7 +11,8 @@ True
 from __future__ import annotations
 
 from ._match import ANY, Template, compile_template, match_fields
-from ._space import KINDS, NotifyHandle, TupleSpace, Watch
+from ._space import KINDS, NotifyHandle, TupleSpace
+from ._watch import Watch
 from .errors import TupleSpaceError, WatchOverflow
 
 __all__ = [

@@ -16,7 +16,7 @@ that arity.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any, Final, final
+from typing import Any, ClassVar, Final, final
 
 __all__ = ["ANY", "Template", "compile_template", "match_fields"]
 
@@ -33,7 +33,7 @@ class _Any:
     """The wildcard: a template field that matches every value."""
 
     __slots__ = ()
-    _instance: _Any | None = None
+    _instance: ClassVar[_Any | None] = None
 
     def __new__(cls) -> _Any:
         if cls._instance is None:
@@ -110,13 +110,8 @@ class Template:
                 index, _, value = rest[0]
                 self.rest = lambda tup: tup[index] is value or tup[index] == value
             else:
-                self.rest = Template._rest_of(rest)
-
-    @staticmethod
-    def _rest_of(checks: list[tuple[int, int, Any]]) -> Callable[[Fields], bool]:
-        probe = Template.__new__(Template)
-        probe.checks = tuple(checks)
-        return probe.matches
+                # The same checks but the first: a template with ANY there.
+                self.rest = Template((ANY, *fields[1:])).matches
 
     def matches(self, tup: Fields) -> bool:
         """Tell whether ``tup`` (already known to have this arity) matches.

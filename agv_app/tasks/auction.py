@@ -83,8 +83,8 @@ class TaskAnnouncer(Initiator):
         self,
         task: TaskSpec,
         *,
-        window: float = 1.5,
         on_awarded: Callable[[TaskSpec, str], None],
+        window: float = 1.5,
         tally: MessageTally | None = None,
     ) -> None:
         self.task = task

@@ -26,6 +26,8 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
+from mypy_extensions import mypyc_attr
+
 from agv_app.geometry import Area, Polyline, Pose, hull_length, hull_projection, projection_ahead
 from agv_app.layout.elements import NoRouteError, Route
 from agv_app.layout.graph import Layout
@@ -140,6 +142,7 @@ class AgvConfig:
     detour_after: float | None = 60.0
 
 
+@mypyc_attr(allow_interpreted_subclasses=True)
 class AgvController:
     """One AGV: vehicle, route, locks, task.
 
@@ -526,8 +529,12 @@ class AgvController:
 
     # -- driving ------------------------------------------------------------------------
 
-    def _route_to(self, dest: str | None) -> None:
-        """Start driving to point ``dest`` (None: stay), from the point we rest on."""
+    def _route_to(self, dest: str | None) -> bool:
+        """Start driving to point ``dest`` (None: stay), from the point we rest on.
+
+        Returns:
+            Whether the AGV drives off: False for None or the point it rests on.
+        """
         self._dest = dest
         self._stalled = False
         self._first_try = None
@@ -535,7 +542,7 @@ class AgvController:
         if dest is None or dest == self.point:
             self._plan = None
             self._dest = None
-            return
+            return False
         route = self._route_for(dest)
         self._route = route
         heading = self.vehicle.pose().heading_rad
@@ -551,6 +558,7 @@ class AgvController:
         # the vehicle still faces the old way, so its first lock is the hull it stands
         # in and the first request sweeps the turn.
         self._follow(route, path, shift=path.cumulative[1], start_s=path.cumulative[1])
+        return True
 
     def _follow(self, route: Route, path: Polyline, *, shift: float, start_s: float) -> None:
         """Drive ``route`` along ``path``, which has a lead piece of ``shift`` metres
@@ -970,9 +978,9 @@ class AgvController:
         self._plan = None
         self._route = None
         if self._resume is not None:
-            resume, self._resume = self._resume, None
-            self._route_to(resume)
-            if self._dest is not None:
+            resume = self._resume
+            self._resume = None
+            if self._route_to(resume):
                 self.publish()
                 return
         if self.phase in ("to_pick", "to_drop"):
@@ -1042,8 +1050,9 @@ class AgvController:
 
     def _report_done(self) -> None:
         """Report the task finished at the drop station (when its dwell ends)."""
-        done, self._done_later = self._done_later, None
+        done = self._done_later
         assert done is not None
+        self._done_later = None
         self.last_done = done
         self.node.update_node_property("last_done", done)
         # The next task may have been taken (or started) in the meantime.

@@ -25,6 +25,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from mypy_extensions import mypyc_attr
+
 from objectplaces.core import codec
 from objectplaces.core.channel import Channel
 from objectplaces.core.config import NodeConfig
@@ -35,6 +37,7 @@ from objectplaces.core.timers import Retransmit, TimerQueue
 __all__ = ["Channels"]
 
 
+@mypyc_attr(allow_interpreted_subclasses=True)
 class Channels:
     """Opens channels and moves their frames through the outbox.
 

@@ -16,6 +16,7 @@ from objectplaces.core.groups import (
     Near,
     PropertyEquals,
     Within,
+    checked_distance,
 )
 
 __all__ = ["definition_from_json"]
@@ -53,11 +54,14 @@ def definition_from_json(obj: Any) -> GroupDefinition:
         case "within":
             if "distance" not in obj:
                 raise LocalProtocolError("group definition 'within' needs a 'distance'")
-            return Within(obj["distance"], _string(obj, "position", "position"))
+            # Checked before the call: a compiled build refuses a wrong type first.
+            distance = checked_distance("within", obj["distance"])
+            return Within(distance, _string(obj, "position", "position"))
         case "near":
             if "distance" not in obj or "point" not in obj:
                 raise LocalProtocolError("group definition 'near' needs a 'point' and a 'distance'")
-            return Near(obj["point"], obj["distance"], _string(obj, "position", "position"))
+            distance = checked_distance("near", obj["distance"])
+            return Near(obj["point"], distance, _string(obj, "position", "position"))
         case "property_equals":
             if "value" not in obj:
                 raise LocalProtocolError("group definition 'property_equals' needs a 'value'")

@@ -13,8 +13,10 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, TypeAlias
+
+from mypy_extensions import mypyc_attr
 
 from objectplaces.core.errors import LocalProtocolError
 from objectplaces.core.values import MAX_COORDINATE
@@ -31,6 +33,7 @@ __all__ = [
     "PropertyEquals",
     "Reach",
     "Within",
+    "checked_distance",
     "circle_meets_box",
     "circles_overlap",
     "describe",
@@ -86,6 +89,7 @@ def distance(a: Props, b: Props, position: str = "position") -> float | None:
     return math.hypot(pa[0] - pb[0], pa[1] - pb[1])
 
 
+@mypyc_attr(allow_interpreted_subclasses=True)
 class GroupDefinition(ABC):
     """A declarative, serialisable, spatially indexable group definition."""
 
@@ -154,7 +158,7 @@ class CircleMeetsBox(GroupDefinition):
 
     def __init__(
         self,
-        box: tuple[float, float, float, float],
+        box: Sequence[float],
         position: str = "position",
         radius: str = "hull_length",
     ) -> None:
@@ -211,15 +215,22 @@ class CircleMeetsBox(GroupDefinition):
         return Reach(self.position, math.hypot(*corner) + max_of(self.radius))
 
 
+def checked_distance(kind: str, distance: object) -> float:
+    """``distance`` of a ``kind`` definition as a float, if it is a finite number >= 0.
+
+    Raises:
+        LocalProtocolError: it is not.
+    """
+    if not (isinstance(distance, int | float) and distance >= 0 and math.isfinite(distance)):
+        raise LocalProtocolError(f"{kind}: distance must be a finite number >= 0, got {distance!r}")
+    return float(distance)
+
+
 class Within(GroupDefinition):
     """Members: nodes within ``distance`` of the initiator."""
 
     def __init__(self, distance: float, position: str = "position") -> None:
-        if not (isinstance(distance, int | float) and distance >= 0 and math.isfinite(distance)):
-            raise LocalProtocolError(
-                f"within: distance must be a finite number >= 0, got {distance!r}"
-            )
-        self.distance = float(distance)
+        self.distance = checked_distance("within", distance)
         self.position = position
 
     def __call__(self, initiator: Props, participant: Props) -> bool:
@@ -238,9 +249,7 @@ class Near(GroupDefinition):
     is (one node may run sessions about several places: a transport base, its stations'
     auctions)."""
 
-    def __init__(
-        self, point: tuple[float, float], distance: float, position: str = "position"
-    ) -> None:
+    def __init__(self, point: Sequence[float], distance: float, position: str = "position") -> None:
         if not (
             isinstance(point, tuple | list)
             and len(point) == 2
@@ -249,12 +258,8 @@ class Near(GroupDefinition):
             raise LocalProtocolError(
                 f"near: point must be two numbers within +-{MAX_COORDINATE:g}, got {point!r}"
             )
-        if not (isinstance(distance, int | float) and distance >= 0 and math.isfinite(distance)):
-            raise LocalProtocolError(
-                f"near: distance must be a finite number >= 0, got {distance!r}"
-            )
         self.point = (float(point[0]), float(point[1]))
-        self.distance = float(distance)
+        self.distance = checked_distance("near", distance)
         self.position = position
 
     def __call__(self, initiator: Props, participant: Props) -> bool:

@@ -25,7 +25,17 @@ __all__ = ["DepartureObserver", "Observers", "PropertyObserver"]
 PropertyObserver = Callable[[str, str, Any], Any]
 DepartureObserver = Callable[[str, Mapping[str, Any]], Any]
 
-_Registration = tuple[PropertyObserver, frozenset[str] | None]
+
+class _Registration:
+    """One registration of a property observer: an object of its own, so that a cancel
+    finds its own registration by identity even when the observer registered twice."""
+
+    __slots__ = ("names", "observer")
+
+    def __init__(self, observer: PropertyObserver, names: frozenset[str] | None) -> None:
+        self.observer = observer
+        self.names = names
+
 
 _ROUTES_MAX = 1024  # property names whose observer list is remembered at once
 
@@ -63,7 +73,7 @@ class Observers:
         """
         if isinstance(names, str):
             raise TypeError(f"names must be a collection of names, not the string {names!r}")
-        registration: _Registration = (observer, None if names is None else frozenset(names))
+        registration = _Registration(observer, None if names is None else frozenset(names))
         self._property.append(registration)
         self._routes.clear()
         self.watching_properties = True
@@ -94,7 +104,7 @@ class Observers:
             self._outbox.call(observer, (node, name, value))
 
     def _route(self, name: str) -> tuple[PropertyObserver, ...]:
-        observers = tuple(o for o, names in self._property if names is None or name in names)
+        observers = tuple(r.observer for r in self._property if r.names is None or name in r.names)
         if len(self._routes) >= _ROUTES_MAX:
             self._routes.clear()
         self._routes[name] = observers

@@ -10,6 +10,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any, Protocol
 
+from mypy_extensions import mypyc_attr
+
 from objectplaces.core.errors import LocalProtocolError
 from objectplaces.core.events import TimerHandle
 from objectplaces.core.ids import InitiatorRef, ParticipantRef
@@ -63,6 +65,7 @@ def is_bound(role: Role) -> bool:
     return role._binding is not None
 
 
+@mypyc_attr(allow_interpreted_subclasses=True)
 class Role:
     """What every role can do: know where it runs, read the clock, set timers."""
 
@@ -97,6 +100,7 @@ class Role:
         return self._bound().call_later(delay, fn)  # type: ignore[no-any-return]
 
 
+@mypyc_attr(allow_interpreted_subclasses=True)
 class Initiator(Role):
     """Starts and owns a session; sees all participants. Subclass and override callbacks."""
 
@@ -137,6 +141,7 @@ class Initiator(Role):
         self._bound().stop()
 
 
+@mypyc_attr(allow_interpreted_subclasses=True)
 class Participant(Role):
     """Activated by the middleware on nodes that satisfy a group definition."""
 

@@ -96,6 +96,8 @@ def test_json_round_trip(defn: groups.GroupDefinition) -> None:
         ({"type": "nearest"}, "unknown group definition type 'nearest'"),
         ({"type": "within"}, "needs a 'distance'"),
         ({"type": "within", "distance": -1}, "finite number >= 0"),
+        ({"type": "within", "distance": "1"}, "within: distance must be a finite number >= 0"),
+        ({"type": "near", "point": [0, 0], "distance": None}, "near: distance must be"),
         ({"type": "near", "distance": 1}, "needs a 'point' and a 'distance'"),
         ({"type": "near", "point": [0, 0]}, "needs a 'point' and a 'distance'"),
         ({"type": "near", "point": [0], "distance": 1}, "two numbers"),

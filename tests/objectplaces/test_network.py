@@ -170,6 +170,7 @@ def test_injected_garbage_and_a_malformed_property_frame_leave_the_target_runnin
         net.inject("evil", "zz", b"")
 
 
+@pytest.mark.source_only("replaces NodeMachine.receive_message")
 def test_a_frame_whose_handling_raises_is_dropped_and_counted(
     monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
 ) -> None:

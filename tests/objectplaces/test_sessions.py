@@ -298,6 +298,7 @@ def test_failure_timeout_removes_a_crashed_participant_and_initiator() -> None:
     assert n["a"].participations() == []
 
 
+@pytest.mark.source_only("arguments of the wrong type")
 def test_bad_session_arguments_fail_clearly() -> None:
     net = SimulatedNetwork()
     a = net.add_node("a")

@@ -159,6 +159,7 @@ def test_rd_all_in_all_count(space: TupleSpace) -> None:
 # -- bad use ---------------------------------------------------------------------
 
 
+@pytest.mark.source_only("an argument of the wrong type")
 @pytest.mark.parametrize("bad", [["a", 1], "a", None, {"a": 1}])
 def test_out_of_a_non_tuple_is_a_type_error(space: TupleSpace, bad: object) -> None:
     with pytest.raises(TypeError, match="got " + repr(bad).replace("[", r"\[")):
@@ -172,6 +173,7 @@ def test_a_negative_lease_is_a_value_error(space: TupleSpace, bad: float) -> Non
     assert len(space) == 0
 
 
+@pytest.mark.source_only("an argument of the wrong type")
 @pytest.mark.parametrize("op", ["inp", "rdp", "rd_all", "in_all", "count"])
 def test_a_non_tuple_template_is_a_type_error(space: TupleSpace, op: str) -> None:
     with pytest.raises(TypeError, match=r"\['a'\]"):

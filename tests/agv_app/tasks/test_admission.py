@@ -143,6 +143,7 @@ def test_a_fixed_desk_ignores_long_waits() -> None:
     assert desk.admission is None
 
 
+@pytest.mark.source_only("a limit of the wrong type")
 @pytest.mark.parametrize("bad", ["often", 2.5, 0])
 def test_a_desk_refuses_what_is_no_limit(bad: object) -> None:
     with pytest.raises(ValueError, match="'auto' or None"):

@@ -102,6 +102,7 @@ _STATIONS = ("dock-in-1", "dock-in-2", "pick-A1-1")
     ),
 )
 # A task finished while it still waited at the desk stayed in its queue.
+@pytest.mark.source_only("replaces Station.add_task")
 @example(limit=1, ops=[("create", 0), ("create", 0), ("finish", 1)])
 def test_the_limit_holds_and_tasks_go_out_in_creation_order(
     limit: int, ops: list[tuple[str, int]]

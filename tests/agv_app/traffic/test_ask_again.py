@@ -10,6 +10,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+import pytest
+
 from agv_app.fleet import Fleet, FleetConfig
 from agv_app.traffic import LockEntry, RequestEntry, Requester
 from agv_app.traffic.collision import group_within, request_group
@@ -122,6 +124,7 @@ def test_a_new_request_on_the_session_ends_the_allow_of_the_one_before() -> None
     assert allowed[0][3] == lower.priority
 
 
+@pytest.mark.source_only("replaces Voter._evaluate")
 def test_a_voter_deferring_again_rechecks_on_one_timer() -> None:
     net = SimulatedNetwork(seed=3, property_interval=1.0)
     a = Node(net, "a", 0.0, 6.0)
@@ -205,6 +208,7 @@ def _sessions_and_safety(reuse: bool) -> tuple[int, int, dict[str, Any]]:
     return len(opened), len(set(opened)), fleet.summary(1.0)
 
 
+@pytest.mark.source_only("replaces Requester methods")
 def test_a_fleet_asks_again_on_open_sessions_as_safely_as_on_new_ones() -> None:
     asked, sessions, kept = _sessions_and_safety(reuse=True)
     plain_asked, plain_sessions, plain = _sessions_and_safety(reuse=False)

@@ -85,6 +85,7 @@ def scoped_run() -> tuple[Fleet, ScopeWatch]:
     return _scoped_fleet(None, 150.0)
 
 
+@pytest.mark.source_only("replaces SimulatedNetwork.run_for")
 def test_scoped_fleet_hears_every_possible_collider(scoped_run: tuple[Fleet, ScopeWatch]) -> None:
     fleet, watch = scoped_run
     assert fleet.interest_radius is not None
@@ -94,6 +95,7 @@ def test_scoped_fleet_hears_every_possible_collider(scoped_run: tuple[Fleet, Sco
     assert fleet.summary()["tasks_completed"] >= 3
 
 
+@pytest.mark.source_only("replaces SimulatedNetwork.run_for")
 def test_published_hull_lengths_stay_within_the_bound(
     scoped_run: tuple[Fleet, ScopeWatch],
 ) -> None:
@@ -113,6 +115,7 @@ def test_published_hull_lengths_stay_within_the_bound(
     assert own_cell == pytest.approx(2 * bound + margin)
 
 
+@pytest.mark.source_only("replaces SimulatedNetwork.run_for")
 def test_a_radius_too_small_is_caught() -> None:
     # A seed whose first minute brings unheard AGVs close (seed 3's does not).
     fleet, watch = _scoped_fleet(6.0, 60.0, footprints=False, seed=4)
@@ -122,6 +125,7 @@ def test_a_radius_too_small_is_caught() -> None:
     assert fleet.monitor.lock_overlaps > 0
 
 
+@pytest.mark.source_only("replaces SimulatedNetwork.run_for")
 def test_the_base_and_observer_hear_every_node(scoped_run: tuple[Fleet, ScopeWatch]) -> None:
     fleet, _ = scoped_run
     for node_id in [OBSERVER_ID, BASE_ID]:
@@ -331,6 +335,7 @@ def long_floor_runs() -> dict[bool, tuple[Fleet, ScopeWatch, float]]:
     return {footprints: _long_floor_run(footprints) for footprints in (False, True)}
 
 
+@pytest.mark.source_only("replaces SimulatedNetwork.run_for")
 @pytest.mark.parametrize("footprints", [False, True])
 def test_on_a_long_floor_agvs_hear_only_their_neighbourhood(
     long_floor_runs: dict[bool, tuple[Fleet, ScopeWatch, float]], footprints: bool
@@ -345,6 +350,7 @@ def test_on_a_long_floor_agvs_hear_only_their_neighbourhood(
     assert fleet.summary()["tasks_completed"] >= 1
 
 
+@pytest.mark.source_only("replaces SimulatedNetwork.run_for")
 def test_footprints_let_an_agv_hear_fewer_agvs(
     long_floor_runs: dict[bool, tuple[Fleet, ScopeWatch, float]],
 ) -> None:

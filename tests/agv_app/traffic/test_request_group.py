@@ -72,6 +72,7 @@ def _run() -> dict[str, float]:
     return dict(fleet.summary())
 
 
+@pytest.mark.source_only("replaces request_group")
 def test_a_fleet_asks_fewer_voters_than_the_circle_group_and_stays_safe(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:

@@ -38,6 +38,7 @@ def run(monkeypatch: pytest.MonkeyPatch, *, memo: bool) -> tuple[dict[str, Any],
         return fleet.summary(), next(decided), next(evaluated)
 
 
+@pytest.mark.source_only("replaces decide_vote and Voter._evaluate")
 @pytest.mark.slow
 def test_a_fleet_votes_as_if_every_evaluation_decided_anew(
     monkeypatch: pytest.MonkeyPatch,

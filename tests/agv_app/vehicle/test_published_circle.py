@@ -7,6 +7,8 @@ beyond it publishes a new circle first.
 
 from __future__ import annotations
 
+import pytest
+
 from agv_app.fleet import Fleet
 from agv_app.vehicle import AgvController
 from tests.agv_app.vehicle.test_next_task import one_agv
@@ -47,6 +49,7 @@ def _drive_one_task(fleet: Fleet, agv: AgvController) -> tuple[int, int, int]:
     return requests, covered, len(published)
 
 
+@pytest.mark.source_only("replaces AgvController.publish")
 def test_every_request_lies_in_the_circle_in_force_and_not_every_one_publishes() -> None:
     # With 5 m requests some lie inside the circle of the one before; with the default
     # 3 m each reaches beyond it on this route.

@@ -222,6 +222,7 @@ def test_a_rejoining_node_gets_a_new_epoch(side: InitiatorSide) -> None:
     ]
 
 
+@pytest.mark.source_only("arguments of the wrong type")
 def test_bad_session_arguments_are_refused(side: InitiatorSide) -> None:
     with pytest.raises(LocalProtocolError, match="must subclass Initiator"):
         side.table.open(object(), groups.within(1), "v", now=0.0)  # type: ignore[arg-type]
