@@ -102,6 +102,10 @@ _KIND_NAMES: Final = {
     _ACK_INIT: "ack",
 }
 _FRAME_KINDS: Final = {k.value: k for k in FrameKind}
+# Packers ready for reuse: making one costs twice what packing a frame does. Each call
+# takes one off the list and puts it back (a list's pop and append are atomic), so
+# callers at once, in threads or nested, never share one.
+_PACKERS: Final[list[msgpack.Packer]] = []
 
 
 def _position_mm(value: object) -> tuple[int, int] | None:
@@ -137,11 +141,17 @@ def encode_value(value: Any) -> bytes:
             integer out of range).
     """
     try:
-        return msgpack.packb(value, use_bin_type=True, strict_types=False)  # type: ignore[no-any-return]
+        packer = _PACKERS.pop()
+    except IndexError:
+        packer = msgpack.Packer(use_bin_type=True, strict_types=False)
+    try:
+        return packer.pack(value)  # type: ignore[no-any-return]
     except (TypeError, ValueError, OverflowError) as exc:
         check_plain(value)  # names the offending part, when it can be named
         error = NotPlainDataError if isinstance(exc, TypeError) else InvalidValueError
         raise error(f"not serialisable as plain data: {value!r:.200} ({exc})") from exc
+    finally:
+        _PACKERS.append(packer)  # a packer empties its buffer after each pack, or error
 
 
 def _property_frame(update: PropertyUpdate) -> list[Any]:

@@ -250,3 +250,44 @@ def test_unplain_values_fail_as_type_errors_and_unfit_ones_as_value_errors() -> 
         codec.encode_value([1, {2}])
     with pytest.raises(InvalidValueError, match="out of the wire's range"):
         codec.encode_value({"big": 2**70})
+
+
+@given(
+    st.lists(
+        st.one_of(
+            st.recursive(
+                st.none() | st.booleans() | st.integers(-(2**63), 2**64 - 1) | st.text(),
+                lambda inner: st.lists(inner, max_size=3)
+                | st.dictionaries(st.text(max_size=3), inner, max_size=3),
+                max_leaves=8,
+            ),
+            st.just({"bad": object()}),
+            st.just([1, 2**70]),
+        ),
+        min_size=1,
+        max_size=6,
+    )
+)
+def test_a_value_encodes_alike_whatever_failed_before_it(values: list[object]) -> None:
+    # Packers are reused across calls: one that raised must not carry a byte onward.
+    for value in values:
+        try:
+            expected = msgpack.packb(value, use_bin_type=True)
+        except (TypeError, ValueError, OverflowError):
+            with pytest.raises((NotPlainDataError, InvalidValueError)):
+                codec.encode_value(value)
+        else:
+            assert codec.encode_value(value) == expected
+
+
+def test_encodings_nested_in_one_another_do_not_share_a_packer() -> None:
+    class Items(dict[str, object]):
+        def items(self):  # type: ignore[no-untyped-def, override]
+            # Packing this dict encodes another value first, as a thread might.
+            inner.append(codec.encode_value(["inner", 1]))
+            return super().items()
+
+    inner: list[bytes] = []
+    outer = codec.encode_value([Items(a=1), "tail"])
+    assert msgpack.unpackb(outer) == [{"a": 1}, "tail"]
+    assert [msgpack.unpackb(b) for b in inner] == [["inner", 1]]
