@@ -225,9 +225,14 @@ def main(argv: list[str] | None = None) -> None:
         + ("" if args.repeat == 1 else f"; the least of {args.repeat} runs, the trees alternating")
         + "). The fleet's defaults: a node silent for 1 s sends a beat "
         "(a few bytes), every property is republished every 600 s; heartbeat 10 s: beats "
-        "every 10 s. Before: the tree given with --against, run side by side; same "
-        "metrics: whether both trees gave the same figures (a pure speedup must; a change "
-        "of what the fleet sends must not). Busy share: the AGVs' time with a task. The "
+        "every 10 s. "
+        + (
+            "Before: the tree given with --against, run side by side. "
+            if args.against is not None
+            else ""
+        )
+        + "Same metrics: whether both trees gave the same figures (a pure speedup must; a "
+        "change of what the fleet sends must not). Busy share: the AGVs' time with a task. The "
         "goals are judged on the rows with every winner called at once: the default "
         "stations call one AGV at a time and keep most of a large fleet at home on this "
         "floor, which simulates faster by doing less."
