@@ -245,6 +245,8 @@ class FleetSource(Protocol):
         Raises:
             LookupError: no station has that id (``UnknownStationError`` or ``KeyError``).
             ValueError: the station cannot take a task (e.g. a charging station).
+            agv_app.tasks.desk.BacklogFull: the fleet holds as many open tasks as it
+                takes.
         """
         ...
 

@@ -547,6 +547,7 @@ class MeshFleet(FleetSourceBase):
             "tasks_completed": float(done),
             "tasks_open": float(len(self.open_tasks)),
             "tasks_returned": float(self.desk.returned),
+            "tasks_refused": float(self.desk.refused),
             "tasks_per_hour": done / hours if hours > 0 else 0.0,
             "free_flow_tasks_per_hour": self.free_flow.per_hour(self.now),
             "task_time_mean_s": book.durations.mean,

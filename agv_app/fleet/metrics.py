@@ -48,6 +48,7 @@ class FleetMetrics:
         *,
         tasks: TaskBook,
         tasks_returned: int,
+        tasks_refused: int,
         stalls: StallWatch,
         free_flow_tasks_per_hour: float,
         agvs: int,
@@ -68,8 +69,9 @@ class FleetMetrics:
         ``free_flow_tasks_per_hour`` is the bound of
         :class:`~agv_app.tasks.free_flow.FreeFlowBound`; ``stalls_60s`` counts the waits
         longer than 60 s and ``max_wait`` is the longest single wait (``stalls``);
-        ``yields``, ``drive_ons`` and ``detours`` count the AGVs' last resorts against a
-        circle of waits (docs/traffic.md).
+        ``tasks_refused`` counts the tasks the desk refused while it held its limit of
+        open ones (``BACKLOG_LIMIT``); ``yields``, ``drive_ons`` and ``detours`` count
+        the AGVs' last resorts against a circle of waits (docs/traffic.md).
         """
         per = max(agvs, 1) * max(sim_seconds, 1e-9)
         done, times, waits = tasks.counts["done"], tasks.durations, self.lock_waits
@@ -81,6 +83,7 @@ class FleetMetrics:
             "tasks_created": tasks.counts["created"],
             "tasks_completed": done,
             "tasks_returned": tasks_returned,
+            "tasks_refused": tasks_refused,
             "tasks_per_hour": round(done * 3600 / max(sim_seconds, 1e-9), 2),
             "free_flow_tasks_per_hour": round(free_flow_tasks_per_hour, 2),
             "task_time_mean": round(times.mean, 2),

@@ -382,6 +382,7 @@ class Fleet(FleetSourceBase):
         Raises:
             KeyError: no station has that id.
             ValueError: the station does not hand out loads.
+            BacklogFull: the desk holds as many open tasks as it takes.
         """
         return self.desk.create(station_id, drop)
 
@@ -471,6 +472,7 @@ class Fleet(FleetSourceBase):
         return self.metrics_raw.summary(
             tasks=self.desk.book,
             tasks_returned=self.desk.returned,
+            tasks_refused=self.desk.refused,
             stalls=self.stalls,
             free_flow_tasks_per_hour=self.free_flow.per_hour(self.net.now),
             agvs=len(self.agvs),

@@ -105,6 +105,11 @@ class TaskBook:
         """The record of ``task_id``: open, or among the last finished ones."""
         return self._open.get(task_id) or self._finished.get(task_id)
 
+    @property
+    def open_count(self) -> int:
+        """How many tasks are not finished."""
+        return len(self._open)
+
     def open_ids(self) -> list[str]:
         """Ids of the tasks not finished, oldest first."""
         return list(self._open)

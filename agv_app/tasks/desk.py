@@ -32,7 +32,9 @@ from agv_app.tasks.station import Station
 from objectplaces import RoleActivator
 
 __all__ = [
+    "BACKLOG_LIMIT",
     "BASE_ID",
+    "BacklogFull",
     "TaskDesk",
     "check_max_open",
     "drop_stations",
@@ -43,6 +45,20 @@ __all__ = [
 
 
 BASE_ID = "base"
+
+BACKLOG_LIMIT = 10_000
+"""Open tasks a desk holds at most: waiting at the desk, at their stations or on an AGV.
+Orders from outside (the dashboard's API, a master control) come as fast as a client
+sends them, and each open task keeps a record and, at its station, an auction: the bound
+keeps a burst from growing memory and work without end. A fleet at its load never comes
+near it (tasks are done as fast as they come)."""
+
+
+class BacklogFull(RuntimeError):
+    """The desk holds its limit of open tasks: a new one is refused (and counted) until
+    some are done or cancelled."""
+
+
 """Node id of a fleet's transport base.
 
 One node for the stations, not one per station: every node hears every AGV it may
@@ -139,10 +155,11 @@ class TaskDesk:
         one_at_a_time: each station calls one AGV at a time (``Station``).
         wait_for_drop: with ``one_at_a_time``, a station holds a task whose drop
             station an AGV is bound for already (``Station``).
+        backlog: open tasks held at most (``BACKLOG_LIMIT``); ``create`` refuses more.
 
     Raises:
         ValueError: ``max_open`` is set and neither a positive whole number nor
-            ``"auto"``.
+            ``"auto"``; ``backlog`` is below 1.
     """
 
     def __init__(
@@ -158,8 +175,14 @@ class TaskDesk:
         max_open: int | str | None = None,
         one_at_a_time: bool = True,
         wait_for_drop: bool = True,
+        backlog: int = BACKLOG_LIMIT,
     ) -> None:
         check_max_open(max_open)
+        if backlog < 1:
+            raise ValueError(f"backlog must be at least 1, got {backlog!r}")
+        self.backlog = backlog
+        self.refused = 0
+        """Tasks refused because the desk held ``backlog`` open ones."""
         self.layout = layout
         self.rng = rng
         self.clock = clock
@@ -242,12 +265,19 @@ class TaskDesk:
         Raises:
             KeyError: the layout has no station ``station_id``.
             ValueError: the station hands out no loads (or is not open on a base).
+            BacklogFull: ``backlog`` tasks are open.
         """
         if station_id not in self.layout.stations:
             raise KeyError(f"unknown station {station_id!r}")
         station = self.stations.get(station_id)
         if station is None:
             raise ValueError(f"station {station_id!r} is not a pick station")
+        if self.book.open_count >= self.backlog:
+            self.refused += 1
+            raise BacklogFull(
+                f"{self.book.open_count} tasks are open, as many as the task desk holds; "
+                "a new one is taken once some are done or cancelled"
+            )
         if drop is None:
             choices = [d for d in self._drops if d != station_id]
             drop = choices[self.rng.randrange(len(choices))]
@@ -293,11 +323,15 @@ class TaskDesk:
             self.stations[task.pick].add_task(task)
 
     def create_random(self) -> str | None:
-        """Create a task at a pick station drawn at random; None without stations."""
+        """Create a task at a pick station drawn at random; None without stations, or
+        when the desk is full (counted in ``refused``)."""
         if not self.stations:
             return None
         ids = sorted(self.stations)
-        return self.create(ids[self.rng.randrange(len(ids))])
+        try:
+            return self.create(ids[self.rng.randrange(len(ids))])
+        except BacklogFull:
+            return None
 
     def cancel(self, task_id: str) -> None:
         """Withdraw a task that no vehicle holds yet.

@@ -13,10 +13,11 @@ from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, Depends, HTTPException, Path, Query
 
+from agv_app.tasks.desk import BacklogFull
 from dashboard.deps import State, require_token
 from dashboard.errors import ERROR_RESPONSES
 from dashboard.limits import shown
-from dashboard.schemas import TaskIn, TaskOut, TaskRecordOut
+from dashboard.schemas import ErrorOut, TaskIn, TaskOut, TaskRecordOut
 from dashboard.source import TaskBookSource, TaskRecordView
 
 __all__ = ["MAX_TASKS_LISTED", "TaskStateName", "router", "task_out"]
@@ -88,13 +89,16 @@ async def get_task(task_id: TaskId, state: State) -> dict[str, Any]:
     "",
     status_code=201,
     response_model=TaskOut,
-    responses=ERROR_RESPONSES,
+    responses={**ERROR_RESPONSES, 503: {"model": ErrorOut}},
     dependencies=[Depends(require_token)],
 )
 async def create_task(body: TaskIn, state: State) -> TaskOut:
-    """Create a transport task at a station (starts its task-assignment session)."""
+    """Create a transport task at a station (starts its task-assignment session); 503
+    while the fleet holds as many open tasks as it takes (``BACKLOG_LIMIT``)."""
     try:
         task_id = state.source.create_task(body.station)
+    except BacklogFull as exc:
+        raise HTTPException(503, str(exc), headers={"Retry-After": "10"}) from exc
     except LookupError as exc:
         known = ", ".join(s["id"] for s in state.layout["stations"])
         raise HTTPException(404, f"unknown station {shown(body.station)} (known: {known})") from exc

@@ -156,3 +156,16 @@ def test_a_fleet_without_a_task_book_lists_none(client: TestClient, source: Netw
     assert client.get("/api/tasks").json() == []
     assert client.get("/api/tasks/task-1").status_code == 404
     assert client.delete("/api/tasks/task-1").status_code == 404
+
+
+def test_a_task_past_the_fleets_backlog_is_refused_with_503(
+    fleet: Fleet, fleet_client: TestClient
+) -> None:
+    fleet.desk.backlog = 2
+    create(fleet_client)
+    create(fleet_client)
+    r = fleet_client.post("/api/tasks", json={"station": "pick-A1-1"})
+    assert r.status_code == 503
+    assert r.headers["retry-after"] == "10"
+    assert "2 tasks are open, as many as the task desk holds" in r.json()["detail"]
+    assert fleet.desk.refused == 1

@@ -257,8 +257,10 @@ def test_unplain_values_fail_as_type_errors_and_unfit_ones_as_value_errors() -> 
         st.one_of(
             st.recursive(
                 st.none() | st.booleans() | st.integers(-(2**63), 2**64 - 1) | st.text(),
-                lambda inner: st.lists(inner, max_size=3)
-                | st.dictionaries(st.text(max_size=3), inner, max_size=3),
+                lambda inner: (
+                    st.lists(inner, max_size=3)
+                    | st.dictionaries(st.text(max_size=3), inner, max_size=3)
+                ),
                 max_leaves=8,
             ),
             st.just({"bad": object()}),
@@ -282,7 +284,7 @@ def test_a_value_encodes_alike_whatever_failed_before_it(values: list[object]) -
 
 def test_encodings_nested_in_one_another_do_not_share_a_packer() -> None:
     class Items(dict[str, object]):
-        def items(self):  # type: ignore[no-untyped-def, override]
+        def items(self):
             # Packing this dict encodes another value first, as a thread might.
             inner.append(codec.encode_value(["inner", 1]))
             return super().items()
