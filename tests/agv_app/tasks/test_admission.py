@@ -12,9 +12,10 @@ from agv_app.fleet import Fleet, FleetConfig
 from agv_app.fleet.stalls import StallWatch
 from agv_app.layout.demo import demo_warehouse
 from agv_app.tasks.admission import CROWDED, AdaptiveLimit, carried_tasks, limit_for
-from agv_app.tasks.desk import TaskDesk, pick_stations
+from agv_app.tasks.desk import TaskDesk
 from objectplaces.cli import main
 from objectplaces.sim import SimulatedNetwork
+from tests.agv_app.tasks.desks import demo_desk
 from tests.agv_app.two_way_floors import two_docks_one_lane
 
 
@@ -110,12 +111,7 @@ def test_the_stall_watch_tells_of_each_wait_once_as_it_passes_a_minute() -> None
 
 
 def _auto_desk() -> tuple[TaskDesk, SimulatedNetwork]:
-    layout = demo_warehouse()
-    net = SimulatedNetwork(seed=1)
-    desk = TaskDesk(layout, rng=random.Random(1), clock=lambda: net.now, max_open="auto")
-    for sid in pick_stations(layout):
-        desk.open_station(sid, net.add_node(f"st:{sid}"))
-    return desk, net
+    return demo_desk(max_open="auto")
 
 
 def test_an_automatic_desk_starts_at_what_the_lanes_carry_and_holds_the_rest() -> None:

@@ -2,25 +2,17 @@
 
 from __future__ import annotations
 
-import random
-
 import pytest
 
 from agv_app.fleet import Fleet, FleetConfig
-from agv_app.layout.demo import demo_warehouse
-from agv_app.tasks.desk import BACKLOG_LIMIT, BacklogFull, TaskDesk, pick_stations
-from objectplaces.sim import SimulatedNetwork
+from agv_app.tasks.desk import BACKLOG_LIMIT, BacklogFull, TaskDesk
+from tests.agv_app.tasks.desks import demo_desk
 
 PICK = "dock-in-1"
 
 
 def _desk(backlog: int) -> TaskDesk:
-    layout = demo_warehouse()
-    net = SimulatedNetwork(seed=1)
-    desk = TaskDesk(layout, rng=random.Random(1), clock=lambda: net.now, backlog=backlog)
-    for sid in pick_stations(layout):
-        desk.open_station(sid, net.add_node(f"st:{sid}"))
-    return desk
+    return demo_desk(backlog=backlog)[0]
 
 
 def test_a_full_desk_refuses_a_task_until_one_is_done_or_cancelled() -> None:

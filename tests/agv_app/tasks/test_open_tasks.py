@@ -3,7 +3,6 @@ go to their stations oldest first, as tasks are done or cancelled."""
 
 from __future__ import annotations
 
-import random
 from collections.abc import Callable
 
 import pytest
@@ -11,23 +10,16 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from agv_app.fleet import Fleet, FleetConfig
-from agv_app.layout.demo import demo_warehouse
 from agv_app.tasks.auction import TaskSpec
-from agv_app.tasks.desk import TaskDesk, pick_stations
+from agv_app.tasks.desk import TaskDesk
 from objectplaces.cli import main
-from objectplaces.sim import SimulatedNetwork
+from tests.agv_app.tasks.desks import demo_desk
 
 PICK = "dock-in-1"
 
 
 def _desk(max_open: int | None) -> TaskDesk:
-    """A desk with every pick station open on a simulated network, and no fleet."""
-    layout = demo_warehouse()
-    net = SimulatedNetwork(seed=1)
-    desk = TaskDesk(layout, rng=random.Random(1), clock=lambda: net.now, max_open=max_open)
-    for sid in pick_stations(layout):
-        desk.open_station(sid, net.add_node(f"st:{sid}"))
-    return desk
+    return demo_desk(max_open=max_open)[0]
 
 
 def _at_stations(desk: TaskDesk) -> list[str]:
