@@ -23,6 +23,8 @@ import random
 from collections import deque
 from collections.abc import Callable, Iterable
 
+from mypy_extensions import mypyc_attr
+
 from agv_app.layout.graph import Layout
 from agv_app.protocol import BASE_KIND, MessageTally
 from agv_app.tasks.admission import CROWDED, AdaptiveLimit, carried_tasks
@@ -54,6 +56,9 @@ keeps a burst from growing memory and work without end. A fleet at its load neve
 near it (tasks are done as fast as they come)."""
 
 
+# Not a native class when compiled (objectplaces.compiled): mypyc builds no native
+# subclass of a built-in exception.
+@mypyc_attr(native_class=False)
 class BacklogFull(RuntimeError):
     """The desk holds its limit of open tasks: a new one is refused (and counted) until
     some are done or cancelled."""
