@@ -199,7 +199,10 @@ def _compile(build: Build, work: Path, jobs: int) -> None:
         check=False,
     )
     if done.returncode != 0:
-        tail = "\n".join((done.stdout + done.stderr).strip().splitlines()[-15:])
+        lines = (done.stdout + done.stderr).strip().splitlines()
+        # The compiler's command lines run to hundreds of characters: the errors say more.
+        said = [line for line in lines if "error:" in line.lower()][-10:] or lines[-10:]
+        tail = "\n".join(line if len(line) <= 300 else line[:300] + " ..." for line in said)
         raise CompiledBuildError(f"mypyc build failed (exit {done.returncode}):\n{tail}")
     shutil.rmtree(work / "build", ignore_errors=True)
 

@@ -84,3 +84,22 @@ def test_sim_compiled_prints_the_same_figures_and_says_so(build: Path, tmp_path:
     assert fast == plain
     assert "compiled:" not in plain_err
     assert f"compiled: {len(SIM_MODULES)} of {len(SIM_MODULES)} modules from {build}" in fast_err
+
+
+def test_sim_compiled_without_a_c_compiler_says_why_and_exits_1(tmp_path: Path) -> None:
+    # An empty cache, and a C compiler that always fails: the build cannot be made.
+    env = {
+        **os.environ,
+        "PYTHONPATH": str(ROOT),
+        "XDG_CACHE_HOME": str(tmp_path / "cache"),
+        "CC": "/bin/false",
+    }
+    command = [sys.executable, "-P", "-m", "objectplaces.cli", "sim", "--compiled"]
+    command += ["--agvs", "2", "--minutes", "0.1", "--quiet"]
+    done = subprocess.run(
+        command, env=env, cwd=tmp_path, capture_output=True, text=True, timeout=300
+    )
+    assert done.returncode == 1
+    assert "objectplaces sim: --compiled: mypyc build failed" in done.stderr
+    assert "run without --compiled for the same run from the source" in done.stderr
+    assert not list((tmp_path / "cache" / "objectplaces").glob("compiled-*"))
