@@ -117,39 +117,46 @@ def ensure_built(
         report: told what happens, a line at a time (nothing when None).
 
     Raises:
-        CompiledBuildError: mypyc or the C compiler failed; the message ends with the
-            last lines they printed.
+        CompiledBuildError: mypyc or the C compiler failed (the message ends with the
+            errors they printed), or the cache cannot be written.
     """
     say = report or (lambda _line: None)
     cache = cache or default_cache()
     target = cache / f"compiled-{build.digest()}"
     if (target / _DONE).is_file():
         return target
-    cache.mkdir(parents=True, exist_ok=True)
-    with _locked(cache / ".lock"):
-        if (target / _DONE).is_file():
-            return target
-        say(
-            f"compiling {len(build.modules)} modules with mypyc into {target} "
-            "(once for this source; about a minute)"
-        )
-        started = time.monotonic()
-        work = cache / f".building-{target.name}-{os.getpid()}"
-        shutil.rmtree(work, ignore_errors=True)
-        try:
-            _compile(build, work, jobs)
-            (work / _DONE).write_text(
-                json.dumps({"modules": list(build.modules), "python": sys.version})
-            )
-            shutil.rmtree(target, ignore_errors=True)
-            work.rename(target)
-        finally:
-            shutil.rmtree(work, ignore_errors=True)
-        for old in cache.glob("compiled-*"):
-            if old != target:
-                shutil.rmtree(old, ignore_errors=True)
-        say(f"compiled in {time.monotonic() - started:.0f} s")
+    try:
+        cache.mkdir(parents=True, exist_ok=True)
+        with _locked(cache / ".lock"):
+            if not (target / _DONE).is_file():
+                _build(build, cache, target, jobs, say)
+    except OSError as exc:  # an unwritable cache, a full disk
+        raise CompiledBuildError(f"cannot write the build cache {cache}: {exc}") from exc
     return target
+
+
+def _build(build: Build, cache: Path, target: Path, jobs: int, say: Callable[[str], None]) -> None:
+    """Compile ``build`` into ``target`` (the cache's lock held); drop older builds."""
+    say(
+        f"compiling {len(build.modules)} modules with mypyc into {target} "
+        "(once for this source; about a minute)"
+    )
+    started = time.monotonic()
+    work = cache / f".building-{target.name}-{os.getpid()}"
+    shutil.rmtree(work, ignore_errors=True)
+    try:
+        _compile(build, work, jobs)
+        (work / _DONE).write_text(
+            json.dumps({"modules": list(build.modules), "python": sys.version})
+        )
+        shutil.rmtree(target, ignore_errors=True)
+        work.rename(target)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    for old in cache.glob("compiled-*"):
+        if old != target:
+            shutil.rmtree(old, ignore_errors=True)
+    say(f"compiled in {time.monotonic() - started:.0f} s")
 
 
 def loaded_compiled(modules: Sequence[str]) -> list[str]:

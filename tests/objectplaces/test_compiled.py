@@ -128,3 +128,11 @@ def test_the_cache_follows_xdg_cache_home(tmp_path: Path, monkeypatch: pytest.Mo
     monkeypatch.delenv("XDG_CACHE_HOME")
     assert default_cache() == Path.home() / ".cache" / "objectplaces"
     assert ACTIVE_ENV == "OBJECTPLACES_COMPILED"
+
+
+def test_a_cache_that_cannot_be_written_is_named(tmp_path: Path) -> None:
+    build = _package(tmp_path / "src")
+    blocked = tmp_path / "a-file"
+    blocked.write_text("not a directory")
+    with pytest.raises(CompiledBuildError, match=r"cannot write the build cache .*a-file"):
+        ensure_built(build, blocked / "cache")
