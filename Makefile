@@ -29,7 +29,7 @@ test: $(STAMP) chromium mosquitto
 	$(BIN)/ruff check .
 	$(BIN)/mypy
 	$(BIN)/python -m pytest -n 2
-	$(BIN)/python -m tests.compiled_suite
+	$(BIN)/python -m tests.compiled_suite --no-slow
 
 lint: $(STAMP)
 	$(BIN)/ruff check .

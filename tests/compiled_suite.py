@@ -2,7 +2,8 @@
 
 ```sh
 python -m tests.compiled_suite              # build if needed, then the tests, 2 workers
-python -m tests.compiled_suite -k voter -x  # extra arguments go to pytest
+python -m tests.compiled_suite --no-slow    # without the long fleet scenarios (make test)
+python -m tests.compiled_suite -k voter -x  # other arguments go to pytest
 ```
 
 The build (``agv_app.fleet.compiled``, docs/sim-speed.md "A compiled build") is made
@@ -11,7 +12,9 @@ objectplaces and agv_app with the build first on the path; the session refuses t
 start unless every compiled module came from the build. Tests marked ``source_only``
 stay out: they replace a function of a compiled module (compiled callers keep calling
 the original) or check how an argument of the wrong type is refused (a compiled module
-refuses it first, with a TypeError of its own).
+refuses it first, with a TypeError of its own). ``--no-slow`` leaves out the tests
+marked ``slow`` as well: ``make test`` runs them on the source, and the fleet's figures
+from both builds are compared in the suite itself (tests/agv_app/fleet/test_compiled.py).
 """
 
 from __future__ import annotations
@@ -31,7 +34,11 @@ SUITES = ("tests/tuplespace", "tests/objectplaces", "tests/agv_app")
 
 def main(argv: list[str] | None = None) -> int:
     """Build, then run the suites on the build; pytest's exit status."""
-    extra = sys.argv[1:] if argv is None else argv
+    extra = list(sys.argv[1:] if argv is None else argv)
+    chosen = "not source_only"
+    if "--no-slow" in extra:
+        extra.remove("--no-slow")
+        chosen += " and not slow"
     try:
         tree = ensure_built(sim_build(), report=lambda line: print(line, flush=True))
     except CompiledBuildError as exc:
@@ -48,7 +55,7 @@ def main(argv: list[str] | None = None) -> int:
         "no:cacheprovider",
         "--import-mode=importlib",
         "-m",
-        "not source_only",
+        chosen,
         "-n",
         "2",
         *SUITES,
