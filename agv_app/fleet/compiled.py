@@ -108,7 +108,10 @@ def run_compiled(command_line: Sequence[str]) -> int:
     console = Console(stderr=True)
     try:
         with console.status("compiling the simulation's modules with mypyc"):
-            tree = ensure_built(sim_build(), report=lambda line: console.print(line))
+            # Plain text: a cache path may hold brackets that rich would read as markup.
+            tree = ensure_built(
+                sim_build(), report=lambda line: console.print(line, markup=False, highlight=False)
+            )
     except CompiledBuildError as exc:
         print(f"objectplaces sim: --compiled: {exc}", file=sys.stderr)
         print(
