@@ -8,7 +8,12 @@
   station may restart it with a wider range.
 * :class:`Bidder` (participant, on every AGV) bids when its AGV is free. An AGV bids in
   one auction at a time (a ``("bid", session)`` tuple in its space), so an award always
-  finds it free: the award is final and a task is never given to two AGVs.
+  finds it free: the award is final and a task is never given to two AGVs. A bidder
+  that finds its AGV bidding elsewhere tries again every ``retry`` seconds; it sleeps
+  through the tries that would find that bid still out and is woken (the space's
+  ``notify``) when it ends, for its next try. The tries keep their times, so the
+  auctions an AGV moves on to spread as before; an AGV in range of many stations has
+  a bidder waiting in each, and most of their tries would have found nothing to do.
 
 A task that an AGV cannot finish (its node fails) is returned by the station, which
 watches its winners' departures (see :mod:`agv_app.tasks.station`).
@@ -23,7 +28,7 @@ from typing import Any, Protocol
 from agv_app.protocol import AGV_KIND, MessageTally, tally_send
 from objectplaces import Initiator, Participant, ParticipantRef, groups
 from objectplaces.groups import GroupDefinition
-from tuplespace import ANY
+from tuplespace import ANY, NotifyHandle
 
 __all__ = ["Bidder", "TaskAgent", "TaskAnnouncer", "TaskSpec", "bidder_group"]
 
@@ -145,7 +150,8 @@ class Bidder(Participant):
 
     Args:
         agent: the AGV.
-        retry: seconds between attempts to bid while the AGV is bidding elsewhere.
+        retry: seconds between attempts to bid while the AGV bids elsewhere or cannot
+            take the task (busy, until the station hears so and ends this activation).
         tally: counts the messages sent.
     """
 
@@ -158,14 +164,21 @@ class Bidder(Participant):
         self._task: TaskSpec | None = None
         self._bid = False
         self._active = False
+        self._waiting = False  # for the AGV's bid elsewhere to end
+        self._next_try = 0.0  # when a try finding that bid still out was due
+        self._bids_ending: NotifyHandle | None = None
 
     def in_group_of(self, initiator: Any) -> None:
         """Activated for a station's auction."""
         self._active = True
+        self._bids_ending = self.space.notify(("bid", ANY), self._bid_ended, on="in")
 
     def out_group_of(self, initiator: Any) -> None:
         """The auction ended for us: we may bid elsewhere again."""
         self._active = False
+        if self._bids_ending is not None:
+            self._bids_ending.cancel()
+            self._bids_ending = None
         if self._bid:
             self.space.inp(("bid", self.session_id))
             self._bid = False
@@ -186,7 +199,11 @@ class Bidder(Participant):
         if not self._active or self._bid or self._task is None:
             return
         space = self.space
-        cost = self._agent.bid_for(self._task) if space.rdp(("bid", ANY)) is None else None
+        if space.rdp(("bid", ANY)) is not None:
+            self._waiting = True  # until ``_bid_ended``
+            self._next_try = self.now() + self._retry
+            return
+        cost = self._agent.bid_for(self._task)
         if cost is None:
             self.call_later(self._retry, self._try_bid)
             return
@@ -195,3 +212,15 @@ class Bidder(Participant):
         message = {"t": "bid", "c": round(cost, 2)}
         self.send(message)
         tally_send(self._tally, "bid", message)
+
+    def _bid_ended(self, kind: str, tup: Any) -> None:
+        """The AGV's bid in another auction ended: try again at the first try's time
+        after now, as a callback of our own (this runs inside the role that took the
+        tuple)."""
+        if not (self._waiting and self._active):
+            return
+        self._waiting = False
+        now, due = self.now(), self._next_try
+        while due <= now:  # the tries slept through, each one ``retry`` after the last
+            due += self._retry
+        self.call_later(due - now, self._try_bid)

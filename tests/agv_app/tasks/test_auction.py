@@ -100,6 +100,32 @@ def test_an_agv_that_enters_range_during_the_session_may_bid() -> None:
     assert [t.id for t in late.taken] == ["t1"]
 
 
+def test_a_bidder_waiting_for_its_agvs_bid_elsewhere_sleeps_until_that_bid_ends() -> None:
+    net, here, _ = setup()  # station "st" at x = 0
+    there_awarded: list[TaskSpec] = []
+    there = Station(
+        net.add_node("st2"),
+        "st2",
+        (30.0, 0.0),
+        range_m=20.0,
+        on_assigned=lambda t, a: there_awarded.append(t),
+    )
+    best = Agent(net.add_node("best"), 1.0, 1.0)  # in range of "st" only
+    both = Agent(net.add_node("both"), 15.0, 5.0)  # in range of both
+    net.run_for(0.5)
+    here.add_task(TaskSpec("t-here", "st", "x"))
+    net.run_for(0.3)  # "both" bids here first
+    there.add_task(TaskSpec("t-there", "st2", "x"))
+    net.run_for(0.5)
+    assert both.taken == []
+    # Its bidder for "st2" waits without a timer: it asks nothing until the bid ends.
+    assert both.node.machine.footprint()["role_timers"] == 0
+    net.run_for(1.0)  # the window closes: "best" wins here, "both" bids there
+    assert [t.id for t in best.taken] == ["t-here"]
+    net.run_for(2.5)
+    assert [t.id for t in both.taken] == ["t-there"] == [t.id for t in there_awarded]
+
+
 def test_tasks_queue_and_each_goes_to_one_agv_under_loss() -> None:
     # At 10% loss three republications in a row go missing about once in a thousand
     # intervals, so now and then the station counts a live winner as failed (seed 5
