@@ -7,7 +7,7 @@ import argparse
 from agv_app.fleet.mesh import MeshFleet
 from agv_app.fleet.sim import Fleet, FleetConfig
 from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
-from agv_app.tasks.admission import CROWDED, limit_for
+from agv_app.tasks.admission import CROWDED
 from agv_app.tasks.load import DEFAULT_LOAD, check_load, initial_tasks, task_interval_for_load
 from agv_app.vehicle.kinematics import VehicleSpec
 
@@ -86,7 +86,7 @@ def demo_source(
             start_tasks=initial_tasks(agvs=processes, load=load),
             dwell=dwell,
             transport=transport,
-            max_open_tasks=limit_for(max_open_tasks, layout, processes),
+            max_open_tasks=max_open_tasks,
         )
     config = FleetConfig(
         agvs=agvs or DEMO_AGVS, seed=seed, load=load, max_open_tasks=max_open_tasks

@@ -49,6 +49,7 @@ from agv_app.geometry import XY
 from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
 from agv_app.layout.graph import Layout
 from agv_app.protocol import AGV_KIND, OBSERVER_KIND
+from agv_app.tasks.admission import CROWDED, limit_for
 from agv_app.tasks.desk import BASE_ID, TaskDesk, require_task_stations
 from agv_app.tasks.free_flow import FreeFlowBound, FreeFlowTimer
 from agv_app.tasks.load import TaskArrivals
@@ -130,7 +131,9 @@ class MeshFleet(FleetSourceBase):
             many seconds (0: each at once; ``agv_app.fleet.agv_process``).
         max_open_tasks: tasks on the floor at once, at most; the others wait at the
             task desk (None: no limit; ``"auto"``: a limit that follows the floor's
-            long waits; :class:`~agv_app.tasks.desk.TaskDesk`).
+            long waits; :data:`~agv_app.tasks.admission.CROWDED`, the default:
+            ``"auto"`` for a fleet larger than its floor carries, else none, as the
+            simulated fleet; :class:`~agv_app.tasks.desk.TaskDesk`).
 
     Raises:
         ValueError: ``agvs`` < 1, ``start_tasks`` < 0, more AGVs than parking spots,
@@ -160,7 +163,7 @@ class MeshFleet(FleetSourceBase):
         republish_beats: int = REPUBLISH_BEATS,
         rest_beat: float | None = REST_BEAT_S,
         poll_interval: float = POLL_INTERVAL_S,
-        max_open_tasks: int | str | None = None,
+        max_open_tasks: int | str | None = CROWDED,
     ) -> None:
         if agvs < 1:
             raise ValueError(f"agvs must be at least 1, got {agvs!r}")
@@ -218,7 +221,7 @@ class MeshFleet(FleetSourceBase):
                 station_range=station_range,
                 tally=self.metrics_raw.tally,
                 on_created=self.free_flow.add,
-                max_open=max_open_tasks,
+                max_open=limit_for(max_open_tasks, self.layout, agvs),
             ),
         )
         self.processes = AgvProcesses(python=python, capture_output=capture_output)

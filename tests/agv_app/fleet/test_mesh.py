@@ -162,6 +162,11 @@ def test_dashboard_shows_the_agv_processes() -> None:
 def test_the_task_desk_of_a_mesh_fleet_takes_the_limit() -> None:
     assert MeshFleet(agvs=2, seed=1, max_open_tasks=4).desk.max_open == 4
     assert MeshFleet(agvs=2, seed=1).desk.max_open is None
+    # By default, as the simulated fleet: the automatic limit once the fleet is larger
+    # than the floor carries (22 tasks on the demo warehouse), none below.
+    assert MeshFleet(agvs=22, seed=1).desk.admission is None
+    assert MeshFleet(agvs=40, seed=1).desk.admission is not None
+    assert MeshFleet(agvs=40, seed=1, max_open_tasks=None).desk.admission is None
     automatic = MeshFleet(agvs=2, seed=1, max_open_tasks="auto")
     assert automatic.desk.admission is not None
     # The fleet's stall watch tells the desk of a wait over a minute.
