@@ -144,10 +144,9 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
         "--rest-beat",
         type=rest_beat_argument,
         default=REST_BEAT_S,
-        help="an AGV standing still (parked, waiting, at a station), the transport base and "
-        f"the observer beat only this often (default {REST_BEAT_S:g} s, or the heartbeat when "
-        "longer; 'none': as often as the others); a node at rest counts as failed after "
-        "three of these",
+        help=f"an AGV parked at home with no task, the transport base and the observer beat only "
+        f"this often (default {REST_BEAT_S:g} s, or the heartbeat when longer; 'none': as "
+        "often as the others); a node at rest counts as failed after three of these",
     )
     p.add_argument("--json", dest="json_path", help="write the metrics to this JSON file")
     p.add_argument("--quiet", action="store_true", help="no progress bar")

@@ -280,7 +280,7 @@ def build_parser() -> argparse.ArgumentParser:
         type=rest_beat_argument,
         default=REST_BEAT_S,
         metavar="S|none",
-        help=f"beat every S seconds while standing still: parked, waiting, at a station (default "
+        help=f"beat every S seconds while parked at home with no task (default "
         f"{REST_BEAT_S:g}; 'none': every t-update)",
     )
     parser.add_argument(

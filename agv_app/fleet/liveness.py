@@ -3,7 +3,7 @@ simulated fleet, the AGV processes and their observer and stations on a real net
 
 A fleet shares one configuration: a node grants a resting peer no longer a silence than
 its own ``rest_beat_interval`` allows, so an observer or a station started without rest
-would count every standing AGV failed (docs/protocol.md §2, "A node at rest").
+would count every parked AGV failed (docs/protocol.md §2, "A node at rest").
 """
 
 from __future__ import annotations
@@ -30,8 +30,7 @@ every listener with every property's name; once a minute it was 14 % of what a f
 AGVs sent (docs/protocol.md §2)."""
 
 REST_BEAT_S = 5.0
-"""Beat interval of an AGV at rest (standing still: parked, waiting for a lock, at a
-station), by default."""
+"""Beat interval of an AGV at rest (parked at home, no task), by default."""
 
 
 def fleet_liveness(

@@ -124,10 +124,9 @@ class MeshFleet(FleetSourceBase):
             times as seldom.
         republish_beats: liveness beats between two republications of every property,
             by every node (0: no beats, everything republished each ``t_update``).
-        rest_beat: an AGV standing still (parked at its home, waiting for a lock, at a
-            station), the transport base and the observer beat only this often, and
-            every node waits that much longer for them (None: no rest; with beats only;
-            docs/protocol.md §2, "A node at rest").
+        rest_beat: an AGV parked at its home with no task, the transport base and the
+            observer beat only this often, and every node waits that much longer for
+            them (None: no rest; with beats only; docs/protocol.md §2, "A node at rest").
         poll_interval: on Zenoh, the AGV processes hand received frames on every this
             many seconds (0: each at once; ``agv_app.fleet.agv_process``).
         max_open_tasks: tasks on the floor at once, at most; the others wait at the

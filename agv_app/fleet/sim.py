@@ -86,13 +86,11 @@ class FleetConfig:
         republish: seconds between republications of every property, the last resort
             against lost updates (None: ``REPUBLISH_BEATS`` heartbeats; a loss is found by
             the next frame of the node, publications being numbered without gaps).
-        rest_beat: an AGV standing still (parked at its home, waiting for a lock, at a
-            station) is at rest and beats only this often
-            (``NodeConfig.rest_beat_interval``; its heartbeat when that is longer), and so
-            do the transport base and the observer, which never move; their peers count
-            them failed after three of these. None: no rest. The interest radius allows
-            for the longer wait (docs/traffic.md, point 5 of "Why the interest radius
-            keeps every collider in the group").
+        rest_beat: an AGV parked at its home with no task is at rest and beats only this
+            often (``NodeConfig.rest_beat_interval``; its heartbeat when that is longer),
+            and so do the transport base and the observer, which never move; their
+            peers count them failed after three of these. None: no rest. The interest
+            radius allows for the longer wait (docs/traffic.md, "Idle AGVs").
         beats: False: no beats; every node republishes every property each heartbeat
             instead (how the fleet ran before beats; ``republish`` is then ignored).
         probes: False: no node probes the idle members of its sessions

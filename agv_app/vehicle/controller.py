@@ -123,9 +123,6 @@ class AgvConfig:
             one that avoids the segment it was waiting to drive (None: never); AGVs
             that fill a one-way loop each wait for the one ahead
             (docs/traffic.md, "Taking another way").
-        rest_standing: the node rests (beats every rest interval) whenever the AGV
-            stands, waiting for a lock or at a station too; False: only while it is
-            parked at its home with no task (docs/protocol.md §2, "A node at rest").
     """
 
     t_update: float = 1.0
@@ -143,7 +140,6 @@ class AgvConfig:
     keep_way_out: bool = True
     drive_on_after: float | None = 60.0
     detour_after: float | None = 60.0
-    rest_standing: bool = True
 
 
 @mypyc_attr(allow_interpreted_subclasses=True)
@@ -277,7 +273,6 @@ class AgvController:
         self.failed = False
         self._requester = None
         self._at_rest = False  # a new node beats as usual until the AGV parks
-        self._still = False  # ... or stands
         book = self.book
         book.clear()
         self._key += 1
@@ -624,23 +619,21 @@ class AgvController:
         else:
             self._stalled = False
             self._idle(now)
-        self._rest_when_still()
+        self._rest_when_parked()
 
-    def _rest_when_still(self) -> None:
-        """Tell the node when the AGV comes to a stand and when it drives on: standing
-        (parked at its home, waiting for a lock, at a station), it has nothing to say but
-        that it lives, and beats less often (docs/protocol.md §2, "A node at rest")."""
-        self._at_rest = (
+    def _rest_when_parked(self) -> None:
+        """Tell the node when the AGV parks at its home with no task, and when it stops:
+        parked, it has nothing to say but that it lives, and beats less often."""
+        at_rest = (
             self._dest is None
             and self.phase == "home"
             and self.point == self.home
             and self.task is None
             and self.pending_task is None
         )
-        still = self._at_rest or (self.config.rest_standing and self.vehicle.speed == 0.0)
-        if still != self._still:
-            self._still = still
-            self.node.set_at_rest(still)
+        if at_rest != self._at_rest:
+            self._at_rest = at_rest
+            self.node.set_at_rest(at_rest)
 
     def _review_request(self, now: float) -> None:
         """Withdraw the pending request to yield (see ``_must_yield``), or ask again if
@@ -678,15 +671,9 @@ class AgvController:
 
     @property
     def at_rest(self) -> bool:
-        """True while the AGV is parked at its home with no task."""
+        """True while the AGV is parked at its home with no task (its node beats less
+        often then: ``FleetConfig.rest_beat``)."""
         return self._at_rest
-
-    @property
-    def standing(self) -> bool:
-        """True while the AGV's node rests: while the AGV stands still, parked or on its
-        way (only parked without ``AgvConfig.rest_standing``); its node beats less often
-        then (``FleetConfig.rest_beat``)."""
-        return self._still
 
     @property
     def stalled(self) -> bool:

@@ -234,7 +234,7 @@ class _Detouring(AgvController):
 # the top, a merge at the bottom), fills with three AGVs, each waiting for the lock of
 # the one ahead: the "full loop" of docs/traffic.md. The AGV that has waited a minute
 # at the fork into aisle 5 takes the north lane on, round another aisle, and the loop
-# opens. Found before a waiting AGV's node rested: only a parked one's does here.
+# opens.
 @pytest.mark.slow
 @pytest.mark.timeout(300)
 def test_a_full_loop_opens_when_an_agv_at_a_fork_takes_another_way() -> None:
@@ -244,7 +244,7 @@ def test_a_full_loop_opens_when_an_agv_at_a_fork_takes_another_way() -> None:
         probes=False,
         station_nodes=True,
         max_open_tasks=None,
-        vehicle=vehicle_with(detour_after=None, rest_standing=False),
+        vehicle=vehicle_with(detour_after=None),
     ).summary()
     assert locked["deadlocks"] >= 3
     _Detouring.log.clear()
@@ -254,7 +254,7 @@ def test_a_full_loop_opens_when_an_agv_at_a_fork_takes_another_way() -> None:
         probes=False,
         station_nodes=True,
         max_open_tasks=None,
-        vehicle=vehicle_with(_Detouring, rest_standing=False),
+        vehicle=vehicle_with(_Detouring),
     ).summary()
     assert figures["deadlocks"] == figures["collisions"] == figures["lock_overlaps"] == 0
     assert figures["tasks_completed"] > 1.5 * locked["tasks_completed"]

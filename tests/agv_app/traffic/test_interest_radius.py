@@ -33,7 +33,6 @@ from agv_app.vehicle.controller import AgvConfig
 from agv_app.vehicle.kinematics import VehicleSpec
 from tests.agv_app.test_random_layouts import floors
 from tests.agv_app.two_way_floors import Floor
-from tests.agv_app.vehicles import vehicle_with
 
 SPEC = VehicleSpec(2.0, 1.0)
 CLEARANCE = clearance_for(SPEC.length_m, SPEC.width_m)
@@ -237,31 +236,6 @@ def test_an_agv_is_at_rest_only_while_parked_at_home_without_a_task() -> None:
                 raise AssertionError(f"{agv.node_id} parked idle but not at rest")
     assert (True, "home", False) in seen
     assert any(not rest and busy for rest, _, busy in seen)
-
-
-@pytest.mark.parametrize("rest_standing", [True, False])
-def test_an_agv_rests_whenever_it_stands_and_its_peers_grant_it_the_longer_wait(
-    rest_standing: bool,
-) -> None:
-    """Standing still, parked or not (waiting for a lock, at a station), an AGV's node
-    beats every rest interval: the observer grants a jammed fleet's waiting AGVs the
-    longer wait as it does the parked ones; none rests while it drives. Without
-    ``rest_standing`` only the parked ones rest."""
-    config = FleetConfig(agvs=30, seed=1, load=0.9, one_at_a_time=False, max_open_tasks=None)
-    fleet = Fleet(config=config, vehicle=vehicle_with(rest_standing=rest_standing))
-    unparked_resting = 0
-    for _ in range(60):
-        fleet.run(1.0)
-        for agv in fleet.agvs.values():
-            stands = agv.vehicle.speed == 0.0 if rest_standing else agv.at_rest
-            assert agv.standing == stands, agv.node_id
-        granted = fleet.observer.machine.footprint()["resting"]  # the base among them
-        parked = sum(agv.at_rest for agv in fleet.agvs.values())
-        unparked_resting = max(unparked_resting, granted - 1 - parked)
-    if rest_standing:
-        assert unparked_resting >= 5  # 11 at most on this seed
-    else:
-        assert unparked_resting == 0
 
 
 # -- the bound itself -------------------------------------------------------------------
