@@ -45,19 +45,29 @@ class Agent:
         self.node.update_node_property("status", "idle")
 
 
+def add_station(
+    net: SimulatedNetwork, name: str, x: float, **options: Any
+) -> tuple[Station, list[TaskSpec]]:
+    """A station on a node of its own at ``(x, 0)``, auctioning within 20 m; the tasks it
+    awarded, in order."""
+    awarded: list[TaskSpec] = []
+    station = Station(
+        net.add_node(name),
+        name,
+        (x, 0.0),
+        range_m=20.0,
+        on_assigned=lambda t, a: awarded.append(t),
+        **options,
+    )
+    return station, awarded
+
+
 def setup(
     seed: int = 1, *, one_at_a_time: bool = True, wait_for_drop: bool = True, **kw: Any
 ) -> tuple[SimulatedNetwork, Station, list[TaskSpec]]:
     net = SimulatedNetwork(seed=seed, property_interval=0.5, **kw)
-    awarded: list[TaskSpec] = []
-    station = Station(
-        net.add_node("st"),
-        "st",
-        (0.0, 0.0),
-        range_m=20.0,
-        on_assigned=lambda t, a: awarded.append(t),
-        one_at_a_time=one_at_a_time,
-        wait_for_drop=wait_for_drop,
+    station, awarded = add_station(
+        net, "st", 0.0, one_at_a_time=one_at_a_time, wait_for_drop=wait_for_drop
     )
     return net, station, awarded
 
@@ -102,14 +112,7 @@ def test_an_agv_that_enters_range_during_the_session_may_bid() -> None:
 
 def test_a_bidder_waiting_for_its_agvs_bid_elsewhere_sleeps_until_that_bid_ends() -> None:
     net, here, _ = setup()  # station "st" at x = 0
-    there_awarded: list[TaskSpec] = []
-    there = Station(
-        net.add_node("st2"),
-        "st2",
-        (30.0, 0.0),
-        range_m=20.0,
-        on_assigned=lambda t, a: there_awarded.append(t),
-    )
+    there, there_awarded = add_station(net, "st2", 30.0)
     best = Agent(net.add_node("best"), 1.0, 1.0)  # in range of "st" only
     both = Agent(net.add_node("both"), 15.0, 5.0)  # in range of both
     net.run_for(0.5)
