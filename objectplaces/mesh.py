@@ -1,13 +1,19 @@
 """Embed an ObjectPlaces node in an asyncio application, linked to its peers over WebSockets.
 
 ```python
+from objectplaces.security import Identity
+
 node = await objectplaces.start_node(
-    "agv-3", listen="127.0.0.1:7003", join=["127.0.0.1:7001"], secret=b"..."
+    "agv-3", listen="10.0.0.3:7003", join=["10.0.0.1:7001"],
+    tls=Identity.from_pki("fleet-pki", "agv-3"),     # wss:// with mutual TLS
 )
 node.update_node_property("position", (1.0, 2.0))   # the usual RoleActivator API
 ...
 await node.close()                                   # leave the mesh
 ```
+
+Plain ``ws://`` links only when asked for by name, on loopback:
+``start_node("a", listen="127.0.0.1:0", insecure=True, secret=SECRET)``.
 """
 
 from __future__ import annotations
@@ -23,6 +29,8 @@ from objectplaces.core.errors import LocalProtocolError
 from objectplaces.core.node import NodeConfig, NodeMachine
 from objectplaces.network_node import NetworkNode
 from objectplaces.runtime.aio import AsyncioRunner
+from objectplaces.security.identity import Identity
+from objectplaces.security.links import link_security
 from objectplaces.transport.options import MeshOptions, PeerStats
 from objectplaces.transport.websocket import WebSocketMesh
 from tuplespace import TupleSpace
@@ -162,7 +170,9 @@ async def start_mesh_node(
     *,
     listen: str = "127.0.0.1:0",
     join: Sequence[str] = (),
-    secret: bytes,
+    tls: Identity | None = None,
+    insecure: bool = False,
+    secret: bytes | None = None,
     interest_radius: float | None = None,
     property_interval: float | None = 1.0,
     beat_interval: float | None = None,
@@ -179,7 +189,11 @@ async def start_mesh_node(
         node_id: unique in the mesh.
         listen: ``host:port`` to listen on (loopback by default; port 0 picks one).
         join: ``host:port`` of one or more nodes already in the mesh.
-        secret: shared by every node of the mesh; proves each link, never sent.
+        tls: the node's certified identity (``Identity.from_pki``): every link is
+            ``wss://`` with mutual TLS, and a peer's id is its certificate's.
+        insecure: plain ``ws://`` links instead, proven by ``secret``; loopback only.
+        secret: with ``insecure``, shared by every node (32 bytes or more; proves each
+            link, never sent); with ``tls``, an optional second factor.
         interest_radius: scoped dissemination radius (None: hear every node).
         property_interval: republish properties this often (None: never); the heartbeat
             unless ``beat_interval`` is set.
@@ -197,13 +211,17 @@ async def start_mesh_node(
         space: the node's tuplespace (a new one by default).
 
     Raises:
-        LocalProtocolError: a bad argument.
+        LocalProtocolError: a bad argument; neither ``tls`` nor ``insecure``; a plain
+            link off loopback.
+        CredentialError: the identity or the secret cannot be used (a subclass).
         OSError: ``listen`` cannot be bound.
     """
     if interest_radius is not None and not interest_radius > 0:
         raise LocalProtocolError(f"interest_radius must be > 0, got {interest_radius!r}")
     if isinstance(join, str):
         raise LocalProtocolError(f"join must be a list of addresses, got {join!r}")
+    hosts = [address.rpartition(":")[0] for address in (listen, *join)]
+    security = link_security(node_id, tls=tls, secret=secret, insecure=insecure, hosts=hosts)
     loop = asyncio.get_running_loop()
     options = options or MeshOptions()
     config = NodeConfig(
@@ -220,7 +238,7 @@ async def start_mesh_node(
     machine = NodeMachine(node_id, now=loop.time(), config=config, space=space)
     mesh = WebSocketMesh(
         node_id,
-        secret=secret,
+        security=security,
         listen=listen,
         seeds=join,
         options=options,

@@ -83,6 +83,8 @@ class HandshakeMachine:
         timeout: time allowed for the whole handshake.
         max_frame: largest handshake frame accepted, in bytes.
         dialed: the address dialed (dialer only; names it in refusals).
+        certified: the id the peer's TLS certificate names (None on a plain link): a
+            hello naming another id is refused, whatever it proves.
     """
 
     def __init__(
@@ -98,6 +100,7 @@ class HandshakeMachine:
         timeout: float,
         max_frame: int,
         dialed: str = "",
+        certified: str | None = None,
     ) -> None:
         if len(nonce) != NONCE_SIZE:
             raise ValueError(f"nonce must be {NONCE_SIZE} bytes, got {len(nonce)}")
@@ -111,6 +114,7 @@ class HandshakeMachine:
         self._nonce = nonce
         self._max_frame = max_frame
         self._dialed = dialed
+        self._certified = certified
         self._peer: Hello | None = None
         self._expected_mac = b""
         self._outbox: list[bytes] = []
@@ -160,6 +164,8 @@ class HandshakeMachine:
                 self._refuse(CloseCode.PROTOCOL_ERROR, "expected a challenge")
             elif frame.node == self.node_id:
                 self._refuse(CloseCode.POLICY_VIOLATION, f"{self._dialed} is this node itself")
+            elif not self._as_certified(frame.node):
+                pass
             else:
                 self._peer = frame
                 ours, theirs = handshake_macs(
@@ -181,6 +187,8 @@ class HandshakeMachine:
                 self._refuse(CloseCode.PROTOCOL_ERROR, "expected a hello")
             elif frame.node == self.node_id:
                 self._refuse(CloseCode.POLICY_VIOLATION, f"node id {frame.node!r} is this node's")
+            elif not self._as_certified(frame.node):
+                pass
             else:
                 self._peer = frame
                 self._outbox.append(self._hello(challenge=True))
@@ -203,6 +211,18 @@ class HandshakeMachine:
         self.outcome = Established(peer.node, peer.address, peer.incarnation, peer.node)
 
     # ------------------------------------------------------------------ helpers
+
+    def _as_certified(self, claimed: str) -> bool:
+        """Whether the id a hello claims is the one the peer's certificate names (refuses
+        the handshake if not)."""
+        if self._certified is None or claimed == self._certified:
+            return True
+        self._refuse(
+            CloseCode.POLICY_VIOLATION,
+            f"certificate names {self._certified!r}, hello claims {claimed!r}",
+            "refused_identity",
+        )
+        return False
 
     def _hello(self, *, challenge: bool) -> bytes:
         return encode_hello(

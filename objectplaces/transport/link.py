@@ -20,6 +20,7 @@ from websockets.asyncio.server import ServerConnection
 from websockets.exceptions import ConnectionClosed
 
 from objectplaces.core.messages import Message
+from objectplaces.security.identity import PeerCertificate
 from objectplaces.transport.directory import LinkInfo, PeerCounters
 from objectplaces.transport.handshake import Established, HandshakeMachine, Refused
 from objectplaces.transport.mesh_frames import encode_batch
@@ -85,9 +86,20 @@ class MeshLink:
         counters: the peer's traffic counters.
         queue_size: frames queued for the peer before new ones are dropped.
         max_frame: the largest frame, bytes (a batch stays within half of it).
+        certificate: who the peer proved to be by TLS (None on a plain link).
     """
 
-    __slots__ = ("_budget", "address", "close_reason", "counters", "info", "policy", "queue", "ws")
+    __slots__ = (
+        "_budget",
+        "address",
+        "certificate",
+        "close_reason",
+        "counters",
+        "info",
+        "policy",
+        "queue",
+        "ws",
+    )
 
     def __init__(
         self,
@@ -98,8 +110,10 @@ class MeshLink:
         counters: PeerCounters,
         queue_size: int,
         max_frame: int,
+        certificate: PeerCertificate | None = None,
     ) -> None:
         self.info = LinkInfo(est.peer, est.incarnation, est.dialer)
+        self.certificate = certificate
         self.address = est.address
         self.ws = ws
         self.policy = policy

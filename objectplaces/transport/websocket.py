@@ -1,5 +1,9 @@
 """The WebSocket mesh: every node linked to every other, over authenticated WebSockets.
 
+Links are mutual TLS (``wss://``) when the node has a certified identity, and the id
+of a peer is its certificate's; a revoked certificate's links close within
+``REVOCATION_CHECK`` seconds of the fleet's revocation list changing.
+
 This module is the asyncio shell; it moves bytes and keeps the sockets. The decisions
 live in sans-I/O parts, each tested alone:
 
@@ -30,6 +34,7 @@ from collections.abc import Callable, Iterable
 
 from objectplaces.core.errors import DecodeError, LocalProtocolError
 from objectplaces.core.events import Broadcast, Output, Publish, Send, Subscribe
+from objectplaces.security.links import LinkSecurity
 from objectplaces.transport.base import NodeDriver
 from objectplaces.transport.connector import Connector
 from objectplaces.transport.directory import Dial, LinkInfo, PeerDirectory
@@ -47,9 +52,12 @@ from objectplaces.transport.options import MeshOptions, PeerStats
 from objectplaces.transport.policing import CloseCode, Delivered, Inbound, LinkPolicy
 from objectplaces.transport.routing import Cell, CellRouter
 
-__all__ = ["WebSocketMesh"]
+__all__ = ["REVOCATION_CHECK", "WebSocketMesh"]
 
 log = logging.getLogger("objectplaces.mesh")
+
+REVOCATION_CHECK = 1.0
+"""Seconds between two looks at the revocation list (a stat; read only when changed)."""
 
 
 class WebSocketMesh:
@@ -57,7 +65,8 @@ class WebSocketMesh:
 
     Args:
         node_id: this node's id.
-        secret: the shared secret every link proves.
+        security: mutual TLS with the node's identity, or plain links on loopback
+            (``objectplaces.security.links.link_security`` decides).
         listen: ``host:port`` to listen on (port 0 picks a free one).
         seeds: ``host:port`` of nodes to join through.
         options: limits and timings.
@@ -68,14 +77,12 @@ class WebSocketMesh:
         self,
         node_id: str,
         *,
-        secret: bytes,
+        security: LinkSecurity,
         listen: str = "127.0.0.1:0",
         seeds: Iterable[str] = (),
         options: MeshOptions | None = None,
         incarnation: int,
     ) -> None:
-        if not isinstance(secret, bytes) or not secret:
-            raise LocalProtocolError("secret must be non-empty bytes")
         try:
             host, port = parse_address(listen)
             seed_list = [f"{h}:{p}" for h, p in map(parse_address, seeds)]
@@ -85,9 +92,10 @@ class WebSocketMesh:
         self.options = options or MeshOptions()
         self.incarnation = incarnation
         self.counters: dict[str, int] = {}
+        self._security = security
         self._connector = Connector(
             node_id,
-            secret=secret,
+            security=security,
             host=host,
             port=port,
             incarnation=incarnation,
@@ -249,9 +257,13 @@ class WebSocketMesh:
     # ------------------------------------------------------------------ dialing
 
     async def _supervise(self, tg: asyncio.TaskGroup) -> None:
+        next_revocation_check = self._now()
         while not self._closing:
             self._changed.clear()
             now = self._now()
+            if self._security.tls and now >= next_revocation_check:
+                next_revocation_check = now + REVOCATION_CHECK
+                self._close_revoked()
             plan = self._directory.tick(now)
             for dial in plan.dials:
                 tg.create_task(self._dial(dial))
@@ -259,9 +271,30 @@ class WebSocketMesh:
                 frame = encode_gossip(self._directory.gossip(self._own_entry()))
                 for link in self._links.values():
                     self._enqueue(link, frame)
+            wake = plan.next_tick
+            if self._security.tls:
+                wake = min(wake, next_revocation_check)
             with contextlib.suppress(TimeoutError):
-                async with asyncio.timeout(max(plan.next_tick - now, 0.001)):
+                async with asyncio.timeout(max(wake - now, 0.001)):
                     await self._changed.wait()
+
+    def _close_revoked(self) -> None:
+        """Close the links of peers whose certificate the revocation list now names."""
+        identity = self._security.identity
+        if identity is None or not identity.refresh_revocations():
+            return
+        for link in list(self._all_links):
+            certificate = link.certificate
+            if certificate is not None and identity.is_revoked(certificate):
+                self._count("links_closed_revoked")
+                link.close_reason = f"{CloseCode.POLICY_VIOLATION} certificate revoked"
+                log.warning(
+                    "node %s: closing link with %s: certificate revoked", self.node_id, link.peer
+                )
+                if self._tg is not None:
+                    self._tg.create_task(
+                        close_quietly(link.ws, CloseCode.POLICY_VIOLATION, "certificate revoked")
+                    )
 
     def _own_entry(self) -> PeerAddress:
         return PeerAddress(self.node_id, self.address, self.incarnation)
@@ -309,6 +342,7 @@ class WebSocketMesh:
             counters=counters,
             queue_size=options.queue_size,
             max_frame=options.max_frame,
+            certificate=self._connector.certificate_of(ws),
         )
         self._links[peer] = link
         self._all_links.add(link)
