@@ -5,8 +5,9 @@ A PKI folder holds::
     D/ca.pem            the fleet CA's certificate (every member trusts it)
     D/crl.pem           the revocation list, signed by the CA (every member reads it)
     D/ID.pem, D/ID.key  one member's certificate and key (the key 0600)
+    D/members.json      every certificate issued: id, role, serial, until, revoked (no
+                        secret in it; routers read it to give each member its own keys)
     D/private/ca.key    the CA's key (0600, in a 0700 folder): used by this module alone
-    D/private/index.json  what was issued and revoked, by id
 
 A member's certificate names it: the subject's common name is the node id, the
 organisational unit its role (``ROLES``), the organisation the fleet. A node's id on
@@ -37,6 +38,7 @@ from objectplaces.security.errors import CredentialError
 __all__ = [
     "CA_FILE",
     "CRL_FILE",
+    "MEMBERS_FILE",
     "ROLES",
     "Issued",
     "init_ca",
@@ -53,8 +55,8 @@ control)."""
 
 CA_FILE: Final = "ca.pem"
 CRL_FILE: Final = "crl.pem"
+MEMBERS_FILE: Final = "members.json"
 _CA_KEY: Final = "private/ca.key"
-_INDEX: Final = "private/index.json"
 _ID: Final = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.:@+=-]{0,63}")
 _FLEET: Final = re.compile(r"[A-Za-z0-9_.-]{1,64}")
 _CA_DAYS: Final = 3650
@@ -262,8 +264,14 @@ def revoke(directory: Path, node_id: str) -> Issued:
 
 
 def issued(directory: Path) -> list[Issued]:
-    """Every certificate the CA in ``directory`` issued, revoked ones too, by id."""
-    _load_ca(directory)
+    """Every certificate the CA in ``directory`` issued, revoked ones too, by id (reads
+    ``members.json``: no CA key needed, so routers call it too).
+
+    Raises:
+        CredentialError: no CA in ``directory``, or an unreadable ``members.json``.
+    """
+    if not (directory / CA_FILE).is_file():
+        raise CredentialError(f"{directory} holds no fleet CA (no {CA_FILE})")
     return sorted(_read_index(directory), key=lambda e: (e.node_id, e.revoked is None))
 
 
@@ -314,7 +322,7 @@ def _load_ca(directory: Path) -> tuple[x509.Certificate, ec.EllipticCurvePrivate
 
 
 def _read_index(directory: Path) -> list[Issued]:
-    path = directory / _INDEX
+    path = directory / MEMBERS_FILE
     try:
         return [Issued(**entry) for entry in json.loads(path.read_text())]
     except FileNotFoundError:
@@ -325,7 +333,7 @@ def _read_index(directory: Path) -> list[Issued]:
 
 def _write_index(directory: Path, index: list[Issued]) -> None:
     entries = [dataclasses.asdict(e) for e in index]
-    write_private(directory / _INDEX, json.dumps(entries, indent=1).encode())
+    _write_public(directory / MEMBERS_FILE, json.dumps(entries, indent=1).encode())
 
 
 def _write_crl(
