@@ -1,14 +1,19 @@
 """Embed an ObjectPlaces node in an asyncio application, over Zenoh.
 
 ```python
+from objectplaces.security import Identity
+
 node = await objectplaces.start_node(
-    "agv-3", transport="zenoh", listen=["tcp/127.0.0.1:7003"],
-    connect=["tcp/127.0.0.1:7001"], mode="peer", secret=b"...",
+    "agv-3", transport="zenoh", mode="client", connect=["tls/10.0.0.1:7447"],
+    tls=Identity.from_pki("fleet-pki", "agv-3"),     # mutual TLS, its own keys only
 )
 node.update_node_property("position", (1.0, 2.0))   # the usual RoleActivator API
 ...
 await node.close()                                   # leave the fleet
 ```
+
+Plain ``tcp/`` links only when asked for by name, on loopback:
+``start_zenoh_node("a", insecure=True, secret=SECRET)``.
 
 The same ``NodeMachine`` and roles as on the WebSocket mesh; only the transport
 differs (``objectplaces.transport.zenoh_transport``). docs/zenoh.md tells the keys,
@@ -27,9 +32,18 @@ from objectplaces.core.errors import LocalProtocolError
 from objectplaces.core.node import NodeConfig, NodeMachine
 from objectplaces.network_node import NetworkNode
 from objectplaces.runtime.aio import AsyncioRunner
+from objectplaces.security.identity import Identity
+from objectplaces.security.links import link_security
 from objectplaces.transport.options import PeerStats
 from objectplaces.transport.zenoh_alive import TOKEN_GRACE
-from objectplaces.transport.zenoh_config import Mode, ZenohOptions, resolve_ports
+from objectplaces.transport.zenoh_config import (
+    Mode,
+    ZenohOptions,
+    check_protocol,
+    endpoint_host,
+    fleet_of,
+    resolve_ports,
+)
 from objectplaces.transport.zenoh_transport import ZenohTransport
 from tuplespace import TupleSpace
 
@@ -125,11 +139,13 @@ class ZenohNode(NetworkNode):
 async def start_zenoh_node(
     node_id: str,
     *,
-    secret: bytes,
-    listen: Sequence[str] = ("tcp/127.0.0.1:0",),
+    tls: Identity | None = None,
+    insecure: bool = False,
+    secret: bytes | None = None,
+    listen: Sequence[str] | None = None,
     connect: Sequence[str] = (),
     mode: Mode = "peer",
-    fleet: str = "default",
+    fleet: str | None = None,
     lease: float = 10.0,
     token_grace: float = TOKEN_GRACE,
     interest_radius: float | None = None,
@@ -146,12 +162,20 @@ async def start_zenoh_node(
     """Start a node on Zenoh and return its ``RoleActivator``.
 
     Args:
-        node_id: unique in the fleet.
-        secret: shared by every node of the fleet; becomes Zenoh credentials, never sent.
-        listen: endpoints to listen on (peers; port 0 picks a free one).
+        node_id: unique in the fleet; with ``tls``, the id its certificate names.
+        tls: the node's certified identity (``Identity.from_pki``): every link is
+            ``tls/`` with mutual TLS, the node puts only on its own keys and reads only
+            its own inbox (the router's, or a peer's, access control), and what a
+            revoked member sends is dropped.
+        insecure: plain ``tcp/`` links instead, proven by ``secret``; loopback only.
+        secret: with ``insecure``, shared by every node of the fleet (32 bytes or more;
+            becomes Zenoh credentials, never sent); with ``tls``, a second factor.
+        listen: endpoints to listen on (peers; port 0 picks a free one); by default
+            ``tls/127.0.0.1:0`` (``tcp/`` when insecure).
         connect: endpoints of peers or a router to connect to.
         mode: ``peer`` or ``client`` (a client needs a router in ``connect``).
-        fleet: the fleet's name (its key prefix).
+        fleet: the fleet's name (its key prefix); by default the certificate's fleet
+            (``default`` when insecure).
         lease: a silent node's links close after this long (and it leaves every
             group, if ``failure_timeout`` has not made it leave before).
         token_grace: a node whose liveliness token goes leaves its groups only if the
@@ -176,7 +200,10 @@ async def start_zenoh_node(
         space: the node's tuplespace (a new one by default).
 
     Raises:
-        LocalProtocolError: a bad argument.
+        LocalProtocolError: a bad argument; neither ``tls`` nor ``insecure``; a plain
+            link off loopback; an endpoint of the other protocol.
+        CredentialError: the identity names another id or a role that is no member,
+            its PKI folder holds no ``members.json``, or the secret is too short.
         OSError: Zenoh could not open the session (an endpoint cannot be bound ...).
     """
     if interest_radius is not None and not interest_radius > 0:
@@ -185,11 +212,19 @@ async def start_zenoh_node(
         raise LocalProtocolError(f"mode must be 'peer' or 'client', got {mode!r}")
     if isinstance(listen, str) or isinstance(connect, str):
         raise LocalProtocolError("listen and connect must be lists of endpoints")
+    protocol = "tcp" if tls is None else "tls"
+    if listen is None:
+        listen = (f"{protocol}/127.0.0.1:0",)
+    listen = tuple(listen) if mode == "peer" else ()
+    options = ZenohOptions(mode=mode, listen=listen, connect=tuple(connect))  # checks them
+    hosts = [endpoint_host(e) for e in (*listen, *connect)]
+    link_security(node_id, tls=tls, secret=secret, insecure=insecure, hosts=hosts)
+    check_protocol((*listen, *connect), protocol)
     options = ZenohOptions(
         mode=mode,
-        listen=resolve_ports(listen) if mode == "peer" else (),
+        listen=resolve_ports(listen),
         connect=tuple(connect),
-        fleet=fleet,
+        fleet=fleet_of(tls, fleet),
         lease=lease,
         token_grace=token_grace,
         max_frame=codec.DEFAULT_MAX_FRAME if max_frame is None else max_frame,
@@ -208,7 +243,9 @@ async def start_zenoh_node(
     )
     space = space if space is not None else TupleSpace(clock=loop.time)
     machine = NodeMachine(node_id, now=loop.time(), config=config, space=space)
-    transport = ZenohTransport(node_id, secret=secret, options=options, incarnation=time.time_ns())
+    transport = ZenohTransport(
+        node_id, options=options, incarnation=time.time_ns(), tls=tls, secret=secret
+    )
     runner = ZenohRunner(machine, transport.transmit)
     transport.attach(runner)
     await transport.open()

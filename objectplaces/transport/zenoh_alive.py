@@ -95,6 +95,12 @@ class AliveTable:
             del self._alive[node]
         return gone
 
+    def forget(self, node: str) -> bool:
+        """Drop ``node`` whatever its token does; True if it was in the table."""
+        self._missing.pop(node, None)
+        self._gone_after_query.pop(node, None)
+        return self._alive.pop(node, None) is not None
+
     def next_expiry(self) -> float | None:
         """When the first missing run is gone unless back (None: none is missing)."""
         return min(self._missing.values(), default=None)

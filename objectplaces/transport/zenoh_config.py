@@ -1,14 +1,18 @@
-"""A node's Zenoh configuration: mode, endpoints, lease, and the fleet secret as usrpwd auth.
+"""A node's Zenoh configuration: mode, endpoints, lease, and how its links are protected.
 
-The fleet secret never travels: each node derives one user name and password from it
-(HMAC-SHA256 with the fleet name), proves them with Zenoh's user/password
-authentication on every link it opens, and accepts a link only from a peer that proves
-the same pair (a dictionary file holding that one pair, written 0600 into a private
-temporary directory and removed when the node closes). A session without the secret
-gets no link, so it can neither publish into the fleet nor hear it.
+Links are mutual TLS by default (``tls/`` endpoints): every session presents its
+certificate of the fleet CA and accepts only peers that present one too
+(``enable_mtls``); a client also checks that the router it reached is named for that
+address in the router's certificate (``verify_name_on_connect``). Who a peer is, is its
+certificate's common name, and access control gives each member its own keys
+(``zenoh_acl``). Zenoh is told to use ``tls`` links and nothing else.
 
-A router also applies Zenoh's access control: the fleet's user may put, subscribe,
-query and hold liveliness tokens under the fleet's prefix only, and nothing else passes.
+Plain ``tcp/`` links are for loopback only (``insecure=True``): every node then derives
+one user name and password from the fleet secret (HKDF, one key per purpose; the secret
+itself is in no file and no configuration), proves them with Zenoh's user/password
+authentication on every link it opens, and accepts a link only from a session that
+proves the same pair. The pair sits in a dictionary file written 0600 into a private
+temporary directory and removed when the session closes.
 
 Multicast scouting is off: a node reaches only the endpoints it is given, and the peers
 its neighbours tell it about (gossip), so nodes that know only a chain of endpoints
@@ -23,14 +27,12 @@ and formed in about 20 s without (``PEER_SCOUTING``).
 
 from __future__ import annotations
 
-import hashlib
-import hmac
 import json
 import os
 import shutil
 import socket
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -39,6 +41,8 @@ import zenoh
 
 from objectplaces.core import codec
 from objectplaces.core.errors import LocalProtocolError
+from objectplaces.security.identity import Identity
+from objectplaces.security.secrets import derive_key
 from objectplaces.transport.zenoh_alive import TOKEN_GRACE
 
 __all__ = [
@@ -46,8 +50,11 @@ __all__ = [
     "Credentials",
     "CredentialsFile",
     "ZenohOptions",
+    "ZenohSecurity",
+    "check_protocol",
     "derive_credentials",
-    "fleet_access_control",
+    "endpoint_host",
+    "fleet_of",
     "resolve_ports",
     "zenoh_config",
 ]
@@ -114,19 +121,6 @@ class ZenohOptions:
             )
 
 
-_FLEET_MESSAGES = [
-    "put",
-    "delete",
-    "declare_subscriber",
-    "query",
-    "declare_queryable",
-    "reply",
-    "liveliness_token",
-    "declare_liveliness_subscriber",
-    "liveliness_query",
-]
-
-
 PEER_SCOUTING: dict[str, Any] = {
     "scouting/gossip/multihop": False,
     "scouting/gossip/autoconnect_strategy": {
@@ -137,25 +131,6 @@ PEER_SCOUTING: dict[str, Any] = {
 Links up one by one bring their peers' news a hop further, so a chain of endpoints still
 becomes a full mesh; every peer reachable from every other (127.0.0.1 here) makes
 ``greater-zid`` safe."""
-
-
-def fleet_access_control(fleet: str, user: str) -> dict[str, Any]:
-    """Zenoh access control that lets ``user`` use the keys of ``fleet`` and nothing else."""
-    return {
-        "enabled": True,
-        "default_permission": "deny",
-        "rules": [
-            {
-                "id": "fleet-keys",
-                "messages": _FLEET_MESSAGES,
-                "flows": ["egress", "ingress"],
-                "permission": "allow",
-                "key_exprs": [f"objectplaces/{fleet}/**"],
-            }
-        ],
-        "subjects": [{"id": "fleet-members", "usernames": [user]}],
-        "policies": [{"rules": ["fleet-keys"], "subjects": ["fleet-members"]}],
-    }
 
 
 def _is_endpoint(endpoint: object) -> bool:
@@ -174,15 +149,13 @@ class Credentials:
 
 
 def derive_credentials(secret: bytes, fleet: str) -> Credentials:
-    """The usrpwd pair of ``fleet`` under ``secret`` (never the secret itself)."""
+    """The usrpwd pair of ``fleet`` under ``secret`` (never the secret itself): one key
+    for the user name and another for the password (``derive_key``)."""
     if not isinstance(secret, bytes) or not secret:
         raise LocalProtocolError("secret must be non-empty bytes")
-
-    def derive(label: str) -> str:
-        message = f"objectplaces zenoh {label} {fleet}".encode()
-        return hmac.new(secret, message, hashlib.sha256).hexdigest()
-
-    return Credentials(user="op-" + derive("user")[:16], password=derive("password"))
+    user = derive_key(secret, f"zenoh user name {fleet}", length=8)
+    password = derive_key(secret, f"zenoh password {fleet}")
+    return Credentials(user="op-" + user.hex(), password=password.hex())
 
 
 class CredentialsFile:
@@ -204,8 +177,31 @@ class CredentialsFile:
         shutil.rmtree(self._dir, ignore_errors=True)
 
 
-def zenoh_config(options: ZenohOptions, credentials: Credentials, dictionary: Path) -> zenoh.Config:
-    """The ``zenoh.Config`` of a node with these options and credentials."""
+@dataclass(frozen=True)
+class ZenohSecurity:
+    """How one session's links are protected, and what it lets through.
+
+    Attributes:
+        tls: mutual TLS with this identity (None: plain ``tcp/`` links).
+        verify_name: with ``tls``, check that a router reached names the address dialed
+            (clients and routers; peers' certificates name no address).
+        usrpwd: user/password authentication with these credentials and dictionary.
+        access_control: Zenoh's ``access_control`` section (None: none).
+    """
+
+    tls: Identity | None = None
+    verify_name: bool = True
+    usrpwd: tuple[Credentials, Path] | None = None
+    access_control: dict[str, Any] | None = None
+
+    @property
+    def protocol(self) -> str:
+        """The one link protocol of these links: ``tls`` or ``tcp``."""
+        return "tcp" if self.tls is None else "tls"
+
+
+def zenoh_config(options: ZenohOptions, security: ZenohSecurity) -> zenoh.Config:
+    """The ``zenoh.Config`` of a session with these options and this protection."""
     config = zenoh.Config()
     lease_ms = max(int(options.lease * 1000), 100)
     settings: dict[str, Any] = {
@@ -215,22 +211,72 @@ def zenoh_config(options: ZenohOptions, credentials: Credentials, dictionary: Pa
         "scouting/multicast/enabled": False,
         **PEER_SCOUTING,
         "transport/link/tx/lease": lease_ms,
-        "transport/auth/usrpwd": {
+        "transport/link/protocols": [security.protocol],
+    }
+    tls = security.tls
+    if tls is not None:
+        settings["transport/link/tls"] = {
+            "root_ca_certificate": str(tls.ca),
+            "listen_certificate": str(tls.cert),
+            "listen_private_key": str(tls.key),
+            "connect_certificate": str(tls.cert),
+            "connect_private_key": str(tls.key),
+            "enable_mtls": True,
+            "verify_name_on_connect": security.verify_name,
+            "close_link_on_expiration": True,
+        }
+    if security.usrpwd is not None:
+        credentials, dictionary = security.usrpwd
+        settings["transport/auth/usrpwd"] = {
             "user": credentials.user,
             "password": credentials.password,
             "dictionary_file": str(dictionary),
-        },
-    }
-    if options.mode == "router":
-        settings["access_control"] = fleet_access_control(options.fleet, credentials.user)
+        }
+    if security.access_control is not None:
+        settings["access_control"] = security.access_control
     settings.update(options.extra)
     for key, value in settings.items():
         config.insert_json5(key, json.dumps(value))
     return config
 
 
+def fleet_of(tls: Identity | None, fleet: str | None) -> str:
+    """The fleet a session joins: ``fleet`` (``default`` if None), or with ``tls`` the
+    certificate's, which ``fleet`` must name if given.
+
+    Raises:
+        LocalProtocolError: ``fleet`` is not the certificate's.
+    """
+    if tls is None:
+        return "default" if fleet is None else fleet
+    if fleet is not None and fleet != tls.fleet:
+        raise LocalProtocolError(f"certificate {tls.cert} is of fleet {tls.fleet!r}, not {fleet!r}")
+    return tls.fleet
+
+
+def endpoint_host(endpoint: str) -> str:
+    """The host of an endpoint such as ``tls/10.0.0.1:7447`` (``10.0.0.1``)."""
+    address = endpoint.partition("/")[2].split("#", 1)[0].split("?", 1)[0]
+    return address.rpartition(":")[0]
+
+
+def check_protocol(endpoints: Iterable[str], protocol: str) -> None:
+    """Refuse an endpoint of another protocol than the links': ``tls`` with a
+    certificate, ``tcp`` for plain links.
+
+    Raises:
+        LocalProtocolError: naming the first endpoint that is not ``protocol/...``.
+    """
+    for endpoint in endpoints:
+        if endpoint.partition("/")[0] != protocol:
+            how = "mutual TLS" if protocol == "tls" else "plain links (insecure=True)"
+            raise LocalProtocolError(
+                f"with {how} every endpoint is {protocol}/HOST:PORT, got {endpoint!r}"
+            )
+
+
 def resolve_ports(endpoints: Sequence[str]) -> tuple[str, ...]:
-    """``endpoints`` with every TCP port 0 replaced by a port free now.
+    """``endpoints`` with every TCP or TLS port 0 replaced by a port free now.
 
     Zenoh does not report the port it picked, so we pick one and tell it; another
     process could take it in between (then opening fails with ``OSError``).
@@ -239,9 +285,9 @@ def resolve_ports(endpoints: Sequence[str]) -> tuple[str, ...]:
     for endpoint in endpoints:
         proto, _, address = endpoint.partition("/")
         host, _, port = address.rpartition(":")
-        if proto == "tcp" and port == "0":
+        if proto in ("tcp", "tls") and port == "0":
             with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
                 probe.bind((host.strip("[]"), 0))
-                endpoint = f"tcp/{host}:{probe.getsockname()[1]}"
+                endpoint = f"{proto}/{host}:{probe.getsockname()[1]}"
         resolved.append(endpoint)
     return tuple(resolved)

@@ -91,6 +91,10 @@ class ZenohInbox:
             self._poll_timer.cancel()
             self._poll_timer = None
 
+    def forget_subscribers(self) -> None:
+        """Poll no subscriber any more (their session is closing; what they hold is lost)."""
+        self._polled.clear()
+
     def declare_data(
         self, session: zenoh.Session, key_expr: str, keys: FleetKeys, *, directed: bool = False
     ) -> Any:

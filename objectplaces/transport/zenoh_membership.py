@@ -71,7 +71,9 @@ class Membership:
 
     def declare(self, session: zenoh.Session, inbox: ZenohInbox, incarnation: int) -> list[Any]:
         """Hear every token of the fleet (with history), declare ours, start the
-        periodic query; returns what was declared (undeclared with the session)."""
+        periodic query; returns what was declared (undeclared with the session).
+        Again on a new session (``suspend`` first): the tokens already known stay."""
+        self.suspend()
         self._session, self._inbox = session, inbox
         liveliness = session.liveliness()
         declared = [
@@ -84,6 +86,21 @@ class Membership:
             RECONCILE_EVERY, self._reconcile
         )
         return declared
+
+    def suspend(self) -> None:
+        """Stop the periodic query until ``declare`` (the session is being replaced)."""
+        self._session = None
+        if self._reconcile_timer is not None:
+            self._reconcile_timer.cancel()
+            self._reconcile_timer = None
+
+    def forget(self, node: str) -> None:
+        """``node`` may no longer take part (its certificate was revoked): it leaves
+        every group now, whatever its token says."""
+        self._table.forget(node)
+        if self._driver is not None:
+            self._driver.peer_restarted(node)
+        self._signal()
 
     def close(self) -> None:
         """Stop the periodic query (a grace that runs out later changes nothing); signal

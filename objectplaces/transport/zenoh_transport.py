@@ -16,6 +16,13 @@ node that sees a new token asks that node; an asked node whose properties the as
 should hear sends it a snapshot on its inbox key. The asker's subscription travels in
 the query, so nobody answers out of scope.
 
+With a certified identity, links are mutual TLS and the fleet's roster (``zenoh_roster``)
+is looked at every ``ROSTER_CHECK`` seconds: what a revoked id sends is dropped
+(``dropped_revoked``) and it leaves every group at once. A peer also applies the
+fleet's access control to its own links (``zenoh_acl``); when the roster changes it
+opens its session anew with the new rules, which closes the revoked member's links
+(``reopened`` counts it; the others link again within a second or two).
+
 Zenoh calls back on its own threads, which only queue each sample (``ZenohInbox``); on
 the event loop the frames that came together go to the driver in one call. The node
 machine's own intake decodes them: a malformed payload is counted, never stops the node.
@@ -24,6 +31,7 @@ machine's own intake decodes them: a malformed payload is counted, never stops t
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import logging
 from typing import Any, Protocol
 
@@ -31,12 +39,15 @@ import msgpack
 import zenoh
 
 from objectplaces.core.events import Broadcast, Output, Publish, Send, Subscribe
+from objectplaces.security.identity import Identity
 from objectplaces.transport.base import RawNodeDriver
 from objectplaces.transport.routing import Cell
+from objectplaces.transport.zenoh_acl import Roster, fleet_access_control
 from objectplaces.transport.zenoh_config import (
     Credentials,
     CredentialsFile,
     ZenohOptions,
+    ZenohSecurity,
     derive_credentials,
     zenoh_config,
 )
@@ -44,6 +55,7 @@ from objectplaces.transport.zenoh_inbox import Item, ZenohInbox, direct
 from objectplaces.transport.zenoh_keys import FleetKeys
 from objectplaces.transport.zenoh_membership import QUERY_TIMEOUT, Membership
 from objectplaces.transport.zenoh_publishers import PublisherCache
+from objectplaces.transport.zenoh_roster import ROSTER_CHECK, RosterWatch
 
 __all__ = ["FrameDriver", "ZenohTransport"]
 
@@ -68,29 +80,47 @@ class ZenohTransport:
 
     Args:
         node_id: this node's id.
-        secret: the fleet secret (turned into Zenoh credentials, never sent).
         options: mode, endpoints, fleet, lease.
         incarnation: distinguishes this run of the node from earlier ones (larger is newer).
+        tls: the node's certified identity: mutual TLS links, the roster watched.
+        secret: user/password authentication derived from it (plain links on loopback;
+            with ``tls``, a second factor).
+
+    Raises:
+        CredentialError: with ``tls``, the PKI folder holds no readable ``members.json``.
     """
 
     def __init__(
-        self, node_id: str, *, secret: bytes, options: ZenohOptions, incarnation: int
+        self,
+        node_id: str,
+        *,
+        options: ZenohOptions,
+        incarnation: int,
+        tls: Identity | None = None,
+        secret: bytes | None = None,
     ) -> None:
         self.node_id = node_id
         self.options = options
         self.incarnation = incarnation
         self.keys = FleetKeys(options.fleet, node_id)
         self.counters: dict[str, int] = {}
-        self._credentials: Credentials = derive_credentials(secret, options.fleet)
+        self._tls = tls
+        self._credentials: Credentials | None = (
+            derive_credentials(secret, options.fleet) if secret is not None else None
+        )
+        self._roster = RosterWatch(tls) if tls is not None else None
+        self._revoked: frozenset[str] = frozenset()
         self._driver: FrameDriver | None = None
         self._session: zenoh.Session | None = None
         self._publishers: PublisherCache | None = None
         self._file: CredentialsFile | None = None
         self._inbox: ZenohInbox | None = None
+        self._watcher: asyncio.Task[None] | None = None
+        self._reopening = False
         self.membership = Membership(
             self.keys, self.counters, self._ask_new_run, grace=options.token_grace
         )
-        self._declared: list[Any] = []
+        self._declared: list[Any] = []  # held: what is dropped may be undeclared
         self._row_subs: dict[int, Any] = {}  # one subscriber per row of our cells
         self._full_sub: Any = None
         self._subscription: frozenset[Cell] | None = None
@@ -99,6 +129,8 @@ class ZenohTransport:
         self._home: tuple[Cell, ...] = ()  # the cells we publish in (none before a position)
         self._queryables: dict[Cell | None, Any] = {}  # one per home cell (None: no cell)
         self.closed = False
+        if self._roster is not None:
+            self._revoked = frozenset(self._roster.roster.revoked)
 
     # ------------------------------------------------------------------ lifecycle
 
@@ -111,6 +143,28 @@ class ZenohTransport:
     def address(self) -> str:
         """The endpoints this node listens on (comma separated; "" for a client)."""
         return ",".join(self.options.listen) if self.options.mode != "client" else ""
+
+    @property
+    def revoked(self) -> frozenset[str]:
+        """Ids whose certificates are all revoked, as last read (empty without TLS)."""
+        return self._revoked
+
+    def _security(self) -> ZenohSecurity:
+        """How the session protects its links now: a peer with TLS applies the fleet's
+        access control to its own links (a client's only link is to a router)."""
+        usrpwd = None
+        if self._credentials is not None:
+            assert self._file is not None
+            usrpwd = (self._credentials, self._file.path)
+        acl = None
+        if self._roster is not None and self.options.mode == "peer":
+            acl = fleet_access_control(self.options.fleet, self._roster.roster)
+        return ZenohSecurity(
+            tls=self._tls,
+            verify_name=self.options.mode == "client",  # peers' certificates name no host
+            usrpwd=usrpwd,
+            access_control=acl,
+        )
 
     async def open(self) -> None:
         """Open the session and declare what every node hears: its inbox, the broadcasts,
@@ -127,21 +181,44 @@ class ZenohTransport:
             max_frame=self.options.max_frame,
             poll_interval=self.options.poll_interval,
         )
-        self._file = CredentialsFile(self._credentials)
-        config = zenoh_config(self.options, self._credentials, self._file.path)
+        if self._credentials is not None:
+            self._file = CredentialsFile(self._credentials)
         try:
-            self._session = await asyncio.to_thread(zenoh.open, config)
+            self._session = await self._open_session()
+        except OSError:
+            if self._file is not None:
+                self._file.remove()
+            raise
+        self._declare(self._session)
+        if self._roster is not None:
+            self._watcher = loop.create_task(self._watch_roster())
+
+    async def _open_session(self) -> zenoh.Session:
+        config = zenoh_config(self.options, self._security())
+        try:
+            return await asyncio.to_thread(zenoh.open, config)
         except zenoh.ZError as exc:
-            self._file.remove()
             raise OSError(f"zenoh: {exc}") from exc
-        session, keys, inbox = self._session, self.keys, self._inbox
+
+    def _declare(self, session: zenoh.Session) -> None:
+        """Declare on ``session`` what this node hears and holds: its inbox, the
+        broadcasts, its queryables, its token, and the cells it subscribed to."""
+        keys, inbox = self.keys, self._inbox
+        assert inbox is not None
         self._publishers = PublisherCache(session)
-        self._declared += [
+        self._declared = [
             inbox.declare_data(session, keys.inbox(), keys, directed=True),
             inbox.declare_data(session, keys.broadcasts(), keys),
+            *self.membership.declare(session, inbox, self.incarnation),
         ]
-        self._queryables[None] = session.declare_queryable(keys.who(None), inbox.query_callback())
-        self._declared += self.membership.declare(session, inbox, self.incarnation)
+        for cell in self._home or (None,):
+            self._queryables[cell] = session.declare_queryable(
+                keys.who(cell), inbox.query_callback()
+            )
+        if self._subscribed:  # a session opened anew: subscribe and ask again
+            wanted, self._subscribed = self._subscription, False
+            self._cells, self._row_subs, self._full_sub = frozenset(), {}, None
+            self._subscribe(wanted)
 
     async def close(self) -> None:
         """Withdraw our token and close the session (what was put is flushed first;
@@ -150,18 +227,85 @@ class ZenohTransport:
             return
         self.closed = True
         self.membership.close()
-        session = self._session
+        watcher = self._watcher
+        if watcher is not None:
+            if not self._reopening:  # a session being opened is let finish, then closed
+                watcher.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await watcher
         if self._inbox is not None:
             self._inbox.close()
+        session, self._session = self._session, None
         if session is not None:
-            try:
-                await asyncio.to_thread(session.close)
-            except zenoh.ZError as exc:
-                # Zenoh gave up flushing (a machine too loaded to finish in time): the
-                # session is dropped all the same, and peers see our token go.
-                log.warning("node %s: closing the Zenoh session: %s", self.node_id, exc)
+            await self._close_session(session)
         if self._file is not None:
             self._file.remove()
+
+    async def _close_session(self, session: zenoh.Session) -> None:
+        try:
+            await asyncio.to_thread(session.close)
+        except zenoh.ZError as exc:
+            # Zenoh gave up flushing (a machine too loaded to finish in time): the
+            # session is dropped all the same, and peers see our token go.
+            log.warning("node %s: closing the Zenoh session: %s", self.node_id, exc)
+
+    # ------------------------------------------------------------------ the roster
+
+    async def _watch_roster(self) -> None:
+        """Look at the roster every ``ROSTER_CHECK`` seconds; act on a change."""
+        assert self._roster is not None
+        stale = False  # a peer's session holds rules older than the roster
+        while not self.closed:
+            await asyncio.sleep(ROSTER_CHECK)
+            roster = self._roster.poll()
+            if roster is not None:
+                try:
+                    self._apply(roster)
+                except Exception:
+                    # The revoked are dropped all the same (``_revoked``); a failing
+                    # driver costs only their leaving every group now.
+                    log.exception("node %s: applying the roster failed", self.node_id)
+                stale = self.options.mode == "peer"
+            if stale and not self.closed:
+                self._reopening = True
+                try:
+                    stale = not await self._reopen()
+                finally:
+                    self._reopening = False
+
+    def _apply(self, roster: Roster) -> None:
+        """Drop from now on what the ids the roster says are revoked send, and let the
+        newly revoked leave every group."""
+        revoked = frozenset(roster.revoked)
+        self._revoked, before = revoked, self._revoked
+        if self.node_id in revoked - before:
+            log.error("node %s: our own certificate is revoked", self.node_id)
+        for node in sorted(revoked - before - {self.node_id}):
+            log.warning("node %s: %s is revoked: it leaves every group", self.node_id, node)
+            self._count("peers_revoked")
+            self.membership.forget(node)
+
+    async def _reopen(self) -> bool:
+        """Replace the session by one under the roster's rules now (closing every link:
+        a revoked member's stay closed); True once the new one is open."""
+        old, self._session = self._session, None
+        inbox = self._inbox
+        assert inbox is not None
+        self.membership.suspend()
+        inbox.forget_subscribers()
+        self._queryables.clear()
+        if old is not None:
+            await self._close_session(old)
+        try:
+            session = await self._open_session()
+        except OSError as exc:
+            log.error("node %s: reopening the Zenoh session: %s", self.node_id, exc)
+            self._count("reopen_failed")
+            return False
+        self._session = session
+        self._declare(session)
+        self._count("reopened")
+        return True
 
     def peers(self) -> list[str]:
         """Nodes of the fleet whose liveliness token is up now, sorted."""
@@ -183,7 +327,10 @@ class ZenohTransport:
         Returns:
             How many puts went out.
         """
-        if self.closed or self._session is None:
+        if self.closed:
+            return 0
+        if self._session is None:  # being opened anew: what it must hold is kept
+            self._remember(output)
             return 0
         keys = self.keys
         match output:
@@ -204,6 +351,17 @@ class ZenohTransport:
             case Subscribe(cells):
                 self._subscribe(cells)
                 return 0
+
+    def _remember(self, output: Output) -> None:
+        """Keep what a session being opened anew must declare (the frames go: the
+        channels retransmit, the properties are asked again)."""
+        match output:
+            case Publish(cells, _, _, home, _):
+                self._home = tuple(cells[:home])
+            case Subscribe(cells):
+                self._subscribed, self._subscription = True, cells
+            case _:
+                self._count("dropped_reopening")
 
     def _put(self, key: str, data: bytes) -> int:
         assert self._publishers is not None
@@ -297,9 +455,13 @@ class ZenohTransport:
         if driver is None or self.closed:
             return
         cells = self._cells  # empty: we hear every cell (or no cell yet)
+        revoked = self._revoked
         frames: list[tuple[str, bytes]] = []
         size = outside = 0
         for item in items:
+            if revoked and item[1] in revoked:
+                self._count("dropped_revoked")
+                continue
             if item[0] == "frame":  # nearly every item: the short way
                 if cells and item[3] is not None and item[3] not in cells:
                     outside += 1  # another cell of a row we hear
