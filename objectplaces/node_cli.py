@@ -1,7 +1,10 @@
 """``objectplaces node``: run one ObjectPlaces node on the WebSocket mesh or on Zenoh.
 
 ``--transport zenoh`` puts the node on Zenoh (``--listen``/``--connect`` take Zenoh
-endpoints such as ``tcp/127.0.0.1:7447``; ``--mode client`` connects to a router).
+endpoints such as ``tls/10.0.0.1:7447``; ``--mode client`` connects to a router).
+Links are mutual TLS with ``--pki DIR`` (the node's certificate ``DIR/ID.pem``), or
+plain on loopback with ``--insecure`` and a secret; a credential that cannot be used is
+named on stderr, with exit status 2. SIGTERM and SIGINT make the node leave cleanly.
 
 Registered as a plugin of the ``objectplaces`` command (entry point group
 ``objectplaces.commands``, name ``node``). The node publishes the properties it is given
@@ -31,6 +34,7 @@ import dataclasses
 import json
 import logging
 import os
+import signal
 import sys
 import time
 from pathlib import Path
@@ -42,6 +46,12 @@ from objectplaces.core.errors import LocalProtocolError
 from objectplaces.core.ids import InitiatorRef, ParticipantRef
 from objectplaces.core.roles import Initiator, Participant
 from objectplaces.mesh import MeshNode, MeshOptions, start_node
+from objectplaces.security.errors import CredentialError
+from objectplaces.security.options import (
+    Credentials,
+    add_credential_arguments,
+    credentials_from_args,
+)
 from objectplaces.transport.options import MIN_FRAME
 from objectplaces.zenoh_node import ZenohNode
 
@@ -139,13 +149,10 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
         help="zenoh: a peer or router endpoint to connect to",
     )
     parser.add_argument("--mode", choices=["peer", "client"], default="peer", help="zenoh mode")
-    parser.add_argument("--fleet", default="default", help="zenoh: the fleet's name")
+    parser.add_argument("--fleet", help="zenoh: the fleet's name (default: the certificate's)")
     parser.add_argument("--lease", type=POSITIVE, default=10.0, help="zenoh: link lease, s")
     parser.add_argument(
         "--join", action="append", default=[], metavar="HOST:PORT", help="a node to join through"
-    )
-    parser.add_argument(
-        "--secret-file", type=Path, help=f"file holding the mesh secret (else env {SECRET_ENV})"
     )
     parser.add_argument(
         "--property",
@@ -175,6 +182,7 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
     parser.add_argument("--flood-burst", type=POSITIVE, help="frames a peer may send at once")
     parser.add_argument("--max-frame", type=whole(at_least=MIN_FRAME), help="largest frame, bytes")
     parser.add_argument("--log-level", default="WARNING", help="logging level on stderr")
+    add_credential_arguments(parser)
     parser.set_defaults(func=run_node)
 
 
@@ -211,10 +219,13 @@ def run_node(args: argparse.Namespace) -> int:
     logging.basicConfig(
         level=args.log_level.upper(), stream=sys.stderr, format="%(levelname)s %(message)s"
     )
-    secret = read_secret(args)
     EchoVoter.tick = args.tick
     try:
-        return asyncio.run(_run(args, secret))
+        credentials = credentials_from_args(args, args.id)
+        return asyncio.run(_run(args, credentials))
+    except CredentialError as exc:
+        print(f"objectplaces node: {exc}", file=sys.stderr)
+        return 2
     except (LocalProtocolError, OSError) as exc:
         print(f"objectplaces node: {exc}", file=sys.stderr)
         return 1
@@ -303,13 +314,16 @@ async def _watch_peers(node: AnyNode) -> None:
         await node.links_changed()
 
 
-async def _start(args: argparse.Namespace, secret: bytes) -> AnyNode:
+async def _start(args: argparse.Namespace, credentials: Credentials) -> AnyNode:
     if args.transport == "zenoh":
+        protocol = "tcp" if credentials.insecure else "tls"
         return await start_node(
             args.id,
             transport="zenoh",
-            secret=secret,
-            listen=[args.listen or "tcp/127.0.0.1:0"],
+            tls=credentials.tls,
+            insecure=credentials.insecure,
+            secret=credentials.secret,
+            listen=[args.listen or f"{protocol}/127.0.0.1:0"],
             connect=args.connect,
             mode=args.mode,
             fleet=args.fleet,
@@ -322,7 +336,9 @@ async def _start(args: argparse.Namespace, secret: bytes) -> AnyNode:
         )
     return await start_node(
         args.id,
-        secret=secret,
+        tls=credentials.tls,
+        insecure=credentials.insecure,
+        secret=credentials.secret,
         listen=args.listen or "127.0.0.1:0",
         join=args.join,
         options=_options(args),
@@ -333,11 +349,15 @@ async def _start(args: argparse.Namespace, secret: bytes) -> AnyNode:
     )
 
 
-async def _run(args: argparse.Namespace, secret: bytes) -> int:
-    node = await _start(args, secret)
+async def _run(args: argparse.Namespace, credentials: Credentials) -> int:
+    node = await _start(args, credentials)
     stop = asyncio.Event()
     controller = _Controller(node, args, stop)
     stopped: str | None = None
+    loop = asyncio.get_running_loop()
+    signals = (signal.SIGTERM, signal.SIGINT)
+    for signum in signals:  # leave cleanly: the node's credentials files go with it
+        loop.add_signal_handler(signum, stop.set)
     try:
         for name, value in args.property:
             node.update_node_property(name, value)
@@ -360,6 +380,8 @@ async def _run(args: argparse.Namespace, secret: bytes) -> int:
         # The node closed by itself (its mesh stopped): the process says why, and fails.
         stopped = node.close_reason
     finally:
+        for signum in signals:
+            loop.remove_signal_handler(signum)
         await node.close()
         emit("closed", reason=stopped or "left the mesh")
     return 1 if stopped else 0

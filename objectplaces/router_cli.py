@@ -1,13 +1,16 @@
 """``objectplaces router``: a Zenoh router for nodes in client mode, in this process.
 
 ```
-objectplaces router --listen tcp/127.0.0.1:7447 --secret-file fleet.secret
-objectplaces node --transport zenoh --mode client --connect tcp/127.0.0.1:7447 ...
+objectplaces pki issue --dir fleet-pki router-1 --role router --address 10.0.0.1
+objectplaces router --id router-1 --pki fleet-pki --listen tls/10.0.0.1:7447
+objectplaces node --transport zenoh --mode client --connect tls/10.0.0.1:7447 --pki ...
 ```
 
 Registered as a plugin of the ``objectplaces`` command (entry point group
 ``objectplaces.commands``, name ``router``). It prints one JSON line ``ready`` with its
-endpoints, runs until ``--run-seconds`` pass or it is interrupted, then ``closed``.
+endpoints, runs until ``--run-seconds`` pass or it gets SIGTERM or SIGINT, then closes
+(removing any credentials file it wrote) and prints ``closed``. A credential that
+cannot be used is named on stderr, with exit status 2.
 """
 
 from __future__ import annotations
@@ -15,11 +18,18 @@ from __future__ import annotations
 import argparse
 import asyncio
 import contextlib
+import signal
 import sys
 
 from objectplaces.arguments import POSITIVE
 from objectplaces.core.errors import LocalProtocolError
-from objectplaces.node_cli import emit, read_secret
+from objectplaces.node_cli import emit
+from objectplaces.security.errors import CredentialError
+from objectplaces.security.options import (
+    Credentials,
+    add_credential_arguments,
+    credentials_from_args,
+)
 from objectplaces.zenoh_router import start_router
 
 __all__ = ["main", "register", "run_router"]
@@ -30,53 +40,85 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
     parser = subcommands.add_parser(
         "router",
         help="run a Zenoh router for client-mode nodes",
-        description="Run a Zenoh router that authenticates links with the fleet secret.",
+        description="Run a Zenoh router: mutual TLS, each member only its own keys.",
+    )
+    parser.add_argument(
+        "--id", default="router", help="the router's id: its certificate's name (default router)"
     )
     parser.add_argument(
         "--listen",
         action="append",
         default=[],
         metavar="ENDPOINT",
-        help="endpoint to listen on (default tcp/127.0.0.1:7447; port 0 picks one)",
+        help="endpoint to listen on (default tls/127.0.0.1:7447, tcp/ with --insecure; "
+        "port 0 picks one)",
     )
     parser.add_argument(
         "--connect", action="append", default=[], metavar="ENDPOINT", help="another router"
     )
-    parser.add_argument("--secret-file", help="file holding the fleet secret")
-    parser.add_argument("--fleet", default="default", help="the fleet's name")
+    parser.add_argument("--fleet", help="the fleet's name (default: the certificate's)")
     parser.add_argument("--lease", type=POSITIVE, default=10.0, help="link lease, s")
     parser.add_argument("--run-seconds", type=POSITIVE, default=3600.0, help="stop after this")
+    add_credential_arguments(parser)
     parser.set_defaults(func=run_router)
 
 
 def run_router(args: argparse.Namespace) -> int:
     """Run the ``router`` subcommand; returns the exit status."""
-    secret = read_secret(args)
     try:
-        asyncio.run(_run(args, secret))
+        credentials = credentials_from_args(args, args.id)
+        asyncio.run(_run(args, credentials))
+    except CredentialError as exc:
+        print(f"objectplaces router: {exc}", file=sys.stderr)
+        return 2
     except (LocalProtocolError, OSError) as exc:
         print(f"objectplaces router: {exc}", file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
-        pass
     return 0
 
 
-async def _run(args: argparse.Namespace, secret: bytes) -> None:
+async def _run(args: argparse.Namespace, credentials: Credentials) -> None:
+    protocol = "tcp" if credentials.insecure else "tls"
     router = await start_router(
-        secret=secret,
-        listen=args.listen or ["tcp/127.0.0.1:7447"],
+        listen=args.listen or [f"{protocol}/127.0.0.1:7447"],
         connect=args.connect,
         fleet=args.fleet,
         lease=args.lease,
+        **credentials.as_kwargs(),
     )
+    reason = "stopped"
     try:
         emit("ready", address=router.address, endpoints=router.endpoints)
-        with contextlib.suppress(TimeoutError):
-            await asyncio.sleep(args.run_seconds)
+        reason = await _stop_signal(args.run_seconds)
     finally:
         await router.close()
-        emit("closed", reason="stopped")
+        emit("closed", reason=reason)
+
+
+async def _stop_signal(seconds: float) -> str:
+    """Wait ``seconds``, or until SIGTERM or SIGINT; returns why it stopped waiting.
+
+    While it waits, either signal ends the wait instead of the process, so that what
+    the caller opened is closed and its credentials files removed.
+    """
+    loop = asyncio.get_running_loop()
+    stop: asyncio.Future[str] = loop.create_future()
+    signals = (signal.SIGTERM, signal.SIGINT)
+
+    def on_signal(signum: signal.Signals) -> None:
+        if not stop.done():
+            stop.set_result(signum.name)
+
+    for signum in signals:
+        loop.add_signal_handler(signum, on_signal, signum)
+    try:
+        with contextlib.suppress(TimeoutError):
+            async with asyncio.timeout(seconds):
+                return await stop
+        return "stopped"
+    finally:
+        for signum in signals:
+            loop.remove_signal_handler(signum)
 
 
 def main(argv: list[str] | None = None) -> int:

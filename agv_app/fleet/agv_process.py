@@ -470,6 +470,7 @@ async def run(args: argparse.Namespace, secret: bytes) -> int:
     if args.transport == "zenoh":
         node = await start_zenoh_node(
             args.id,
+            insecure=True,  # the demo's processes, on loopback
             secret=secret,
             connect=args.connect,
             mode=args.mode,

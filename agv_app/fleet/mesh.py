@@ -288,11 +288,14 @@ class MeshFleet(FleetSourceBase):
         zenoh = self.transport == "zenoh"
         if zenoh:
             node_args["poll_interval"] = self.poll_interval or None
+            node_args["insecure"] = True  # the demo's processes, on loopback
         link: dict[str, Any]
         if zenoh and self.zenoh_mode == "client":
             # One router and every node its client: a link per node, where peers would
             # open one per pair (1,225 at 50 AGVs): Zenoh peers do not relay for each other.
-            self._router = await start_router(secret=secret, listen=[f"tcp/{_HOST}:0"])
+            self._router = await start_router(
+                insecure=True, secret=secret, listen=[f"tcp/{_HOST}:0"]
+            )
             endpoints = self._router.endpoints
             node_args.update(transport="zenoh", mode="client", connect=endpoints)
             link = {}

@@ -11,7 +11,7 @@ from objectplaces import groups
 from tests.conformance.proxy import PuppetNode, PuppetPool, poll
 
 pytestmark = pytest.mark.processes
-SECRET = b"puppet"
+SECRET = b"the puppet fleet secret, 32 bytes"
 
 
 @pytest.fixture

@@ -11,6 +11,7 @@ from objectplaces.transport.zenoh_config import (
     CredentialsFile,
     Mode,
     ZenohOptions,
+    ZenohSecurity,
     derive_credentials,
     zenoh_config,
 )
@@ -26,7 +27,7 @@ async def open_fleet_session(
     credentials = derive_credentials(secret, fleet)
     file = CredentialsFile(credentials)
     try:
-        config = zenoh_config(options, credentials, file.path)
+        config = zenoh_config(options, ZenohSecurity(usrpwd=(credentials, file.path)))
         return await asyncio.to_thread(zenoh.open, config)
     finally:
         file.remove()

@@ -16,7 +16,7 @@ from tests.waiting import until
 from tests.zenoh.counting import Counter
 from tests.zenoh.intruder import open_fleet_session
 
-SECRET = b"fleet"
+SECRET = b"a fleet secret of 32 bytes or more"
 PREFIX = "objectplaces/default"
 
 
@@ -30,8 +30,12 @@ class Talker(Participant):
 
 
 async def test_hostile_puts_cost_the_sender_never_the_node() -> None:
-    a = await start_zenoh_node("a", secret=SECRET, property_interval=0.2, max_frame=4096)
-    b = await start_zenoh_node("b", secret=SECRET, connect=[a.address], property_interval=0.2)
+    a = await start_zenoh_node(
+        "a", insecure=True, secret=SECRET, property_interval=0.2, max_frame=4096
+    )
+    b = await start_zenoh_node(
+        "b", insecure=True, secret=SECRET, connect=[a.address], property_interval=0.2
+    )
     intruder = await open_fleet_session(SECRET, [a.address], mode="peer")
     try:
         a.update_node_property("position", (0.0, 0.0))

@@ -34,7 +34,7 @@ class Recorder:
 
 
 def test_frames_go_together_and_in_order_with_other_inputs() -> None:
-    transport = ZenohTransport("me", secret=b"s", options=ZenohOptions(), incarnation=1)
+    transport = ZenohTransport("me", options=ZenohOptions(), incarnation=1)
     driver = Recorder()
     transport.attach(driver)  # type: ignore[arg-type]
     transport._on_items(

@@ -5,14 +5,13 @@ peer processes form and the two ends of the chain hold a session."""
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import pytest
 
 from objectplaces.transport.zenoh_config import (
     PEER_SCOUTING,
     ZenohOptions,
-    derive_credentials,
+    ZenohSecurity,
     zenoh_config,
 )
 from tests.mesh.procs import Cluster
@@ -23,10 +22,8 @@ __all__ = ["cluster", "secret_file"]
 CHAIN = 14
 
 
-def test_a_peer_dials_only_greater_ids_and_gossips_one_hop(tmp_path: Path) -> None:
-    config = json.loads(
-        str(zenoh_config(ZenohOptions(), derive_credentials(b"s", "f"), tmp_path / "d"))
-    )
+def test_a_peer_dials_only_greater_ids_and_gossips_one_hop() -> None:
+    config = json.loads(str(zenoh_config(ZenohOptions(), ZenohSecurity())))
     gossip = config["scouting"]["gossip"]
     assert gossip["multihop"] is False
     assert gossip["autoconnect_strategy"] == {

@@ -13,12 +13,14 @@ from objectplaces.mesh import start_node
 from objectplaces.zenoh_node import ZenohNode, start_zenoh_node
 from tests.waiting import until
 
-SECRET = b"fleet"
+SECRET = b"a fleet secret of 32 bytes or more"
 
 
 async def quiet(node_id: str, **kwargs: Any) -> ZenohNode:
     """A node that never republishes its properties (no heartbeat at all)."""
-    return await start_zenoh_node(node_id, secret=SECRET, property_interval=None, **kwargs)
+    return await start_zenoh_node(
+        node_id, insecure=True, secret=SECRET, property_interval=None, **kwargs
+    )
 
 
 async def test_a_newcomer_hears_the_fleet_at_once() -> None:
@@ -58,11 +60,13 @@ async def test_a_scoped_node_entering_a_cell_hears_who_is_there_at_once() -> Non
 
 
 async def test_start_node_takes_the_transport() -> None:
-    node = await start_node("z", transport="zenoh", secret=SECRET, listen=["tcp/127.0.0.1:0"])
+    node = await start_node(
+        "z", transport="zenoh", insecure=True, secret=SECRET, listen=["tcp/127.0.0.1:0"]
+    )
     try:
         assert isinstance(node, ZenohNode)
         assert node.address.startswith("tcp/127.0.0.1:")
     finally:
         await node.close()
     with pytest.raises(LocalProtocolError):
-        await start_node("x", transport="pigeon", secret=SECRET)  # type: ignore[call-overload]
+        await start_node("x", transport="pigeon", insecure=True, secret=SECRET)  # type: ignore[call-overload]

@@ -19,7 +19,7 @@ from objectplaces.zenoh_node import start_zenoh_node
 from tests.waiting import until
 from tests.zenoh.counting import Counter
 
-SECRET = b"fleet"
+SECRET = b"a fleet secret of 32 bytes or more"
 
 
 @dataclass
@@ -161,9 +161,16 @@ class Talker(Participant):
 
 async def test_polled_nodes_hear_properties_and_keep_sessions() -> None:
     # Scoped, so the cell subscribers are polled too, not only the inbox and broadcasts.
-    a = await start_zenoh_node("a", secret=SECRET, interest_radius=5.0, poll_interval=0.02)
+    a = await start_zenoh_node(
+        "a", insecure=True, secret=SECRET, interest_radius=5.0, poll_interval=0.02
+    )
     b = await start_zenoh_node(
-        "b", secret=SECRET, connect=[a.address], interest_radius=5.0, poll_interval=0.02
+        "b",
+        insecure=True,
+        secret=SECRET,
+        connect=[a.address],
+        interest_radius=5.0,
+        poll_interval=0.02,
     )
     try:
         a.update_node_property("position", (1.0, 1.0))
@@ -183,12 +190,24 @@ async def test_polled_nodes_hear_properties_and_keep_sessions() -> None:
 async def test_a_scoped_node_hears_its_cells_and_not_the_rest_of_their_rows() -> None:
     # The scoped node hears the cells around (2, 2) through one subscriber per row;
     # "far" publishes in (20, 0), a cell of row 0 it does not hear.
-    here = await start_zenoh_node("here", secret=SECRET, interest_radius=5.0, poll_interval=0.02)
+    here = await start_zenoh_node(
+        "here", insecure=True, secret=SECRET, interest_radius=5.0, poll_interval=0.02
+    )
     far = await start_zenoh_node(
-        "far", secret=SECRET, connect=[here.address], interest_radius=5.0, poll_interval=0.02
+        "far",
+        insecure=True,
+        secret=SECRET,
+        connect=[here.address],
+        interest_radius=5.0,
+        poll_interval=0.02,
     )
     scoped = await start_zenoh_node(
-        "scoped", secret=SECRET, connect=[here.address], interest_radius=5.0, poll_interval=0.02
+        "scoped",
+        insecure=True,
+        secret=SECRET,
+        connect=[here.address],
+        interest_radius=5.0,
+        poll_interval=0.02,
     )
     try:
         far.update_node_property("position", (501.0, 1.0))

@@ -18,13 +18,16 @@ from tests.mesh.test_processes import check_only_members_speak, group_events
 
 pytestmark = pytest.mark.processes
 
-ZENOH = ["--transport", "zenoh", "--property-interval", "0.2", "--failure-timeout", "60"]
+ZENOH = [
+    "--transport", "zenoh", "--insecure", "--property-interval", "0.2", "--failure-timeout", "60"
+]  # fmt: skip
 
 
 @pytest.fixture
 def secret_file(tmp_path: Path) -> Path:
     path = tmp_path / "secret"
     path.write_bytes(os.urandom(16).hex().encode())
+    path.chmod(0o600)
     return path
 
 
@@ -43,7 +46,7 @@ def router(secret_file: Path) -> Iterator[str]:
     command = [
         sys.executable, "-m", "objectplaces.router_cli",
         "--listen", "tcp/127.0.0.1:0",
-        "--secret-file", str(secret_file),
+        "--insecure", "--secret-file", str(secret_file),
         "--run-seconds", "60",
     ]  # fmt: skip
     proc = subprocess.Popen(command, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)

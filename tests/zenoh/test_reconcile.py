@@ -18,7 +18,7 @@ from objectplaces.zenoh_node import ZenohNode, start_zenoh_node
 from tests.mesh.test_links import Recorder
 from tests.waiting import until
 
-SECRET = b"fleet"
+SECRET = b"a fleet secret of 32 bytes or more"
 
 
 async def until_peers(node: ZenohNode, peers: list[str], within: float = 10.0) -> None:
@@ -34,8 +34,8 @@ async def linked_pair(
 ) -> AsyncIterator[tuple[ZenohNode, ZenohNode]]:
     """Nodes a and b, b connected to a, each a peer of the other; both closed after."""
     monkeypatch.setattr(zenoh_membership, "RECONCILE_EVERY", reconcile_every)
-    a = await start_zenoh_node("a", secret=SECRET, token_grace=token_grace)
-    b = await start_zenoh_node("b", secret=SECRET, connect=[a.address])
+    a = await start_zenoh_node("a", insecure=True, secret=SECRET, token_grace=token_grace)
+    b = await start_zenoh_node("b", insecure=True, secret=SECRET, connect=[a.address])
     try:
         await until_peers(a, ["b"])
         yield a, b

@@ -1,5 +1,6 @@
-"""Only holders of the fleet secret take part: without it, a node hears nothing of the
-fleet and nothing it puts reaches a node. The secret itself is never in Zenoh's config."""
+"""Plain links on loopback (``insecure=True``): only holders of the fleet secret take
+part; without it, a node hears nothing of the fleet and nothing it puts reaches a node.
+The secret itself is never in Zenoh's config. (Mutual TLS: ``test_tls.py``.)"""
 
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ import zenoh
 from objectplaces.transport.zenoh_config import (
     CredentialsFile,
     ZenohOptions,
+    ZenohSecurity,
     derive_credentials,
     zenoh_config,
 )
@@ -22,7 +24,8 @@ from objectplaces.zenoh_router import start_router
 from tests.waiting import until
 from tests.zenoh.intruder import open_fleet_session
 
-SECRET = b"the fleet secret"
+SECRET = b"the fleet secret, 32 bytes or more"
+GUESS = b"a guess at the secret, 32 bytes long"
 
 
 def dropped(node: ZenohNode) -> int:
@@ -30,12 +33,14 @@ def dropped(node: ZenohNode) -> int:
 
 
 async def test_a_peer_without_the_secret_hears_nothing_and_is_heard_by_nobody() -> None:
-    a = await start_zenoh_node("a", secret=SECRET, property_interval=0.1)
+    a = await start_zenoh_node("a", insecure=True, secret=SECRET, property_interval=0.1)
     intruder = await start_zenoh_node(
-        "x", secret=b"a guess", connect=[a.address], property_interval=0.1
+        "x", insecure=True, secret=GUESS, connect=[a.address], property_interval=0.1
     )
     # A node with the secret, joining the same way right after: the control.
-    ok = await start_zenoh_node("ok", secret=SECRET, connect=[a.address], property_interval=0.1)
+    ok = await start_zenoh_node(
+        "ok", insecure=True, secret=SECRET, connect=[a.address], property_interval=0.1
+    )
     try:
         for node, x in ((a, 0.0), (intruder, 1.0), (ok, 2.0)):
             node.update_node_property("position", (x, 0.0))
@@ -52,10 +57,10 @@ async def test_a_peer_without_the_secret_hears_nothing_and_is_heard_by_nobody() 
 
 
 async def test_a_client_without_the_secret_is_refused_by_the_router() -> None:
-    router = await start_router(secret=SECRET, listen=["tcp/127.0.0.1:0"])
+    router = await start_router(insecure=True, secret=SECRET, listen=["tcp/127.0.0.1:0"])
     try:
         with pytest.raises(zenoh.ZError):
-            await open_fleet_session(b"a guess", router.endpoints)
+            await open_fleet_session(GUESS, router.endpoints)
         session = await open_fleet_session(SECRET, router.endpoints)
         await asyncio.to_thread(session.close)
     finally:
@@ -63,7 +68,7 @@ async def test_a_client_without_the_secret_is_refused_by_the_router() -> None:
 
 
 async def test_the_router_passes_only_the_fleets_keys() -> None:
-    router = await start_router(secret=SECRET, listen=["tcp/127.0.0.1:0"])
+    router = await start_router(insecure=True, secret=SECRET, listen=["tcp/127.0.0.1:0"])
     sessions = []
     try:
         listener = await open_fleet_session(SECRET, router.endpoints)
@@ -89,11 +94,11 @@ async def test_the_router_passes_only_the_fleets_keys() -> None:
 
 
 async def test_a_raw_session_without_the_secret_cannot_inject() -> None:
-    a = await start_zenoh_node("a", secret=SECRET)
+    a = await start_zenoh_node("a", insecure=True, secret=SECRET)
     frame = msgpack.packb([1, 1, {"position": ["x", "y"]}])  # refused and counted if heard
     sessions = []
     try:
-        wrong = await open_fleet_session(b"a guess", [a.address], mode="peer")
+        wrong = await open_fleet_session(GUESS, [a.address], mode="peer")
         sessions.append(wrong)
         right = await open_fleet_session(SECRET, [a.address])
         sessions.append(right)
@@ -119,7 +124,7 @@ def test_credentials_derive_from_the_secret_and_the_fleet_and_never_hold_it() ->
     assert SECRET.decode() not in one.user + one.password
     file = CredentialsFile(one)
     try:
-        config = str(zenoh_config(ZenohOptions(), one, file.path))
+        config = str(zenoh_config(ZenohOptions(), ZenohSecurity(usrpwd=(one, file.path))))
         assert SECRET.decode() not in config
         assert stat.S_IMODE(file.path.stat().st_mode) == 0o600
         assert stat.S_IMODE(file.path.parent.stat().st_mode) == 0o700
@@ -130,7 +135,7 @@ def test_credentials_derive_from_the_secret_and_the_fleet_and_never_hold_it() ->
 
 
 async def test_closing_a_node_removes_its_credentials_file() -> None:
-    node = await start_zenoh_node("a", secret=SECRET)
+    node = await start_zenoh_node("a", insecure=True, secret=SECRET)
     path = node._transport._file.path if node._transport._file else None
     assert path is not None
     assert path.exists()
@@ -153,4 +158,4 @@ async def test_bad_arguments_are_refused(kwargs: dict[str, object]) -> None:
     from objectplaces.core.errors import LocalProtocolError
 
     with pytest.raises(LocalProtocolError):
-        await start_zenoh_node("a", secret=SECRET, **kwargs)  # type: ignore[arg-type]
+        await start_zenoh_node("a", insecure=True, secret=SECRET, **kwargs)  # type: ignore[arg-type]
