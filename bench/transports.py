@@ -65,7 +65,7 @@ from objectplaces.transport.zenoh_inbox import direct  # noqa: E402
 from objectplaces.transport.zenoh_keys import FleetKeys  # noqa: E402
 from objectplaces.zenoh_node import start_zenoh_node  # noqa: E402
 
-SECRET = b"bench-secret"
+SECRET = b"the bench fleet secret, 32 bytes or more"
 TRANSPORTS = ["mesh", "zenoh-peer", "zenoh-client", "zenoh-peer-polled", "zenoh-client-polled"]
 POLL_INTERVAL = 0.05
 """``-polled``: Zenoh nodes with polled reception (``poll_interval``, the AGV processes'
@@ -129,7 +129,12 @@ def receive_path_as_before() -> None:
 
 
 async def start_worker_node(node_id: str, transport: str, connect: list[str]) -> RoleActivator:
-    timing: dict[str, Any] = {"secret": SECRET, "property_interval": 1.0, "failure_timeout": 60.0}
+    timing: dict[str, Any] = {
+        "insecure": True,  # plain links on 127.0.0.1
+        "secret": SECRET,
+        "property_interval": 1.0,
+        "failure_timeout": 60.0,
+    }
     base, poll, before = split_transport(transport)
     if before:  # BEFORE, or zenoh-client-before by hand
         receive_path_as_before()
@@ -373,7 +378,7 @@ async def start_router_proc() -> tuple[Proc, str]:
     secret_file.chmod(0o600)
     proc = await Proc.start_module(
         "objectplaces.router_cli", "--listen", "tcp/127.0.0.1:0",
-        "--secret-file", str(secret_file), "--run-seconds", "900",
+        "--insecure", "--secret-file", str(secret_file), "--run-seconds", "900",
     )  # fmt: skip
     ready = await proc.recv()
     secret_file.unlink()

@@ -55,12 +55,13 @@ class Relay:
 
 async def zenoh_bytes_per_update(secret: bytes, count: int = 500, gap: float = 0.004) -> float:
     """Bytes the subscriber's link carries per position update (see the module doc)."""
-    subscriber = await start_zenoh_node("sub", secret=secret, property_interval=None)
+    subscriber = await start_zenoh_node("sub", insecure=True, secret=secret, property_interval=None)
     port = int(subscriber.address.rsplit(":", 1)[1])
     relay = Relay(port)
     await relay.start()
     publisher = await start_zenoh_node(
-        "pub", secret=secret, listen=[], connect=[f"tcp/127.0.0.1:{relay.port}"],
+        "pub", insecure=True, secret=secret, listen=[],
+        connect=[f"tcp/127.0.0.1:{relay.port}"],
         property_interval=None,
     )  # fmt: skip
     try:
