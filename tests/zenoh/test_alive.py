@@ -141,3 +141,16 @@ def test_a_run_leaves_exactly_when_its_token_stayed_away_for_the_grace(
                 down_since[node] = now
         assert table.nodes() == sorted(held)
         assert table.missing() == sorted(down_since)
+
+
+def test_a_forgotten_node_is_out_whatever_its_token_did() -> None:
+    table = AliveTable("me", grace=1.0)
+    table.token_up("a", 1)
+    table.token_up("b", 1)
+    table.token_down("b", 1, 0.0, queries_sent=0)
+    assert table.forget("a") is True
+    assert table.forget("b") is True
+    assert table.forget("c") is False
+    assert table.nodes() == []
+    assert table.missing() == []
+    assert table.expire(5.0) == []
