@@ -20,6 +20,7 @@ import asyncio
 import contextlib
 import signal
 import sys
+from collections.abc import Iterator
 
 from objectplaces.arguments import POSITIVE
 from objectplaces.core.errors import LocalProtocolError
@@ -79,46 +80,48 @@ def run_router(args: argparse.Namespace) -> int:
 
 async def _run(args: argparse.Namespace, credentials: Credentials) -> None:
     protocol = "tcp" if credentials.insecure else "tls"
-    router = await start_router(
-        listen=args.listen or [f"{protocol}/127.0.0.1:7447"],
-        connect=args.connect,
-        fleet=args.fleet,
-        lease=args.lease,
-        **credentials.as_kwargs(),
-    )
-    reason = "stopped"
-    try:
-        emit("ready", address=router.address, endpoints=router.endpoints)
-        reason = await _stop_signal(args.run_seconds)
-    finally:
-        await router.close()
-        emit("closed", reason=reason)
+    with _signals() as signalled:
+        router = await start_router(
+            listen=args.listen or [f"{protocol}/127.0.0.1:7447"],
+            connect=args.connect,
+            fleet=args.fleet,
+            lease=args.lease,
+            tls=credentials.tls,
+            insecure=credentials.insecure,
+            secret=credentials.secret,
+        )
+        reason = "stopped"
+        try:
+            emit("ready", address=router.address, endpoints=router.endpoints)
+            with contextlib.suppress(TimeoutError):
+                async with asyncio.timeout(args.run_seconds):
+                    reason = await signalled
+        finally:
+            await router.close()
+            emit("closed", reason=reason)
 
 
-async def _stop_signal(seconds: float) -> str:
-    """Wait ``seconds``, or until SIGTERM or SIGINT; returns why it stopped waiting.
-
-    While it waits, either signal ends the wait instead of the process, so that what
-    the caller opened is closed and its credentials files removed.
-    """
+@contextlib.contextmanager
+def _signals() -> Iterator[asyncio.Future[str]]:
+    """A future that SIGTERM or SIGINT sets to the signal's name, while in the block:
+    either signal then ends the wait instead of the process, so that the router
+    closes and its credentials file goes."""
     loop = asyncio.get_running_loop()
-    stop: asyncio.Future[str] = loop.create_future()
+    signalled: asyncio.Future[str] = loop.create_future()
     signals = (signal.SIGTERM, signal.SIGINT)
 
     def on_signal(signum: signal.Signals) -> None:
-        if not stop.done():
-            stop.set_result(signum.name)
+        if not signalled.done():
+            signalled.set_result(signum.name)
 
     for signum in signals:
         loop.add_signal_handler(signum, on_signal, signum)
     try:
-        with contextlib.suppress(TimeoutError):
-            async with asyncio.timeout(seconds):
-                return await stop
-        return "stopped"
+        yield signalled
     finally:
         for signum in signals:
             loop.remove_signal_handler(signum)
+        signalled.cancel()
 
 
 def main(argv: list[str] | None = None) -> int:
