@@ -33,11 +33,9 @@ import contextlib
 import dataclasses
 import json
 import logging
-import os
 import signal
 import sys
 import time
-from pathlib import Path
 from typing import Any
 
 from objectplaces.activator import Session
@@ -56,18 +54,13 @@ from objectplaces.transport.options import MIN_FRAME
 from objectplaces.zenoh_node import ZenohNode
 
 __all__ = [
-    "SECRET_ENV",
     "Collector",
     "EchoVoter",
     "emit",
     "main",
-    "read_secret",
     "register",
     "run_node",
 ]
-
-SECRET_ENV = "OBJECTPLACES_SECRET"
-"""Environment variable holding the mesh secret when ``--secret-file`` is not given."""
 
 _MAX_LINE = 1 << 16
 
@@ -184,19 +177,6 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
     parser.add_argument("--log-level", default="WARNING", help="logging level on stderr")
     add_credential_arguments(parser)
     parser.set_defaults(func=run_node)
-
-
-def read_secret(args: argparse.Namespace) -> bytes:
-    """The secret from ``args.secret_file``, else from the environment (exits if neither)."""
-    if args.secret_file is not None:
-        try:
-            return Path(args.secret_file).read_bytes().rstrip(b"\r\n")
-        except OSError as exc:
-            raise SystemExit(f"objectplaces: cannot read --secret-file: {exc}") from None
-    value = os.environ.get(SECRET_ENV, "")
-    if not value:
-        raise SystemExit(f"objectplaces: give --secret-file or set {SECRET_ENV}")
-    return value.encode()
 
 
 def _options(args: argparse.Namespace) -> MeshOptions:

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import argparse
 import math
-from pathlib import Path
 from typing import Any
 
 import pytest
@@ -23,7 +22,6 @@ from objectplaces.arguments import (
     whole,
 )
 from objectplaces.cli import build_parser
-from objectplaces.node_cli import read_secret
 
 # What each parser needs besides the option under test.
 REQUIRED = {
@@ -221,9 +219,3 @@ def test_a_property_option_is_a_name_and_a_json_value() -> None:
     for bad in ("position", "=3"):
         with pytest.raises(argparse.ArgumentTypeError, match="property must be NAME=JSON"):
             property_argument(bad)
-
-
-def test_a_secret_file_that_cannot_be_read_stops_the_node_with_a_line(tmp_path: Path) -> None:
-    args = argparse.Namespace(secret_file=tmp_path / "missing")
-    with pytest.raises(SystemExit, match=r"cannot read --secret-file: .*missing"):
-        read_secret(args)

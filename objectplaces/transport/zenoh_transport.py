@@ -2,19 +2,15 @@
 
 Outputs of the node machine become puts on the fleet's keys (``zenoh_keys``): ``Publish``
 on the cell keys, ``Broadcast`` on the node's broadcast key, ``Send`` on the target's
-inbox key. ``Subscribe`` declares one subscriber per row of interest cells, or the one
-wildcard of full dissemination: Zenoh routes each update only to the nodes that hear it.
+inbox key. ``Subscribe`` and the cells published in change what the node declares
+(``zenoh_declared``).
 
 Membership is Zenoh's liveliness: every node holds a token while its session lives; a
 node whose token goes (it left, its process died, its links lapsed past the lease) and
 is not back within the grace (``ZenohOptions.token_grace``; a token redeclared as routes
 change is) is gone, and the machine lets it leave every group then, with no heartbeat of
-ours.
-
-A node that starts hearing a cell asks the queryables there (``who/<cell>/*``), and a
-node that sees a new token asks that node; an asked node whose properties the asker
-should hear sends it a snapshot on its inbox key. The asker's subscription travels in
-the query, so nobody answers out of scope.
+ours. An asked node whose properties the asker should hear sends it a snapshot on its
+inbox key.
 
 With a certified identity, links are mutual TLS and the fleet's roster (``zenoh_roster``)
 is looked at every ``ROSTER_CHECK`` seconds: what a revoked id sends is dropped
@@ -33,15 +29,13 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-from typing import Any, Protocol
+from typing import Protocol
 
-import msgpack
 import zenoh
 
 from objectplaces.core.events import Broadcast, Output, Publish, Send, Subscribe
 from objectplaces.security.identity import Identity
 from objectplaces.transport.base import RawNodeDriver
-from objectplaces.transport.routing import Cell
 from objectplaces.transport.zenoh_acl import Roster, fleet_access_control
 from objectplaces.transport.zenoh_config import (
     Credentials,
@@ -51,20 +45,16 @@ from objectplaces.transport.zenoh_config import (
     derive_credentials,
     zenoh_config,
 )
-from objectplaces.transport.zenoh_inbox import Item, ZenohInbox, direct
+from objectplaces.transport.zenoh_declared import Declared
+from objectplaces.transport.zenoh_inbox import Item, ZenohInbox
 from objectplaces.transport.zenoh_keys import FleetKeys
-from objectplaces.transport.zenoh_membership import QUERY_TIMEOUT, Membership
+from objectplaces.transport.zenoh_membership import Membership
 from objectplaces.transport.zenoh_publishers import PublisherCache
 from objectplaces.transport.zenoh_roster import ROSTER_CHECK, RosterWatch
 
 __all__ = ["FrameDriver", "ZenohTransport"]
 
 log = logging.getLogger("objectplaces.zenoh")
-
-_ASK_AGAIN_AFTER = (0.3, 1.5)
-"""Seconds after which an ask is repeated: an asked node's queryable, just moved to the
-cell we ask, may not have reached us yet (nor our subscription it), and a node without
-a heartbeat would otherwise stay unheard. Repeated answers are harmless snapshots."""
 
 
 class FrameDriver(RawNodeDriver, Protocol):
@@ -120,14 +110,7 @@ class ZenohTransport:
         self.membership = Membership(
             self.keys, self.counters, self._ask_new_run, grace=options.token_grace
         )
-        self._declared: list[Any] = []  # held: what is dropped may be undeclared
-        self._row_subs: dict[int, Any] = {}  # one subscriber per row of our cells
-        self._full_sub: Any = None
-        self._subscription: frozenset[Cell] | None = None
-        self._cells: frozenset[Cell] = frozenset()  # the cells we hear (none when full)
-        self._subscribed = False
-        self._home: tuple[Cell, ...] = ()  # the cells we publish in (none before a position)
-        self._queryables: dict[Cell | None, Any] = {}  # one per home cell (None: no cell)
+        self._declared: Declared | None = None
         self.closed = False
         if self._roster is not None:
             self._revoked = frozenset(self._roster.roster.revoked)
@@ -143,11 +126,6 @@ class ZenohTransport:
     def address(self) -> str:
         """The endpoints this node listens on (comma separated; "" for a client)."""
         return ",".join(self.options.listen) if self.options.mode != "client" else ""
-
-    @property
-    def revoked(self) -> frozenset[str]:
-        """Ids whose certificates are all revoked, as last read (empty without TLS)."""
-        return self._revoked
 
     def _security(self) -> ZenohSecurity:
         """How the session protects its links now: a peer with TLS applies the fleet's
@@ -189,7 +167,10 @@ class ZenohTransport:
             if self._file is not None:
                 self._file.remove()
             raise
-        self._declare(self._session)
+        self._declared = Declared(
+            self.keys, self._inbox, self.membership, self.counters, incarnation=self.incarnation
+        )
+        self._use(self._session)
         if self._roster is not None:
             self._watcher = loop.create_task(self._watch_roster())
 
@@ -200,25 +181,12 @@ class ZenohTransport:
         except zenoh.ZError as exc:
             raise OSError(f"zenoh: {exc}") from exc
 
-    def _declare(self, session: zenoh.Session) -> None:
-        """Declare on ``session`` what this node hears and holds: its inbox, the
-        broadcasts, its queryables, its token, and the cells it subscribed to."""
-        keys, inbox = self.keys, self._inbox
-        assert inbox is not None
+    def _use(self, session: zenoh.Session) -> None:
+        """Put on ``session`` from now on, and declare there what this node holds."""
+        assert self._declared is not None
+        self._session = session
         self._publishers = PublisherCache(session)
-        self._declared = [
-            inbox.declare_data(session, keys.inbox(), keys, directed=True),
-            inbox.declare_data(session, keys.broadcasts(), keys),
-            *self.membership.declare(session, inbox, self.incarnation),
-        ]
-        for cell in self._home or (None,):
-            self._queryables[cell] = session.declare_queryable(
-                keys.who(cell), inbox.query_callback()
-            )
-        if self._subscribed:  # a session opened anew: subscribe and ask again
-            wanted, self._subscribed = self._subscription, False
-            self._cells, self._row_subs, self._full_sub = frozenset(), {}, None
-            self._subscribe(wanted)
+        self._declared.declare(session)
 
     async def close(self) -> None:
         """Withdraw our token and close the session (what was put is flushed first;
@@ -235,6 +203,8 @@ class ZenohTransport:
                 await watcher
         if self._inbox is not None:
             self._inbox.close()
+        if self._declared is not None:
+            self._declared.drop()
         session, self._session = self._session, None
         if session is not None:
             await self._close_session(session)
@@ -289,11 +259,8 @@ class ZenohTransport:
         """Replace the session by one under the roster's rules now (closing every link:
         a revoked member's stay closed); True once the new one is open."""
         old, self._session = self._session, None
-        inbox = self._inbox
-        assert inbox is not None
-        self.membership.suspend()
-        inbox.forget_subscribers()
-        self._queryables.clear()
+        assert self._declared is not None
+        self._declared.drop()
         if old is not None:
             await self._close_session(old)
         try:
@@ -302,8 +269,7 @@ class ZenohTransport:
             log.error("node %s: reopening the Zenoh session: %s", self.node_id, exc)
             self._count("reopen_failed")
             return False
-        self._session = session
-        self._declare(session)
+        self._use(session)
         self._count("reopened")
         return True
 
@@ -327,10 +293,8 @@ class ZenohTransport:
         Returns:
             How many puts went out.
         """
-        if self.closed:
-            return 0
-        if self._session is None:  # being opened anew: what it must hold is kept
-            self._remember(output)
+        declared = self._declared
+        if self.closed or declared is None:
             return 0
         keys = self.keys
         match output:
@@ -339,8 +303,8 @@ class ZenohTransport:
             case Broadcast(data, _):
                 return self._put(keys.broadcast(), data)
             case Publish(cells, data, _, home, snapshot):
-                before = self._home
-                self._publishing_in(tuple(cells[:home]))
+                before = declared.home
+                declared.publishing_in(tuple(cells[:home]))
                 sent = 0
                 for n, cell in enumerate(cells):
                     # A cell new to our home gets the snapshot; its subscribers that
@@ -349,22 +313,13 @@ class ZenohTransport:
                     sent += self._put(keys.props(cell, left=n > 0), payload)
                 return sent
             case Subscribe(cells):
-                self._subscribe(cells)
+                declared.subscribe(cells)
                 return 0
 
-    def _remember(self, output: Output) -> None:
-        """Keep what a session being opened anew must declare (the frames go: the
-        channels retransmit, the properties are asked again)."""
-        match output:
-            case Publish(cells, _, _, home, _):
-                self._home = tuple(cells[:home])
-            case Subscribe(cells):
-                self._subscribed, self._subscription = True, cells
-            case _:
-                self._count("dropped_reopening")
-
     def _put(self, key: str, data: bytes) -> int:
-        assert self._publishers is not None
+        if self._session is None or self._publishers is None:
+            self._count("dropped_reopening")  # the channels retransmit
+            return 0
         try:
             self._publishers.put(key, data)
         except zenoh.ZError:
@@ -374,79 +329,6 @@ class ZenohTransport:
         self._count("bytes_out", len(data))
         return 1
 
-    def _publishing_in(self, home: tuple[Cell, ...]) -> None:
-        """Keep a queryable in every cell we publish in, so that askers there find us."""
-        if home == self._home or self._session is None:
-            return
-        self._home = home
-        wanted: tuple[Cell | None, ...] = home or (None,)
-        assert self._inbox is not None
-        for cell in wanted:  # the new ones first: an asker never finds a gap
-            if cell not in self._queryables:
-                self._queryables[cell] = self._session.declare_queryable(
-                    self.keys.who(cell), self._inbox.query_callback()
-                )
-        for cell in [c for c in self._queryables if c not in wanted]:
-            self._queryables.pop(cell).undeclare()
-
-    def _subscribe(self, cells: frozenset[Cell] | None) -> None:
-        session, keys, inbox = self._session, self.keys, self._inbox
-        assert session is not None
-        assert inbox is not None
-        first = not self._subscribed
-        was_full = self._subscribed and self._subscription is None
-        self._subscribed = True
-        self._subscription = cells
-        asks: list[str] = []
-        had = self._cells
-        self._cells = frozenset() if cells is None else cells
-        if cells is None:
-            for sub in self._row_subs.values():
-                sub.undeclare()
-            self._row_subs.clear()
-            if self._full_sub is None:
-                self._full_sub = inbox.declare_data(session, keys.all_props(), keys)
-            if not was_full:
-                asks.append(keys.who_all())
-        else:
-            if self._full_sub is not None:
-                self._full_sub.undeclare()
-                self._full_sub = None
-            # A subscriber per row of cells, not per cell: every subscriber of a session
-            # costs on every sample it receives (a receiver with an 8 by 8 square of cell
-            # subscribers spent 161 µs of its receiving threads' CPU per sample, 86 with
-            # one subscriber). Updates from the row's other cells are dropped on the
-            # loop (``_on_items``).
-            rows = {cy for _, cy in cells}
-            for row in [r for r in self._row_subs if r not in rows]:
-                self._row_subs.pop(row).undeclare()
-            for row in sorted(rows - self._row_subs.keys()):
-                self._row_subs[row] = inbox.declare_data(session, keys.row_subscription(row), keys)
-            asks += [keys.who_in(cell) for cell in sorted(cells - had)]
-            if first:
-                asks.append(keys.who_in(None))
-        for selector in asks:
-            self._ask(selector)
-
-    def _ask(self, selector: str) -> None:
-        """Ask the queryables matching ``selector`` for their properties, now and again
-        a little later (``_ASK_AGAIN_AFTER``)."""
-        self._ask_once(selector)
-        loop = asyncio.get_running_loop()
-        for delay in _ASK_AGAIN_AFTER:
-            loop.call_later(delay, self._ask_once, selector)
-
-    def _ask_once(self, selector: str) -> None:
-        session = self._session
-        if session is None or self.closed:
-            return
-        cells = None if self._subscription is None else sorted(self._subscription)
-        payload = msgpack.packb([self.node_id, cells])
-        try:
-            session.get(selector, _IGNORE_REPLY, payload=payload, timeout=QUERY_TIMEOUT)
-        except zenoh.ZError:
-            self._count("dropped_query_failed")
-
     # ------------------------------------------------------------------ inputs
 
     def _on_items(self, items: list[Item]) -> None:
@@ -454,7 +336,8 @@ class ZenohTransport:
         driver = self._driver
         if driver is None or self.closed:
             return
-        cells = self._cells  # empty: we hear every cell (or no cell yet)
+        # Empty: we hear every cell (or no cell yet).
+        cells = self._declared.cells if self._declared is not None else frozenset()
         revoked = self._revoked
         frames: list[tuple[str, bytes]] = []
         size = outside = 0
@@ -500,23 +383,12 @@ class ZenohTransport:
             case ("gone", node, incarnation):
                 self.membership.token_down(node, incarnation)
             case ("query", asker, cells):
-                if self._should_answer(cells):
+                if self._declared is None or self._declared.should_answer(cells):
                     driver.send_properties_to(asker)
             case _:
                 self._count("dropped_unknown_item")
 
     def _ask_new_run(self, node: str) -> None:
         """A node appeared or restarted: ask it for its properties (once we hear cells)."""
-        if self._subscribed:
-            self._ask(self.keys.who_is(node))
-
-    def _should_answer(self, cells: frozenset[Cell] | None) -> bool:
-        """Whether an asker hearing ``cells`` (None: everything) should hear us."""
-        return cells is None or not self._home or not cells.isdisjoint(self._home)
-
-
-def _ignore_reply(_reply: zenoh.Reply) -> None:
-    """Answers travel on the asker's inbox key, not as replies."""
-
-
-_IGNORE_REPLY = direct(_ignore_reply)
+        if self._declared is not None:
+            self._declared.ask_new_run(node)
