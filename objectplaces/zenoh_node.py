@@ -216,7 +216,7 @@ async def start_zenoh_node(
     if listen is None:
         listen = (f"{protocol}/127.0.0.1:0",)
     listen = tuple(listen) if mode == "peer" else ()
-    options = ZenohOptions(mode=mode, listen=listen, connect=tuple(connect))  # checks them
+    ZenohOptions(mode=mode, listen=listen, connect=tuple(connect))  # checks the endpoints
     hosts = [endpoint_host(e) for e in (*listen, *connect)]
     link_security(node_id, tls=tls, secret=secret, insecure=insecure, hosts=hosts)
     check_protocol((*listen, *connect), protocol)

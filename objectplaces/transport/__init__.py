@@ -12,8 +12,8 @@ from whoever drives a node is the ``NodeDriver`` (and, for the in-memory network
 - ``options``: the mesh's limits and timings;
 - ``link``, ``connector``, ``websocket``: the mesh's asyncio shell;
 - ``zenoh_keys``, ``zenoh_alive``, ``zenoh_acl`` (sans-I/O), ``zenoh_config``,
-  ``zenoh_roster``, ``zenoh_inbox``, ``zenoh_publishers``, ``zenoh_transport``: the
-  Zenoh transport (docs/zenoh.md).
+  ``zenoh_roster``, ``zenoh_inbox``, ``zenoh_publishers``, ``zenoh_membership``,
+  ``zenoh_declared``, ``zenoh_transport``: the Zenoh transport (docs/zenoh.md).
 """
 
 __all__: list[str] = []

@@ -266,6 +266,39 @@ async def test_a_revoked_member_is_cut_off_and_refused_afterwards(fleet: Fleet) 
     assert a.transport_counters().get("peers_revoked") == 1
 
 
+async def test_routers_linked_by_tls_carry_the_fleet_and_no_forgery(pki: TemporaryPki) -> None:
+    pki.identity("r2", role="router", addresses=("127.0.0.1",))
+    r1 = await start_router(tls=pki.identity("r1"), listen=["tls/127.0.0.1:0"])
+    r2 = await start_router(
+        tls=pki.identity("r2"), listen=["tls/127.0.0.1:0"], connect=r1.endpoints
+    )
+    nodes: list[ZenohNode] = []
+    try:
+        for node_id, router in (("a", r1), ("b", r2)):
+            node = await start_zenoh_node(
+                node_id, tls=pki.identity(node_id), mode="client", connect=router.endpoints,
+                property_interval=0.2,
+            )  # fmt: skip
+            nodes.append(node)
+        a, b = nodes
+        b.update_node_property("position", (1.0, 0.0))
+        await until(lambda: position_of(a, "b") == (1.0, 0.0), within=WITHIN)
+        d = pki.directory
+        c = await open_tls_session(r2.endpoints, ca=d / "ca.pem", cert=d / "c.pem", key=d / "c.key")
+        try:
+            c.put(f"{PREFIX}/all/b", forged((99.0, 99.0)))
+            c.put(f"{PREFIX}/all/c", forged((5.0, 5.0)))
+            await until(lambda: position_of(a, "c") == (5.0, 5.0), within=WITHIN)
+            assert position_of(a, "b") == (1.0, 0.0)
+        finally:
+            await close(c)
+    finally:
+        for node in nodes:
+            await node.close()
+        await r2.close()
+        await r1.close()
+
+
 async def test_a_member_issued_later_is_let_in(fleet: Fleet) -> None:
     a = await fleet.start("a")
     a.update_node_property("position", (0.0, 0.0))
