@@ -4,7 +4,10 @@
 endpoints such as ``tcp/127.0.0.1:7447``; ``--mode client`` connects to a router).
 
 Registered as a plugin of the ``objectplaces`` command (entry point group
-``objectplaces.commands``, name ``node``). The node publishes the properties it is given
+``objectplaces.commands``, name ``node``). It joins with ``--pki D`` (mutual TLS with
+its certificate ``D/ID.pem``) or, on loopback only, ``--insecure`` and a secret
+(``--secret-file``); a credential that cannot be used exits with status 2, named.
+The node publishes the properties it is given
 and runs until ``--run-seconds`` pass or it is told to quit. Two small built-in roles
 make a node observable from outside, for tests and demonstrations:
 
@@ -30,10 +33,8 @@ import contextlib
 import dataclasses
 import json
 import logging
-import os
 import sys
 import time
-from pathlib import Path
 from typing import Any
 
 from objectplaces.activator import Session
@@ -42,22 +43,23 @@ from objectplaces.core.errors import LocalProtocolError
 from objectplaces.core.ids import InitiatorRef, ParticipantRef
 from objectplaces.core.roles import Initiator, Participant
 from objectplaces.mesh import MeshNode, MeshOptions, start_node
+from objectplaces.security import (
+    CredentialError,
+    Credentials,
+    add_credential_arguments,
+    credentials_from_args,
+)
 from objectplaces.transport.options import MIN_FRAME
 from objectplaces.zenoh_node import ZenohNode
 
 __all__ = [
-    "SECRET_ENV",
     "Collector",
     "EchoVoter",
     "emit",
     "main",
-    "read_secret",
     "register",
     "run_node",
 ]
-
-SECRET_ENV = "OBJECTPLACES_SECRET"
-"""Environment variable holding the mesh secret when ``--secret-file`` is not given."""
 
 _MAX_LINE = 1 << 16
 
@@ -144,9 +146,7 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
     parser.add_argument(
         "--join", action="append", default=[], metavar="HOST:PORT", help="a node to join through"
     )
-    parser.add_argument(
-        "--secret-file", type=Path, help=f"file holding the mesh secret (else env {SECRET_ENV})"
-    )
+    add_credential_arguments(parser)
     parser.add_argument(
         "--property",
         action="append",
@@ -178,19 +178,6 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
     parser.set_defaults(func=run_node)
 
 
-def read_secret(args: argparse.Namespace) -> bytes:
-    """The secret from ``args.secret_file``, else from the environment (exits if neither)."""
-    if args.secret_file is not None:
-        try:
-            return Path(args.secret_file).read_bytes().rstrip(b"\r\n")
-        except OSError as exc:
-            raise SystemExit(f"objectplaces: cannot read --secret-file: {exc}") from None
-    value = os.environ.get(SECRET_ENV, "")
-    if not value:
-        raise SystemExit(f"objectplaces: give --secret-file or set {SECRET_ENV}")
-    return value.encode()
-
-
 def _options(args: argparse.Namespace) -> MeshOptions:
     overrides: dict[str, Any] = {}
     if args.flood_rate is not None:
@@ -211,10 +198,17 @@ def run_node(args: argparse.Namespace) -> int:
     logging.basicConfig(
         level=args.log_level.upper(), stream=sys.stderr, format="%(levelname)s %(message)s"
     )
-    secret = read_secret(args)
+    try:
+        credentials = credentials_from_args(args, args.id)
+    except CredentialError as exc:
+        print(f"objectplaces node: {exc}", file=sys.stderr)
+        return 2
     EchoVoter.tick = args.tick
     try:
-        return asyncio.run(_run(args, secret))
+        return asyncio.run(_run(args, credentials))
+    except CredentialError as exc:
+        print(f"objectplaces node: {exc}", file=sys.stderr)
+        return 2
     except (LocalProtocolError, OSError) as exc:
         print(f"objectplaces node: {exc}", file=sys.stderr)
         return 1
@@ -303,12 +297,14 @@ async def _watch_peers(node: AnyNode) -> None:
         await node.links_changed()
 
 
-async def _start(args: argparse.Namespace, secret: bytes) -> AnyNode:
+async def _start(args: argparse.Namespace, credentials: Credentials) -> AnyNode:
     if args.transport == "zenoh":
         return await start_node(
             args.id,
             transport="zenoh",
-            secret=secret,
+            tls=credentials.tls,
+            insecure=credentials.insecure,
+            secret=credentials.secret,
             listen=[args.listen or "tcp/127.0.0.1:0"],
             connect=args.connect,
             mode=args.mode,
@@ -322,7 +318,9 @@ async def _start(args: argparse.Namespace, secret: bytes) -> AnyNode:
         )
     return await start_node(
         args.id,
-        secret=secret,
+        tls=credentials.tls,
+        insecure=credentials.insecure,
+        secret=credentials.secret,
         listen=args.listen or "127.0.0.1:0",
         join=args.join,
         options=_options(args),
@@ -333,8 +331,8 @@ async def _start(args: argparse.Namespace, secret: bytes) -> AnyNode:
     )
 
 
-async def _run(args: argparse.Namespace, secret: bytes) -> int:
-    node = await _start(args, secret)
+async def _run(args: argparse.Namespace, credentials: Credentials) -> int:
+    node = await _start(args, credentials)
     stop = asyncio.Event()
     controller = _Controller(node, args, stop)
     stopped: str | None = None

@@ -19,7 +19,8 @@ import sys
 
 from objectplaces.arguments import POSITIVE
 from objectplaces.core.errors import LocalProtocolError
-from objectplaces.node_cli import emit, read_secret
+from objectplaces.node_cli import emit
+from objectplaces.security import CredentialError, add_credential_arguments, credentials_from_args
 from objectplaces.zenoh_router import start_router
 
 __all__ = ["main", "register", "run_router"]
@@ -42,7 +43,8 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
     parser.add_argument(
         "--connect", action="append", default=[], metavar="ENDPOINT", help="another router"
     )
-    parser.add_argument("--secret-file", help="file holding the fleet secret")
+    parser.add_argument("--id", default="router", help="the router's id (its certificate's)")
+    add_credential_arguments(parser)
     parser.add_argument("--fleet", default="default", help="the fleet's name")
     parser.add_argument("--lease", type=POSITIVE, default=10.0, help="link lease, s")
     parser.add_argument("--run-seconds", type=POSITIVE, default=3600.0, help="stop after this")
@@ -51,7 +53,11 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
 
 def run_router(args: argparse.Namespace) -> int:
     """Run the ``router`` subcommand; returns the exit status."""
-    secret = read_secret(args)
+    try:
+        secret = credentials_from_args(args, args.id).secret or b""
+    except CredentialError as exc:
+        print(f"objectplaces router: {exc}", file=sys.stderr)
+        return 2
     try:
         asyncio.run(_run(args, secret))
     except (LocalProtocolError, OSError) as exc:

@@ -75,6 +75,7 @@ class Puppet:
         self.node = await start_node(
             command["id"],
             transport=command["transport"],
+            insecure=True,
             secret=bytes.fromhex(command["secret"]),
             **command["options"],
         )
