@@ -1,7 +1,9 @@
 """A dashboard served by a real uvicorn server on a free loopback port.
 
 The server runs its own event loop in a background thread, exactly as
-``objectplaces demo`` runs it, so a test (sync or async) talks to it over real sockets.
+``objectplaces demo`` runs it, so a test (sync or async) talks to it over real sockets,
+with a role's token (``headers``, ``post``, ``delete``) or, in a browser, logged in
+through the login URL (``login_url``).
 """
 
 from __future__ import annotations
@@ -11,9 +13,11 @@ import threading
 import time
 from typing import Any
 
+import httpx
 import uvicorn
 
 from dashboard.app import create_app
+from dashboard.auth import Role, Tokens
 from dashboard.source import FleetSource
 
 __all__ = ["Served"]
@@ -24,15 +28,16 @@ class Served:
 
     Args:
         source: the fleet the app wraps (the app advances it while it runs).
-        token: passed to ``create_app``.
+        tokens: passed to ``create_app`` (default: new ones).
     """
 
-    def __init__(self, source: FleetSource, *, token: str | None = None) -> None:
+    def __init__(self, source: FleetSource, *, tokens: Tokens | None = None) -> None:
         self.source = source
+        self.tokens = Tokens.generate() if tokens is None else tokens
         self.sock = socket.socket()
         self.sock.bind(("127.0.0.1", 0))
         self.url = f"http://127.0.0.1:{self.sock.getsockname()[1]}"
-        self.app = create_app(source, token=token)
+        self.app = create_app(source, tokens=self.tokens)
         # Keep idle connections open longer than any test runs: with uvicorn's 5 s
         # default, a loaded machine lets the server close a pooled connection just as
         # the client reuses it, and the request fails with a read error that says
@@ -57,6 +62,33 @@ class Served:
         self.server.should_exit = True
         self.thread.join(timeout=10)
         self.sock.close()
+
+    def login_url(self, role: Role = "operator") -> str:
+        """The URL that logs a browser in with ``role``'s token, as the demo prints it."""
+        return f"{self.url}/login#token={self.tokens.of(role)}"
+
+    def headers(self, role: Role = "operator") -> dict[str, str]:
+        """The ``Authorization`` header of ``role``."""
+        return {"Authorization": f"Bearer {self.tokens.of(role)}"}
+
+    def get(
+        self, path: str, params: dict[str, str] | None = None, *, role: Role = "operator"
+    ) -> httpx.Response:
+        """``GET path`` with ``params`` and ``role``'s token."""
+        return httpx.get(self.url + path, params=params, headers=self.headers(role), timeout=5)
+
+    def post(self, path: str, body: Any = None, *, role: Role = "operator") -> httpx.Response:
+        """``POST path`` with ``body`` as JSON (default ``{}``) and ``role``'s token."""
+        return httpx.post(
+            self.url + path,
+            json={} if body is None else body,
+            headers=self.headers(role),
+            timeout=5,
+        )
+
+    def delete(self, path: str, *, role: Role = "operator") -> httpx.Response:
+        """``DELETE path`` with ``role``'s token."""
+        return httpx.delete(self.url + path, headers=self.headers(role), timeout=5)
 
 
 def wait_for(predicate: Any, timeout: float, what: str) -> Any:
