@@ -58,8 +58,9 @@ __all__ = [
 LOOPBACK_HOSTS: Final = ("127.0.0.1", "localhost", "[::1]")
 """The names a client on this machine reaches the dashboard by; always allowed."""
 
-PUBLIC_PATHS: Final = frozenset({"/login", "/logout"})
-"""Paths open without a role: the login page, logging in, logging out."""
+PUBLIC_PATHS: Final = frozenset({"/login", "/logout", "/api/access"})
+"""Paths open without a role: the login page, logging in and out, and asking whether
+one is logged in (a role proved there is still the caller's)."""
 
 FEED: Final = "WEBSOCKET"
 """The ``method`` of a ``Call`` that opens a WebSocket (the feed)."""
@@ -168,31 +169,32 @@ def decide(call: Call, tokens: Tokens, logins: Logins) -> Decision:
             f"Origin {call.origin[:100]!r} is not this dashboard's ({call.own_origin}): "
             f"{what} is taken only from the dashboard's own pages",
         )
+    found = _identify(call, tokens, logins)
     if call.path in PUBLIC_PATHS:
-        return _without_json(call) or Admitted(None)
-    role: Role | None
-    if call.authorization is not None:
-        scheme, _, token = call.authorization.partition(" ")
-        role = tokens.role_of(token.strip()) if scheme.lower() == "bearer" else None
-        if role is None:
-            return Refused(401, "the Bearer token is not one of this dashboard's", True)
-    elif call.cookie is not None:
-        role = logins.role_of(call.cookie)
-        if role is None:
-            if call.wants_html and call.method == "GET":
-                return ToLogin()
-            return Refused(401, f"the login has ended (12 h, or a restart); {_LOG_IN}", True)
-        if changes and call.origin is None:
-            return Refused(403, "a change made with the login cookie must come from the page")
-    elif call.wants_html and call.method == "GET":
-        return ToLogin()
-    else:
-        return Refused(401, _LOG_IN, True)
-    if changes and call.method != FEED and role != "operator":
+        return _without_json(call) or Admitted(found if isinstance(found, str) else None)
+    if not isinstance(found, str):
+        page = call.wants_html and call.method == "GET"
+        return ToLogin() if page else found or Refused(401, _LOG_IN, True)
+    if call.cookie is not None and call.authorization is None and changes and not call.origin:
+        return Refused(403, "a change made with the login cookie must come from the page")
+    if changes and call.method != FEED and found != "operator":
         return Refused(
             403, f"{call.method} {call.path[:100]} changes the fleet: it needs the operator token"
         )
-    return _without_json(call) or Admitted(role)
+    return _without_json(call) or Admitted(found)
+
+
+def _identify(call: Call, tokens: Tokens, logins: Logins) -> Role | Refused | None:
+    """The caller's role; a refusal for a token or login that proves none; None without
+    either. A Bearer token, when sent, decides alone."""
+    if call.authorization is not None:
+        scheme, _, token = call.authorization.partition(" ")
+        role = tokens.role_of(token.strip()) if scheme.lower() == "bearer" else None
+        return role or Refused(401, "the Bearer token is not one of this dashboard's", True)
+    if call.cookie is not None:
+        role = logins.role_of(call.cookie)
+        return role or Refused(401, f"the login has ended (12 h, or a restart); {_LOG_IN}", True)
+    return None
 
 
 def _without_json(call: Call) -> Refused | None:

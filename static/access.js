@@ -24,8 +24,9 @@ export async function currentRole() {
   } catch {
     return null; // the server is away; the feed's status says so
   }
-  if (loginEnded(response) || !response.ok) return null;
+  if (!response.ok) return null;
   const { role } = await response.json();
+  if (!role) toLogin();
   return role;
 }
 

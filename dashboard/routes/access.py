@@ -98,6 +98,6 @@ async def logout(body: LogoutIn, request: Request) -> JSONResponse:
 
 @router.get("/api/access", response_model=AccessOut)
 async def access(request: Request) -> AccessOut:
-    """The caller's role (the page shows it, and offers changes to operators only)."""
+    """The caller's role, null when not logged in (open to all: the login page asks)."""
     role: Role | None = request.state.role
     return AccessOut(role=role)

@@ -20,8 +20,18 @@ from dashboard.auth import Role
 with warnings.catch_warnings():
     warnings.simplefilter("ignore", StarletteDeprecationWarning)
     from starlette.testclient import TestClient as TestClient
+    from starlette.testclient import WebSocketDenialResponse as WebSocketDenialResponse
 
-__all__ = ["BASE_URL", "FEED_URL", "ORIGIN", "TestClient", "anonymous", "bearer", "logged_in"]
+__all__ = [
+    "BASE_URL",
+    "FEED_URL",
+    "ORIGIN",
+    "TestClient",
+    "WebSocketDenialResponse",
+    "anonymous",
+    "bearer",
+    "logged_in",
+]
 
 BASE_URL = "http://127.0.0.1:8000"
 ORIGIN = BASE_URL
