@@ -9,6 +9,7 @@ through the login URL (``login_url``).
 from __future__ import annotations
 
 import socket
+import ssl
 import threading
 import time
 from typing import Any
@@ -19,6 +20,7 @@ import uvicorn
 from dashboard.app import create_app
 from dashboard.auth import Role, Tokens
 from dashboard.source import FleetSource
+from objectplaces.security import Identity
 
 __all__ = ["Served"]
 
@@ -29,21 +31,34 @@ class Served:
     Args:
         source: the fleet the app wraps (the app advances it while it runs).
         tokens: passed to ``create_app`` (default: new ones).
+        tls: serve TLS with this identity's certificate (``https``); ``verify`` then
+            trusts its fleet CA alone.
     """
 
-    def __init__(self, source: FleetSource, *, tokens: Tokens | None = None) -> None:
+    def __init__(
+        self, source: FleetSource, *, tokens: Tokens | None = None, tls: Identity | None = None
+    ) -> None:
         self.source = source
         self.tokens = Tokens.generate() if tokens is None else tokens
         self.sock = socket.socket()
         self.sock.bind(("127.0.0.1", 0))
-        self.url = f"http://127.0.0.1:{self.sock.getsockname()[1]}"
+        scheme = "https" if tls else "http"
+        self.url = f"{scheme}://127.0.0.1:{self.sock.getsockname()[1]}"
+        self.verify: ssl.SSLContext | bool = (
+            ssl.create_default_context(cafile=str(tls.ca)) if tls else True
+        )
         self.app = create_app(source, tokens=self.tokens)
         # Keep idle connections open longer than any test runs: with uvicorn's 5 s
         # default, a loaded machine lets the server close a pooled connection just as
         # the client reuses it, and the request fails with a read error that says
         # nothing about the dashboard.
         config = uvicorn.Config(
-            self.app, log_level="warning", lifespan="on", timeout_keep_alive=300
+            self.app,
+            log_level="warning",
+            lifespan="on",
+            timeout_keep_alive=300,
+            ssl_certfile=tls.cert if tls else None,
+            ssl_keyfile=tls.key if tls else None,
         )
         self.server = uvicorn.Server(config)
         self.thread = threading.Thread(
@@ -75,7 +90,13 @@ class Served:
         self, path: str, params: dict[str, str] | None = None, *, role: Role = "operator"
     ) -> httpx.Response:
         """``GET path`` with ``params`` and ``role``'s token."""
-        return httpx.get(self.url + path, params=params, headers=self.headers(role), timeout=5)
+        return httpx.get(
+            self.url + path,
+            params=params,
+            headers=self.headers(role),
+            timeout=5,
+            verify=self.verify,
+        )
 
     def post(self, path: str, body: Any = None, *, role: Role = "operator") -> httpx.Response:
         """``POST path`` with ``body`` as JSON (default ``{}``) and ``role``'s token."""
@@ -84,11 +105,14 @@ class Served:
             json={} if body is None else body,
             headers=self.headers(role),
             timeout=5,
+            verify=self.verify,
         )
 
     def delete(self, path: str, *, role: Role = "operator") -> httpx.Response:
         """``DELETE path`` with ``role``'s token."""
-        return httpx.delete(self.url + path, headers=self.headers(role), timeout=5)
+        return httpx.delete(
+            self.url + path, headers=self.headers(role), timeout=5, verify=self.verify
+        )
 
 
 def wait_for(predicate: Any, timeout: float, what: str) -> Any:

@@ -7,6 +7,7 @@ import re
 from collections.abc import Iterator
 from typing import Any
 
+import httpx
 import pytest
 from fastapi import FastAPI
 from fastapi.routing import APIRoute
@@ -14,6 +15,7 @@ from fastapi.routing import APIRoute
 from dashboard.app import create_app
 from dashboard.auth import Logins, Tokens
 from dashboard.guard import PUBLIC_PATHS, Call, Refused, decide
+from objectplaces.security import TemporaryPki
 from tests.dashboard.conftest import NetworkSource, TestClient
 from tests.dashboard.login import (
     FEED_URL,
@@ -22,6 +24,7 @@ from tests.dashboard.login import (
     anonymous,
     logged_in,
 )
+from tests.dashboard.served import Served
 from tests.dashboard.test_app import api_routes
 
 FOREIGN = "http://127.0.0.1:9000"
@@ -281,3 +284,24 @@ def test_the_gate_decides_before_any_route(call: Call, status: int) -> None:
     decision: Any = decide(call, Tokens.generate(), Logins())
     assert isinstance(decision, Refused)
     assert decision.status == status
+
+
+def test_the_dashboard_serves_tls_with_the_pkis_certificate(source: NetworkSource) -> None:
+    with TemporaryPki(fleet="test") as pki:
+        identity = pki.identity("control", role="control", addresses=("127.0.0.1",))
+        with Served(source, tls=identity) as served:
+            assert served.url.startswith("https://")
+            assert served.get("/api/access", role="viewer").json() == {"role": "viewer"}
+            login = httpx.post(
+                served.url + "/login",
+                json={"token": served.tokens.operator},
+                verify=served.verify,
+                timeout=5,
+            )
+            cookie = login.headers["set-cookie"]
+            assert cookie.startswith("__Host-objectplaces-")
+            assert "Secure" in cookie
+            with pytest.raises(httpx.HTTPError):  # plain HTTP gets nothing from it
+                httpx.get(served.url.replace("https", "http") + "/api/access", timeout=5)
+            with pytest.raises(httpx.ConnectError):  # nor does a client that trusts another CA
+                httpx.get(served.url + "/api/access", timeout=5)

@@ -8,6 +8,8 @@ from __future__ import annotations
 import argparse
 import os
 import stat
+import threading
+import webbrowser
 from pathlib import Path
 from typing import Any
 
@@ -256,3 +258,31 @@ def test_the_automatic_limit_reaches_the_fleet(capsys: pytest.CaptureFixture[str
 
 def test_a_limit_below_one_is_refused(capsys: pytest.CaptureFixture[str]) -> None:
     assert "--max-open-tasks must be at least 1, got 0" in refusal(capsys, "--max-open-tasks", "0")
+
+
+def test_open_gives_the_browser_a_private_file_not_the_token(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A browser started with the login URL would show the token in ``ps``."""
+    opened: list[tuple[str, int, str]] = []
+    called = threading.Event()
+
+    def open_(uri: str) -> bool:
+        page = Path(uri.removeprefix("file://"))
+        opened.append((uri, stat.S_IMODE(page.stat().st_mode), page.read_text()))
+        called.set()
+        return True
+
+    def run(app: object, **kwargs: object) -> None:
+        assert called.wait(timeout=30), "no browser was opened"
+
+    monkeypatch.setattr(webbrowser, "open", open_)
+    monkeypatch.setattr("uvicorn.run", run)
+    listening = Listening(host="127.0.0.1", port=8124, tokens=Tokens.generate())
+    dashboard.cli.serve(NetworkSource(), listening=listening, open_browser=True)
+    ((uri, mode, text),) = opened
+    assert listening.tokens.operator not in uri
+    assert mode == 0o600
+    assert f"http://127.0.0.1:8124/login#token={listening.tokens.operator}" in text
+    assert not Path(uri.removeprefix("file://")).exists()  # gone once the server stops
+    capsys.readouterr()
