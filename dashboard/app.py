@@ -66,7 +66,13 @@ def create_app(
 
     Returns:
         The FastAPI app (OpenAPI at ``/docs`` and ``/redoc``, served with no internet).
+
+    Raises:
+        ValueError: a host given as a pattern (``*``), which would let any name in.
     """
+    hosts = tuple(hosts)
+    if any("*" in host for host in hosts):
+        raise ValueError(f"hosts are names, not patterns: got {hosts!r}")
     tokens = Tokens.generate() if tokens is None else tokens
     logins = Logins()
     state = DashboardState(source)

@@ -69,7 +69,9 @@ class Served:
         self.thread.start()
         deadline = time.monotonic() + 10
         while not self.server.started:
-            assert time.monotonic() < deadline, "the dashboard did not start"
+            if not self.thread.is_alive() or time.monotonic() >= deadline:
+                self.__exit__()  # nothing left open to trouble the tests after this one
+                raise AssertionError("the dashboard did not start (the server's log says why)")
             time.sleep(0.02)
         return self
 

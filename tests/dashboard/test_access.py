@@ -146,6 +146,8 @@ def test_the_names_the_server_is_reached_by_are_allowed(source: NetworkSource) -
     client = logged_in(app)
     assert client.get("/api/nodes", headers={"Host": "floor.lan:8000"}).status_code == 200
     assert client.get("/api/nodes", headers={"Host": "attacker.example"}).status_code == 400
+    with pytest.raises(ValueError, match="patterns"):
+        create_app(source, hosts=("*",))
 
 
 @pytest.mark.parametrize(

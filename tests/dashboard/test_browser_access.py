@@ -128,7 +128,7 @@ def test_a_page_of_another_local_origin_can_neither_pause_nor_read_the_feed(
         assert served.source.paused
 
 
-def test_a_viewer_sees_the_fleet_and_is_told_changes_need_the_operator(served: Served) -> None:
+def test_a_viewer_is_told_changes_need_the_operator_and_logs_out(served: Served) -> None:
     with chromium_page() as (page, problems):
         load_dashboard(page, served, "viewer")
         page.wait_for_function(
@@ -143,5 +143,16 @@ def test_a_viewer_sees_the_fleet_and_is_told_changes_need_the_operator(served: S
         page.click("#btn-logout")
         page.wait_for_url(served.url + "/login", timeout=5_000)
         assert page.context.cookies() == []
-    # Chromium logs the refused change (403) as a failed resource.
-    assert [p for p in problems if "403" not in p] == [], problems
+        page.fill("#login-token", "x" * 43)
+        page.click("#login-button")
+        page.wait_for_function(
+            "document.querySelector('#login-status').textContent.includes('not a token')",
+            timeout=5_000,
+        )
+        # A login URL opened over the login page changes only the fragment: it logs in too.
+        load_dashboard(page, served, "operator")
+        page.wait_for_function(
+            "document.querySelector('#access-role').textContent === 'operator'", timeout=5_000
+        )
+    # Chromium logs the refused change (403) and the refused token (401) as failed resources.
+    assert [p for p in problems if "403" not in p and "401" not in p] == [], problems
