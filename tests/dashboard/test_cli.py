@@ -29,6 +29,11 @@ def parse(*argv: str) -> argparse.Namespace:
     return parser.parse_args(["demo", *argv])
 
 
+@pytest.fixture(autouse=True)
+def no_token_in_the_environment(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delenv("OBJECTPLACES_TOKEN", raising=False)
+
+
 def never(args: argparse.Namespace) -> Any:
     raise AssertionError("must not build a fleet")
 
@@ -42,7 +47,6 @@ def served(monkeypatch: pytest.MonkeyPatch) -> list[Listening]:
         seen.append(listening)
 
     monkeypatch.setattr(dashboard.cli, "serve", serve)
-    monkeypatch.delenv("OBJECTPLACES_TOKEN", raising=False)
     return seen
 
 
