@@ -9,19 +9,14 @@ import asyncio
 import math
 import stat
 import time
-import warnings
 from pathlib import Path
 
 import pytest
-from starlette.exceptions import StarletteDeprecationWarning
 
 from agv_app.fleet import OBSERVER_ID, MeshFleet
 from agv_app.tasks import BASE_ID
 from dashboard.app import create_app
-
-with warnings.catch_warnings():
-    warnings.simplefilter("ignore", StarletteDeprecationWarning)
-    from starlette.testclient import TestClient
+from tests.dashboard.login import logged_in
 
 pytestmark = [pytest.mark.processes, pytest.mark.timeout(90)]
 
@@ -132,7 +127,7 @@ async def test_speed_is_real_time_and_pause_only_stops_new_tasks() -> None:
 
 def test_dashboard_shows_the_agv_processes() -> None:
     fleet = MeshFleet(agvs=3, seed=5, task_interval=None, run_seconds=80.0)
-    with TestClient(create_app(fleet)) as client:
+    with logged_in(create_app(fleet)) as client:
         assert fleet.started  # the app's lifespan ran the optional start hook
         pids = fleet.pids()
         assert len(pids) == 3
