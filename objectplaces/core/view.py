@@ -32,11 +32,9 @@ Group definitions are application code: the view runs them, but one that raises 
 logged, counted (``definition_errors``) and treated as "no match", so a bad definition
 costs its own session, never the node.
 
-A **property check** (``set_check``), also application code, may refuse a peer's value
-that cannot be true (a position further than the peer could have driven): the value is
-not taken, and the refusal is dropped like a bad frame, counted per peer and logged.
-A check that raises lets the value through and is counted (``property_check_errors``):
-refusing what a broken check cannot judge would blind the node to its neighbours.
+A property check (``set_check``, application code too) may refuse a peer's value that
+cannot be true: it is not taken, and counted per peer like a bad frame. A check that
+raises lets the value through (counted): refusing would blind the node.
 """
 
 from __future__ import annotations
@@ -63,7 +61,7 @@ log = logging.getLogger("objectplaces")
 
 Cell = tuple[int, int]
 PropertyCheck = Callable[[str, str, Any, float], bool]
-"""``check(node_id, name, value, now)``: whether a peer's new property value may be true."""
+"""``check(node_id, name, value, now)``: whether a peer's new value may be true."""
 Refuse = Callable[[str, str, str, float], None]
 """``refuse(node_id, reason, detail, now)``: count and log a refused value."""
 
@@ -135,8 +133,7 @@ class PropertyView:
         self._refuse: Refuse | None = None
 
     def set_check(self, check: PropertyCheck | None, refuse: Refuse) -> None:
-        """Check every changed property value of a peer with ``check`` before taking it
-        (None: take every value); a refused one goes to ``refuse``."""
+        """Check each changed value of a peer first (None: none); refused ones go to ``refuse``."""
         self._check = check
         self._refuse = refuse
 
