@@ -154,7 +154,7 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
         "--compiled",
         action="store_true",
         help="run on the simulation's modules compiled with mypyc: the same run, faster; "
-        "the first run for a source compiles them (about a minute, needs a C compiler)",
+        "the first run for a source compiles them (a minute or two, needs a C compiler)",
     )
     p.set_defaults(func=run_sim)
 

@@ -31,7 +31,8 @@ def measure(agvs: int, seconds: float) -> tuple[float, float, float]:
     with Served(fleet) as served, sync_playwright() as pw:
         browser = pw.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
         page = browser.new_page(viewport={"width": 1400, "height": 900})
-        page.goto(served.url + "/")
+        page.goto(served.login_url())  # the login page sends the browser on to the dashboard
+        page.wait_for_url(served.url + "/", timeout=20_000)
         page.wait_for_function("window.__dashboard && window.__dashboard.ready", timeout=20_000)
         page.check("#toggle-circles")
         page.wait_for_timeout(2000)

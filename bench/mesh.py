@@ -51,7 +51,7 @@ from objectplaces.mesh import MeshOptions, start_node  # noqa: E402
 from objectplaces.network_node import NetworkNode  # noqa: E402
 from objectplaces.roles import ParticipantRef  # noqa: E402
 
-SECRET = b"bench-secret"
+SECRET = b"bench-secret-of-plain-loopback-links"
 FANOUT_COUNT = 300
 FANOUT_GAP = 0.002
 BLAST_SECONDS = 3.0
@@ -145,6 +145,7 @@ async def run_worker(node_id: str, index: int, join: list[str]) -> None:
     node = await start_node(
         node_id,
         join=join,
+        insecure=True,  # the mesh's own cost; bench/tls.py measures what TLS adds
         secret=SECRET,
         property_interval=1.0,
         failure_timeout=60.0,

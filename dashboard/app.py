@@ -1,7 +1,8 @@
 """The dashboard server: REST API, the ``/ws/events`` feed, and the page.
 
 ``create_app(source)`` wraps any running fleet (``FleetSource``). Endpoints and the feed
-format: ``docs/dashboard.md``.
+format: ``docs/dashboard.md``. Every request and the feed pass ``dashboard.guard`` first:
+the caller's ``Host``, ``Origin``, role (``dashboard.auth``) and body type.
 
 Concurrency model: one thread of control. Everything that touches the fleet or a node
 runs on the app's event loop: the fleet driver (``dashboard.driver``, one task started
@@ -17,15 +18,18 @@ from __future__ import annotations
 
 import asyncio
 import inspect
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Iterable
 from contextlib import asynccontextmanager
 from pathlib import Path
 
 from fastapi import FastAPI
 from fastapi.staticfiles import StaticFiles
+from starlette.middleware.trustedhost import TrustedHostMiddleware
 
+from dashboard.auth import Logins, Tokens
 from dashboard.driver import FleetDriver
 from dashboard.errors import install_error_handlers
+from dashboard.guard import LOOPBACK_HOSTS, AccessGuard
 from dashboard.history import HistorySampler, MetricsHistory
 from dashboard.limits import RequestLimits
 from dashboard.routes import ROUTERS
@@ -43,7 +47,8 @@ STATIC_DIR = Path(__file__).resolve().parent.parent / "static"
 def create_app(
     source: FleetSource,
     *,
-    token: str | None = None,
+    tokens: Tokens | None = None,
+    hosts: Iterable[str] = (),
     tick_s: float = 0.02,
     static_dir: Path = STATIC_DIR,
 ) -> FastAPI:
@@ -51,15 +56,26 @@ def create_app(
 
     Args:
         source: the fleet; the app advances it while it runs (lifespan).
-        token: when set, every mutating request (POST, DELETE) must carry
-            ``Authorization: Bearer <token>``; the page takes it from ``?token=``.
+        tokens: the operator's and the viewer's token (default: a new random pair, in
+            ``app.state.tokens``); every request and the feed need one of them, as a
+            Bearer token or traded for a login cookie at ``POST /login``.
+        hosts: the names (or addresses) clients reach the server by, besides the
+            loopback ones; a request naming any other ``Host`` is refused (400).
         tick_s: how often the fleet is advanced, in wall-clock seconds.
         static_dir: the page's files.
 
     Returns:
         The FastAPI app (OpenAPI at ``/docs`` and ``/redoc``, served with no internet).
+
+    Raises:
+        ValueError: a host given as a pattern (``*``), which would let any name in.
     """
-    state = DashboardState(source, token=token)
+    hosts = tuple(hosts)
+    if any("*" in host for host in hosts):
+        raise ValueError(f"hosts are names, not patterns: got {hosts!r}")
+    tokens = Tokens.generate() if tokens is None else tokens
+    logins = Logins()
+    state = DashboardState(source)
     state.ensure_responders()
     driver = FleetDriver(state, tick_s=tick_s)
     history = MetricsHistory()
@@ -95,7 +111,14 @@ def create_app(
     app.state.driver = driver
     app.state.history = history
     app.state.static_dir = static_dir
+    app.state.tokens = tokens
+    app.state.logins = logins
+    # The last added runs first: the Host, then who calls and what, then the body's size.
     app.add_middleware(RequestLimits)
+    app.add_middleware(AccessGuard, tokens=tokens, logins=logins)
+    app.add_middleware(
+        TrustedHostMiddleware, allowed_hosts=[*LOOPBACK_HOSTS, *hosts], www_redirect=False
+    )
     install_error_handlers(app)
     for router in (*ROUTERS, history_router):
         app.include_router(router)

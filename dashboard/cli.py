@@ -1,50 +1,36 @@
 """``objectplaces demo``: a fleet in real time with its dashboard.
 
 Registered as a plugin of the ``objectplaces`` command (entry point group
-``objectplaces.commands``, name ``demo``, value ``dashboard.cli:register``).
+``objectplaces.commands``, name ``demo``, value ``dashboard.cli:register``). Who may use
+the dashboard and how it is reached (tokens, TLS, host names): ``dashboard.listen``.
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import html
 import importlib
-import ipaddress
-import os
+import shutil
 import sys
+import tempfile
 import threading
 import webbrowser
 from collections.abc import Callable
+from pathlib import Path
 from typing import TYPE_CHECKING
 
+from dashboard.listen import Listening, add_listen_arguments, listening_from_args, login_url
 from objectplaces.arguments import number, whole
+from objectplaces.security import CredentialError
+from objectplaces.security.pki import write_private
 
 if TYPE_CHECKING:
     from dashboard.source import FleetSource
 
-__all__ = [
-    "TOKEN_ENV",
-    "build_source",
-    "is_loopback",
-    "register",
-    "run_demo",
-    "serve",
-]
-
-TOKEN_ENV = "OBJECTPLACES_TOKEN"
-"""Environment variable read when ``--token`` is not given."""
+__all__ = ["build_source", "register", "run_demo", "serve"]
 
 SourceBuilder = Callable[[argparse.Namespace], "FleetSource"]
-
-
-def is_loopback(host: str) -> bool:
-    """True when ``host`` only accepts connections from this machine."""
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
 
 
 def _max_open_tasks(text: str) -> int | str | None:
@@ -63,7 +49,6 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
             "continuously, and serve the dashboard (REST API, live feed, page)."
         ),
     )
-    parser.add_argument("--host", default="127.0.0.1", help="address to listen on")
     parser.add_argument(
         "--port", type=whole(at_least=0, at_most=65535), default=8000, help="port to listen on"
     )
@@ -112,12 +97,8 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
         "process (the flag alone: a mosquitto started on 127.0.0.1 for the demo); no "
         "automatic tasks",
     )
-    parser.add_argument(
-        "--token",
-        default=os.environ.get(TOKEN_ENV),
-        help=f"token for changes (POST/DELETE); required off loopback (env {TOKEN_ENV})",
-    )
     parser.add_argument("--open", action="store_true", help="open the dashboard in a browser")
+    add_listen_arguments(parser)
     parser.set_defaults(func=run_demo)
 
 
@@ -154,42 +135,63 @@ def build_source(args: argparse.Namespace) -> FleetSource:
         raise SystemExit(f"objectplaces demo: {exc}") from exc
 
 
-def serve(
-    source: FleetSource,
-    *,
-    host: str,
-    port: int,
-    token: str | None,
-    open_browser: bool = False,
-) -> None:
+def serve(source: FleetSource, *, listening: Listening, open_browser: bool = False) -> None:
     """Serve the dashboard for ``source`` until interrupted.
 
-    Raises:
-        SystemExit: a non-loopback host without a token.
+    Prints the login URLs once, on standard output (never on a command line: a browser
+    opened with ``open_browser`` is given a private file that leads there).
     """
     import uvicorn
 
     from dashboard.app import create_app
 
-    if token is None and not is_loopback(host):
-        raise SystemExit(
-            f"objectplaces demo: listening on {host!r} lets other machines in; "
-            f"give --token (or set {TOKEN_ENV}) so only you can change the fleet"
+    app = create_app(source, tokens=listening.tokens, hosts=listening.hosts)
+    if listening.token_file is not None:
+        made = "made now, " if listening.created else ""
+        print(f"tokens in {listening.token_file} ({made}mode 0600)", flush=True)
+    operator = login_url(listening, "operator")
+    print(
+        f"dashboard at {operator.partition('/login')[0]}/, log in with one of these "
+        f"(each holds a token: share it only with whom it is for):\n"
+        f"  operator (reads and changes): {operator}\n"
+        f"  viewer (reads):               {login_url(listening, 'viewer')}",
+        flush=True,
+    )
+    cert, key = listening.tls if listening.tls else (None, None)
+    with contextlib.ExitStack() as stack:
+        if open_browser:
+            _open_privately(operator, stack)
+        uvicorn.run(
+            app,
+            host=listening.host,
+            port=listening.port,
+            log_level="warning",
+            ssl_certfile=cert,
+            ssl_keyfile=key,
         )
-    app = create_app(source, token=token)
-    shown = "127.0.0.1" if host in ("0.0.0.0", "::") else host
-    url = f"http://{shown}:{port}/" + (f"?token={token}" if token else "")
-    print(f"dashboard at {url}", flush=True)
-    if open_browser:
-        threading.Timer(1.0, webbrowser.open, args=(url,)).start()
-    uvicorn.run(app, host=host, port=port, log_level="warning")
+
+
+def _open_privately(url: str, stack: contextlib.ExitStack) -> None:
+    # A browser started with the URL would show the token in `ps` for as long as it
+    # runs: it opens a file only we can read, which sends it on, instead.
+    folder = Path(tempfile.mkdtemp(prefix="objectplaces-login-"))
+    stack.callback(shutil.rmtree, folder, ignore_errors=True)
+    page = folder / "login.html"
+    target = html.escape(url, quote=True)
+    write_private(
+        page,
+        f'<!doctype html><meta charset="utf-8"><meta name="referrer" content="no-referrer">'
+        f'<meta http-equiv="refresh" content="0;url={target}">'
+        f'<a href="{target}">open the dashboard</a>\n'.encode(),
+    )
+    threading.Timer(1.0, webbrowser.open, args=(page.as_uri(),)).start()
 
 
 def run_demo(args: argparse.Namespace, *, builder: SourceBuilder = build_source) -> int:
     """Run ``objectplaces demo``.
 
     Returns:
-        The exit status.
+        The exit status: 2 for arguments, credentials or files that cannot be used.
     """
     if args.agvs is not None and args.processes:
         print(
@@ -204,12 +206,10 @@ def run_demo(args: argparse.Namespace, *, builder: SourceBuilder = build_source)
             f"objectplaces demo: --max-open-tasks must be at least 1, got {limit}", file=sys.stderr
         )
         return 2
-    if args.token is None and not is_loopback(args.host):
-        print(
-            f"objectplaces demo: listening on {args.host!r} lets other machines in; "
-            f"give --token (or set {TOKEN_ENV}) so only you can change the fleet",
-            file=sys.stderr,
-        )
+    try:
+        listening = listening_from_args(args, args.port)
+    except CredentialError as exc:
+        print(f"objectplaces demo: {exc}", file=sys.stderr)
         return 2
     from agv_app.vda5050.broker import demo_broker
 
@@ -222,5 +222,5 @@ def run_demo(args: argparse.Namespace, *, builder: SourceBuilder = build_source)
         if args.vda5050 is not None:
             print(f"VDA 5050 over {args.vda5050}", flush=True)
         source = builder(args)
-        serve(source, host=args.host, port=args.port, token=args.token, open_browser=args.open)
+        serve(source, listening=listening, open_browser=args.open)
     return 0

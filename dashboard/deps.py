@@ -1,19 +1,19 @@
-"""Dependencies shared by the routes: the dashboard's state and the token check.
+"""Dependencies shared by the routes: the dashboard's state.
 
-Both are ``async`` so FastAPI runs them on the event loop, never on a worker thread.
+``async`` so FastAPI runs it on the event loop, never on a worker thread. Who may call
+what is decided before any route runs (``dashboard.guard``).
 """
 
 from __future__ import annotations
 
-import hmac
 from typing import Annotated
 
-from fastapi import Depends, Header, HTTPException
+from fastapi import Depends
 from starlette.requests import HTTPConnection
 
 from dashboard.state import DashboardState
 
-__all__ = ["State", "dashboard_state", "require_token"]
+__all__ = ["State", "dashboard_state"]
 
 
 async def dashboard_state(connection: HTTPConnection) -> DashboardState:
@@ -25,22 +25,3 @@ async def dashboard_state(connection: HTTPConnection) -> DashboardState:
 
 State = Annotated[DashboardState, Depends(dashboard_state)]
 """A route parameter that receives the dashboard's state."""
-
-
-async def require_token(
-    state: State, authorization: Annotated[str | None, Header(max_length=4096)] = None
-) -> None:
-    """Refuse a mutating request without the configured token (401).
-
-    Raises:
-        HTTPException: a token is configured and the request does not carry it.
-    """
-    if state.token is None:
-        return
-    scheme, _, given = (authorization or "").partition(" ")
-    if scheme.lower() != "bearer" or not hmac.compare_digest(given.encode(), state.token.encode()):
-        raise HTTPException(
-            401,
-            "this server needs a token for changes: send 'Authorization: Bearer <token>'",
-            headers={"WWW-Authenticate": "Bearer"},
-        )

@@ -21,7 +21,7 @@ from dashboard.schemas import ErrorOut
 __all__ = ["ERROR_RESPONSES", "describe", "install_error_handlers", "validation_message"]
 
 ERROR_RESPONSES: dict[int | str, dict[str, Any]] = {
-    code: {"model": ErrorOut} for code in (400, 401, 404, 409, 413, 422, 429)
+    code: {"model": ErrorOut} for code in (400, 401, 403, 404, 409, 413, 415, 422, 429)
 }
 """The error answers every route may give, for the OpenAPI."""
 

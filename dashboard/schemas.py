@@ -237,7 +237,7 @@ class SimOut(_Out):
 
 
 class SimActionIn(_In):
-    """Why the fleet is paused or resumed (optional body of pause and resume)."""
+    """Why the fleet is paused or resumed (the body of pause and resume; ``{}``: no reason)."""
 
     reason: str = Field(
         default="asked over REST", min_length=1, max_length=200, examples=["aisle blocked"]

@@ -123,12 +123,10 @@ class DashboardState:
 
     Args:
         source: the running fleet.
-        token: when set, mutating requests must carry it (see ``dashboard.deps``).
     """
 
-    def __init__(self, source: FleetSource, *, token: str | None = None) -> None:
+    def __init__(self, source: FleetSource) -> None:
         self.source = source
-        self.token = token
         self.layout: JSON = layout_json(source.layout_view())
         self.api = ApiSessions()
         self.hub = FeedHub()

@@ -197,6 +197,18 @@ class RoleActivator:
         """The latest known properties of the other nodes this node hears."""
         return self._machine.view()
 
+    def set_property_check(self, check: Callable[[str, str, Any, float], bool] | None) -> None:
+        """Check every changed property value a peer publishes before the view takes it.
+
+        ``check(node_id, name, value, now)`` returns False for a value that cannot be
+        true (a position further than the peer could have moved since, a size beyond
+        any vehicle's): the view keeps the value before, and the refusal is counted per
+        peer (``stats().dropped_by_peer``, counter ``refused_implausible``) and logged.
+        A check that raises lets the value through (counted: ``property_check_errors``).
+        None removes the check.
+        """
+        self._machine.set_property_check(check)
+
     def sessions(self) -> list[SessionInfo]:
         """Live sessions initiated on this node."""
         return self._machine.sessions()

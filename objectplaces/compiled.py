@@ -34,6 +34,7 @@ __all__ = [
     "CompiledBuildError",
     "default_cache",
     "ensure_built",
+    "find_built",
     "loaded_compiled",
     "run_on_build",
 ]
@@ -98,6 +99,12 @@ def default_cache() -> Path:
     return Path(base) / "objectplaces"
 
 
+def find_built(build: Build, cache: Path | None = None) -> Path | None:
+    """The directory of ``build`` if the cache holds it complete, else None (never builds)."""
+    target = (cache or default_cache()) / f"compiled-{build.digest()}"
+    return target if (target / _DONE).is_file() else None
+
+
 def ensure_built(
     build: Build,
     cache: Path | None = None,
@@ -122,9 +129,10 @@ def ensure_built(
     """
     say = report or (lambda _line: None)
     cache = cache or default_cache()
+    found = find_built(build, cache)
+    if found is not None:
+        return found
     target = cache / f"compiled-{build.digest()}"
-    if (target / _DONE).is_file():
-        return target
     try:
         cache.mkdir(parents=True, exist_ok=True)
         with _locked(cache / ".lock"):
@@ -139,13 +147,13 @@ def _build(build: Build, cache: Path, target: Path, jobs: int, say: Callable[[st
     """Compile ``build`` into ``target`` (the cache's lock held); drop older builds."""
     say(
         f"compiling {len(build.modules)} modules with mypyc into {target} "
-        "(once for this source; about a minute)"
+        "(once for this source; a minute or two)"
     )
     started = time.monotonic()
     work = cache / f".building-{target.name}-{os.getpid()}"
     shutil.rmtree(work, ignore_errors=True)
     try:
-        _compile(build, work, jobs)
+        _compile(build, work, jobs, say)
         (work / _DONE).write_text(
             json.dumps({"modules": list(build.modules), "python": sys.version})
         )
@@ -188,7 +196,7 @@ def run_on_build(tree: Path, argv: Sequence[str]) -> int:
         return child.wait()
 
 
-def _compile(build: Build, work: Path, jobs: int) -> None:
+def _compile(build: Build, work: Path, jobs: int, say: Callable[[str], None]) -> None:
     for path in build.files():
         copy = work / path.relative_to(build.root)
         copy.parent.mkdir(parents=True, exist_ok=True)
@@ -198,20 +206,54 @@ def _compile(build: Build, work: Path, jobs: int) -> None:
     missing = [s for s in build.sources() if not (work / s).is_file()]
     if missing:
         raise CompiledBuildError(f"no such module to compile: {', '.join(missing)}")
-    done = subprocess.run(
+    say(f"type-checking {len(build.modules)} modules and translating them to C")
+    lines: list[str] = []
+    progress = _Progress(say, work)
+    with subprocess.Popen(
         [sys.executable, "-c", _BUILD_SCRIPT, json.dumps(build.sources()), str(jobs)],
         cwd=work,
-        capture_output=True,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
         text=True,
-        check=False,
-    )
-    if done.returncode != 0:
-        lines = (done.stdout + done.stderr).strip().splitlines()
+    ) as child:
+        assert child.stdout is not None
+        for line in child.stdout:
+            lines.append(line.rstrip("\n"))
+            progress.saw(line)
+    returncode = child.returncode
+    if returncode != 0:
         # The compiler's command lines run to hundreds of characters: the errors say more.
         said = [line for line in lines if "error:" in line.lower()][-10:] or lines[-10:]
         tail = "\n".join(line if len(line) <= 300 else line[:300] + " ..." for line in said)
-        raise CompiledBuildError(f"mypyc build failed (exit {done.returncode}):\n{tail}")
+        raise CompiledBuildError(f"mypyc build failed (exit {returncode}):\n{tail}")
     shutil.rmtree(work / "build", ignore_errors=True)
+
+
+class _Progress:
+    """Turns the build's output into a progress line every few seconds.
+
+    mypyc prints nothing while it type-checks and writes C; then setuptools prints
+    ``running build_ext`` and one compiler command per C file (``... -c FILE.c -o ...``).
+    """
+
+    def __init__(self, say: Callable[[str], None], work: Path) -> None:
+        self._say = say
+        self._work = work
+        self._total = 0
+        self._done = 0
+        self._last_said = time.monotonic()
+
+    def saw(self, line: str) -> None:
+        """Take one line of the build's output."""
+        if line.startswith("running build_ext"):
+            self._total = sum(1 for _ in (self._work / "build").rglob("*.c"))
+            self._say(f"type-checked and translated; compiling {self._total} C files")
+        elif " -c " in line and ".c -o " in line:
+            self._done += 1
+            now = time.monotonic()
+            if now - self._last_said >= 10.0 or self._done == self._total:
+                self._last_said = now
+                self._say(f"compiled {self._done} of {self._total} C files")
 
 
 def _skipped(path: Path) -> bool:

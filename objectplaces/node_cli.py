@@ -2,14 +2,14 @@
 
 ``--transport zenoh`` puts the node on Zenoh (``--listen``/``--connect`` take Zenoh
 endpoints such as ``tls/10.0.0.1:7447``; ``--mode client`` connects to a router).
-Links are mutual TLS with ``--pki DIR`` (the node's certificate ``DIR/ID.pem``), or
-plain on loopback with ``--insecure`` and a secret; a credential that cannot be used is
-named on stderr, with exit status 2. SIGTERM and SIGINT make the node leave cleanly.
 
 Registered as a plugin of the ``objectplaces`` command (entry point group
-``objectplaces.commands``, name ``node``). The node publishes the properties it is given
-and runs until ``--run-seconds`` pass or it is told to quit. Two small built-in roles
-make a node observable from outside, for tests and demonstrations:
+``objectplaces.commands``, name ``node``). It joins with ``--pki D`` (mutual TLS with
+its certificate ``D/ID.pem``) or, on loopback only, ``--insecure`` and a secret
+(``--secret-file``); a credential that cannot be used exits with status 2, named.
+SIGTERM and SIGINT make the node leave cleanly. The node publishes the properties it
+is given and runs until ``--run-seconds`` pass or it is told to quit. Two small built-in
+roles make a node observable from outside, for tests and demonstrations:
 
 - ``--role collector`` starts a session (group ``--group``) and prints every
   ``in_group``, ``out_group`` and ``receive`` of its initiator;
@@ -44,8 +44,8 @@ from objectplaces.core.errors import LocalProtocolError
 from objectplaces.core.ids import InitiatorRef, ParticipantRef
 from objectplaces.core.roles import Initiator, Participant
 from objectplaces.mesh import MeshNode, MeshOptions, start_node
-from objectplaces.security.errors import CredentialError
-from objectplaces.security.options import (
+from objectplaces.security import (
+    CredentialError,
     Credentials,
     add_credential_arguments,
     credentials_from_args,
@@ -147,6 +147,7 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
     parser.add_argument(
         "--join", action="append", default=[], metavar="HOST:PORT", help="a node to join through"
     )
+    add_credential_arguments(parser)
     parser.add_argument(
         "--property",
         action="append",
@@ -175,7 +176,6 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
     parser.add_argument("--flood-burst", type=POSITIVE, help="frames a peer may send at once")
     parser.add_argument("--max-frame", type=whole(at_least=MIN_FRAME), help="largest frame, bytes")
     parser.add_argument("--log-level", default="WARNING", help="logging level on stderr")
-    add_credential_arguments(parser)
     parser.set_defaults(func=run_node)
 
 
@@ -199,9 +199,13 @@ def run_node(args: argparse.Namespace) -> int:
     logging.basicConfig(
         level=args.log_level.upper(), stream=sys.stderr, format="%(levelname)s %(message)s"
     )
-    EchoVoter.tick = args.tick
     try:
         credentials = credentials_from_args(args, args.id)
+    except CredentialError as exc:
+        print(f"objectplaces node: {exc}", file=sys.stderr)
+        return 2
+    EchoVoter.tick = args.tick
+    try:
         return asyncio.run(_run(args, credentials))
     except CredentialError as exc:
         print(f"objectplaces node: {exc}", file=sys.stderr)

@@ -5,6 +5,8 @@
 // the fleet is drawn every animation frame with one path per colour, and the side
 // panels are rebuilt a few times a second by patching rows in place.
 
+import { currentRole, loginEnded } from "./access.js";
+
 const PANEL_INTERVAL_MS = 250;
 const CHART_INTERVAL_MS = 1000;
 const CHART_SAMPLES = 120;
@@ -103,8 +105,6 @@ const state = {
   panelsDirty: true,
   lastTask: null,
 };
-
-const token = new URLSearchParams(location.search).get("token");
 
 // ---- view transform ----------------------------------------------------------------
 
@@ -514,6 +514,7 @@ function connect() {
   socket.addEventListener("close", () => {
     connStatus.textContent = "reconnecting";
     connStatus.className = "conn down";
+    currentRole(); // off to the login page if the login has ended
     setTimeout(connect, retryMs);
     retryMs = Math.min(retryMs * 2, 5000);
   });
@@ -536,9 +537,9 @@ function say(text, isError = false) {
   if (text && !isError) sayTimer = setTimeout(() => say(""), SAY_CLEAR_MS);
 }
 
+// Changes go with the login cookie; the server takes them only from this page's origin.
 async function post(path, body) {
   const headers = { "Content-Type": "application/json" };
-  if (token) headers.Authorization = `Bearer ${token}`;
   let response;
   try {
     response = await fetch(path, { method: "POST", headers, body: JSON.stringify(body ?? {}) });
@@ -546,6 +547,7 @@ async function post(path, body) {
     say(`request failed: ${err.message}`, true);
     return null;
   }
+  if (loginEnded(response)) return null;
   let data = null;
   try {
     data = await response.json();

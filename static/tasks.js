@@ -2,10 +2,11 @@
 // order has a cancel button (DELETE /api/tasks/{id}). Hooks: #tasks-panel, rows
 // tr[data-task-id] with td[data-state], #tasks-state (filter), #tasks-status.
 
+import { loginEnded } from "./access.js";
+
 const REFRESH_MS = 1000;
 const SHOWN = 100;
 
-const token = new URLSearchParams(location.search).get("token");
 const body = document.getElementById("tasks-body");
 const filter = document.getElementById("tasks-state");
 const status = document.getElementById("tasks-status");
@@ -92,14 +93,14 @@ async function refresh() {
 }
 
 async function cancel(taskId) {
-  const headers = token ? { Authorization: `Bearer ${token}` } : {};
   let response;
   try {
-    response = await fetch(`/api/tasks/${encodeURIComponent(taskId)}`, { method: "DELETE", headers });
+    response = await fetch(`/api/tasks/${encodeURIComponent(taskId)}`, { method: "DELETE" });
   } catch (err) {
     say(`cancel ${taskId} failed: ${err.message}`, true);
     return;
   }
+  if (loginEnded(response)) return;
   const data = await response.json().catch(() => null);
   if (response.ok) say(`task ${taskId} cancelled`);
   else say(data && data.detail ? String(data.detail) : `cancel ${taskId}: ${response.status}`, true);

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import argparse
 import math
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -22,11 +23,12 @@ from objectplaces.arguments import (
     whole,
 )
 from objectplaces.cli import build_parser
+from objectplaces.security import CredentialError, credentials_from_args
 
 # What each parser needs besides the option under test.
 REQUIRED = {
     "node": ["--id", "n1"],
-    "agv_process": ["--id", "agv-01", "--secret-file", "s", "--home", "P0350n"],
+    "agv_process": ["--id", "agv-01", "--pki", "pki", "--home", "P0350n"],
 }
 # Options that take any whole number.
 ANY_NUMBER = {"--seed"}
@@ -219,3 +221,9 @@ def test_a_property_option_is_a_name_and_a_json_value() -> None:
     for bad in ("position", "=3"):
         with pytest.raises(argparse.ArgumentTypeError, match="property must be NAME=JSON"):
             property_argument(bad)
+
+
+def test_a_secret_file_that_cannot_be_read_stops_the_node_with_a_line(tmp_path: Path) -> None:
+    args = argparse.Namespace(pki=None, insecure=True, secret_file=tmp_path / "missing")
+    with pytest.raises(CredentialError, match=r"secret file .*missing: cannot be read"):
+        credentials_from_args(args, "n1")

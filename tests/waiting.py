@@ -9,7 +9,7 @@ from collections.abc import Callable
 __all__ = ["until"]
 
 
-async def until(predicate: Callable[[], bool], within: float = 10.0) -> None:
+async def until(predicate: Callable[[], bool], within: float = 30.0) -> None:
     """Return once ``predicate()`` holds; fail the test if it does not within ``within`` s."""
     deadline = time.monotonic() + within
     while not predicate():

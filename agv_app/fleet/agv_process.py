@@ -2,8 +2,11 @@
 
 ```
 python -m agv_app.fleet.agv_process --id agv-03 --listen 127.0.0.1:0 --join 127.0.0.1:7000 \\
-    --secret-file /tmp/secret --home P0350n --seed 3 [--run-seconds 600]
+    --pki fleet-pki --home P0350n --seed 3 [--run-seconds 600]
 ```
+
+``--pki D`` joins with mutual TLS as the certificate ``D/ID.pem`` names; ``--insecure
+--secret-file F`` with plain links, on loopback only.
 
 The process starts a node, builds an :class:`~agv_app.vehicle.controller.AgvController` on the
 demo warehouse and steps it in real time (fixed ``--dt``). Besides what the controller
@@ -61,6 +64,12 @@ from objectplaces.arguments import POSITIVE, number, whole
 from objectplaces.core.config import NodeConfig
 from objectplaces.core.errors import LocalProtocolError
 from objectplaces.mesh import MeshNode, start_node
+from objectplaces.security import (
+    CredentialError,
+    Credentials,
+    add_credential_arguments,
+    credentials_from_args,
+)
 from objectplaces.zenoh_node import ZenohNode, start_zenoh_node
 
 __all__ = [
@@ -283,9 +292,7 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"beat every S seconds while parked at home with no task (default "
         f"{REST_BEAT_S:g}; 'none': every t-update)",
     )
-    parser.add_argument(
-        "--secret-file", type=Path, required=True, help="file holding the mesh secret"
-    )
+    add_credential_arguments(parser)
     parser.add_argument("--home", required=True, help="layout point of the AGV's parking spot")
     parser.add_argument("--seed", type=int, default=1, help="seeds the start-up stagger")
     parser.add_argument("--run-seconds", type=POSITIVE, default=86_400.0, help="stop after this")
@@ -437,12 +444,12 @@ async def _drive(
         await asyncio.sleep(max(0.0, next_step - loop.time()))
 
 
-async def run(args: argparse.Namespace, secret: bytes) -> int:
+async def run(args: argparse.Namespace, credentials: Credentials) -> int:
     """Run one AGV process until one of its stop conditions.
 
     Args:
         args: the parsed command line.
-        secret: the mesh secret.
+        credentials: how it joins (mutual TLS, or plain links on loopback).
 
     Returns:
         The exit status (0 after a graceful stop).
@@ -470,8 +477,9 @@ async def run(args: argparse.Namespace, secret: bytes) -> int:
     if args.transport == "zenoh":
         node = await start_zenoh_node(
             args.id,
-            insecure=True,  # the demo's processes, on loopback
-            secret=secret,
+            tls=credentials.tls,
+            insecure=credentials.insecure,
+            secret=credentials.secret,
             connect=args.connect,
             mode=args.mode,
             poll_interval=args.poll_interval or None,
@@ -479,7 +487,13 @@ async def run(args: argparse.Namespace, secret: bytes) -> int:
         )
     else:
         node = await start_node(
-            args.id, listen=args.listen, join=args.join, secret=secret, **timing
+            args.id,
+            listen=args.listen,
+            join=args.join,
+            tls=credentials.tls,
+            insecure=credentials.insecure,
+            secret=credentials.secret,
+            **timing,
         )
     try:
         agv = vehicle_class(args.vda5050)(
@@ -542,8 +556,10 @@ def main(argv: list[str] | None = None) -> int:
         profiler = cProfile.Profile(time.thread_time)
         profiler.enable()
     try:
-        secret = Path(args.secret_file).read_bytes().rstrip(b"\r\n")
-        return asyncio.run(run(args, secret))
+        return asyncio.run(run(args, credentials_from_args(args, args.id)))
+    except CredentialError as exc:
+        print(f"agv_process {args.id}: {exc}", file=sys.stderr)
+        return 2
     except (LocalProtocolError, OSError) as exc:
         print(f"agv_process {args.id}: {exc}", file=sys.stderr)
         return 1

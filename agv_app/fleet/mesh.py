@@ -6,8 +6,9 @@ dashboard's process it runs an observer node (no position, hears every node) and
 node per pick station (fixed nodes running the task-assignment initiator, as in the
 simulated fleet), and it spawns every AGV as its own process
 (:mod:`agv_app.fleet.agv_process`, run by :mod:`agv_app.fleet.processes`), all on
-127.0.0.1. The mesh secret is generated per run and handed to the children in a file
-only its owner can read, never on a command line.
+127.0.0.1. Every link is mutual TLS: the run makes a throwaway fleet CA in a private
+temporary folder (:class:`~objectplaces.security.TemporaryPki`), issues a certificate
+to each node, hands the children the folder (``--pki``), and removes it on ``stop``.
 
 Everything the fleet reports about the AGVs comes from what the observer hears: the
 properties each AGV publishes (position, heading, hull length, state, task, and its
@@ -27,7 +28,6 @@ import asyncio
 import contextlib
 import math
 import random
-import secrets
 import sys
 import time
 from collections.abc import Mapping, Sequence
@@ -59,6 +59,7 @@ from agv_app.vda5050.topics import parse_broker_url
 from agv_app.vehicle.kinematics import VehicleSpec
 from objectplaces import RoleActivator
 from objectplaces.mesh import MeshNode, start_node
+from objectplaces.security import TemporaryPki
 from objectplaces.zenoh_router import ZenohRouter, start_router
 
 __all__ = ["POSES_PER_SECOND", "MeshFleet", "pose_interval_for"]
@@ -192,6 +193,7 @@ class MeshFleet(FleetSourceBase):
         self.rest_beat = rest_beat
         self.poll_interval = poll_interval
         self._router: ZenohRouter | None = None
+        self._pki: TemporaryPki | None = None
         self.final_logs: dict[str, str] = {}
         """Every AGV process's output once ``stop`` has reaped them (its last line,
         ``closed``, tells how late its control steps ran)."""
@@ -281,20 +283,22 @@ class MeshFleet(FleetSourceBase):
             raise
 
     async def _start(self, loop: asyncio.AbstractEventLoop) -> None:
-        secret = secrets.token_hex(32).encode()
-        secret_file = self.processes.write_secret(secret)
+        self.processes.open_run_dir()
+        self._pki = pki = TemporaryPki(fleet="demo")
+        for agv_id in self.agv_ids:
+            pki.identity(agv_id, role="agv")
         liveness = process_liveness(self.t_update, self.republish_beats, self.rest_beat)
-        node_args: dict[str, Any] = {"secret": secret, **liveness_arguments(liveness)}
+        node_args: dict[str, Any] = liveness_arguments(liveness)
         zenoh = self.transport == "zenoh"
         if zenoh:
             node_args["poll_interval"] = self.poll_interval or None
-            node_args["insecure"] = True  # the demo's processes, on loopback
         link: dict[str, Any]
         if zenoh and self.zenoh_mode == "client":
             # One router and every node its client: a link per node, where peers would
             # open one per pair (1,225 at 50 AGVs): Zenoh peers do not relay for each other.
             self._router = await start_router(
-                insecure=True, secret=secret, listen=[f"tcp/{_HOST}:0"]
+                tls=pki.identity("router", role="router", addresses=(_HOST,)),
+                listen=[f"tls/{_HOST}:0"],
             )
             endpoints = self._router.endpoints
             node_args.update(transport="zenoh", mode="client", connect=endpoints)
@@ -302,10 +306,12 @@ class MeshFleet(FleetSourceBase):
             link_args = ["--transport", "zenoh", "--mode", "client"]
             link_args += [a for e in endpoints for a in ("--connect", e)]
         elif zenoh:  # every node a peer; the others find each other through the observer
-            node_args.update(transport="zenoh", listen=[f"tcp/{_HOST}:0"])
+            node_args.update(transport="zenoh", listen=[f"tls/{_HOST}:0"])
         else:
             node_args["listen"] = f"{_HOST}:0"
-        observer = await start_node(OBSERVER_ID, **node_args)
+        observer = await start_node(
+            OBSERVER_ID, tls=pki.identity(OBSERVER_ID, role="control"), **node_args
+        )
         observer.update_node_property("kind", OBSERVER_KIND)
         observer.set_at_rest(True)  # it listens, and says nothing more
         self.observer = observer
@@ -320,7 +326,9 @@ class MeshFleet(FleetSourceBase):
             link_args += ["--poll-interval", str(self.poll_interval)]
         link_args += ["--republish-beats", str(self.republish_beats)]
         link_args += ["--rest-beat", "none" if self.rest_beat is None else str(self.rest_beat)]
-        self._base = await start_node(BASE_ID, **link, **node_args)
+        self._base = await start_node(
+            BASE_ID, tls=pki.identity(BASE_ID, role="control"), **link, **node_args
+        )
         self.desk.open_base(self._base)
         peers = self.agv_count + 1  # the observer, the base and the other AGVs
         for i, (agv_id, home) in enumerate(zip(self.agv_ids, self.homes, strict=True)):
@@ -329,7 +337,7 @@ class MeshFleet(FleetSourceBase):
                 [
                     "--listen", f"{_HOST}:0",
                     *link_args,
-                    "--secret-file", str(secret_file),
+                    "--pki", str(pki.directory),
                     "--home", home,
                     "--seed", str(self.seed * 1000 + i),
                     "--run-seconds", str(self.run_seconds),
@@ -392,6 +400,9 @@ class MeshFleet(FleetSourceBase):
             self._router = None
         self.final_logs = self.processes.logs()
         self.processes.close()
+        if self._pki is not None:
+            self._pki.remove()
+            self._pki = None
 
     # -- observing --------------------------------------------------------------------
 

@@ -1,8 +1,7 @@
 """The AGV processes of a mesh fleet: spawned, watched and reaped, all on 127.0.0.1.
 
-Each AGV runs ``python -m agv_app.fleet.agv_process`` in its own session. The mesh
-secret is written to a file only its owner can read, in a temporary directory of the
-run, never put on a command line; the children's output goes to files there too.
+Each AGV runs ``python -m agv_app.fleet.agv_process`` in its own session; the children's
+output goes to files in a temporary directory of the run, which only its owner can read.
 ``reap`` gives every child end of file on stdin and SIGTERM, waits a bounded time for
 it to leave the mesh, and kills whoever is left; ``close`` removes the directory.
 """
@@ -29,7 +28,7 @@ _MODULE = "agv_app.fleet.agv_process"
 
 
 class AgvProcesses:
-    """The AGV processes of one run, and the directory that holds their secret and logs.
+    """The AGV processes of one run, and the directory that holds their logs.
 
     Args:
         python: the interpreter that runs them.
@@ -43,14 +42,10 @@ class AgvProcesses:
         self._children: list[tuple[str, subprocess.Popen[bytes]]] = []
         self._tmpdir: Path | None = None
 
-    def write_secret(self, secret: bytes) -> Path:
-        """Create the run's directory and the secret file (mode 0600) in it."""
+    def open_run_dir(self) -> Path:
+        """Create the run's directory (mode 0700: the logs are the owner's alone)."""
         self._tmpdir = Path(tempfile.mkdtemp(prefix="objectplaces-mesh-"))
-        path = self._tmpdir / "secret"
-        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
-        with os.fdopen(fd, "wb") as f:
-            f.write(secret)
-        return path
+        return self._tmpdir
 
     def spawn(self, agv_id: str, arguments: list[str]) -> None:
         """Start the AGV process ``agv_id`` with the command-line ``arguments``."""
@@ -129,7 +124,7 @@ class AgvProcesses:
                 proc.wait(timeout=5.0)
 
     def close(self) -> None:
-        """Remove the run's directory (the secret file and the logs)."""
+        """Remove the run's directory and the logs in it."""
         if self._tmpdir is not None:
             shutil.rmtree(self._tmpdir, ignore_errors=True)
             self._tmpdir = None

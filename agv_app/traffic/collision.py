@@ -270,6 +270,11 @@ class Requester(Initiator):
         definition: the group definition the session was opened with; a request asked
             again whose group lies within it may be asked on this session
             (:meth:`ask_again`).
+        vote_deadline: seconds a member may take to answer at all (every voter answers
+            at once, allow or defer); one silent that long is counted as failed: its
+            vote is no longer awaited and ``on_silent`` is told (None: wait for ever).
+        on_silent: told the id of a member counted as failed
+            (:meth:`~agv_app.traffic.plausibility.PeerWatch.silent`).
     """
 
     def __init__(
@@ -284,8 +289,15 @@ class Requester(Initiator):
         tally: MessageTally | None = None,
         announced_at: float | None = None,
         definition: GroupDefinition | None = None,
+        vote_deadline: float | None = None,
+        on_silent: Callable[[str], None] | None = None,
     ) -> None:
         self.entry = entry
+        self.vote_deadline = vote_deadline
+        self._on_silent = on_silent
+        self._asked: dict[str, float] = {}  # member -> when it was asked
+        self._answered: set[str] = set()  # members that answered the current request
+        self._silent: set[str] = set()  # members counted as failed
         self._definition = definition
         self._kept = False  # withdrawn with the session kept open for the next request
         self.safe_time = safe_time
@@ -326,8 +338,14 @@ class Requester(Initiator):
     def in_group(self, participant: ParticipantRef) -> None:
         """A new member (late joiners too) gets the request; the lock waits for its vote."""
         self._votes[participant.node_id] = False
+        self._asked_now(participant.node_id)
         self.send(participant, self._message)
         tally_send(self._tally, "request", self._message)
+
+    def _asked_now(self, node: str) -> None:
+        self._asked[node] = self.now()
+        if self.vote_deadline is not None:
+            self.call_later(self.vote_deadline, self._check)
 
     def out_group(self, participant: ParticipantRef) -> None:
         """A member left: its vote no longer counts.
@@ -335,9 +353,13 @@ class Requester(Initiator):
         The check runs after the events of this instant, so that a departure's stale
         record is written before the requester decides.
         """
-        self._votes.pop(participant.node_id, None)
-        self._blocked.pop(participant.node_id, None)
-        self._queued.pop(participant.node_id, None)
+        node = participant.node_id
+        self._votes.pop(node, None)
+        self._blocked.pop(node, None)
+        self._queued.pop(node, None)
+        self._asked.pop(node, None)
+        self._answered.discard(node)
+        self._silent.discard(node)
         self.call_later(0.0, self._check)
 
     def receive(self, participant: ParticipantRef, message: Any) -> None:
@@ -350,6 +372,11 @@ class Requester(Initiator):
         if message.get("k", self.entry.key) != self.entry.key:
             return
         node = participant.node_id
+        if message.get("t") in ("allow", "defer"):
+            self._answered.add(node)
+            if node in self._silent:  # it was only late: its vote counts again
+                self._silent.discard(node)
+                self._votes[node] = False
         if message.get("t") == "allow":
             self._votes[node] = True
             self._blocked.pop(node, None)
@@ -404,12 +431,15 @@ class Requester(Initiator):
         self.entry = entry
         self._message = _request_message(entry)
         self._announced_at = announced_at
-        self._votes = dict.fromkeys(self._votes, False)
+        self._votes = dict.fromkeys(sorted([*self._votes, *self._silent]), False)
         self._blocked.clear()
         self._queued.clear()
+        self._answered.clear()
+        self._silent.clear()
         self.started()
         for member in sorted(self.members, key=lambda m: m.node_id):  # never set order
             if member.node_id in self._votes:
+                self._asked_now(member.node_id)
                 self.send(member, self._message)
                 tally_send(self._tally, "request", self._message)
         return True
@@ -432,13 +462,34 @@ class Requester(Initiator):
         ):
             self._finish("withdrawn")
             return
+        silent = self.vote_deadline is not None and self._count_silent(now)
+        if silent and book.hits_stale(self.entry.area):  # a silent member's floor
+            self._finish("withdrawn")
+            return
         if now - self._safe_from < self.safe_time - 1e-9:
             return
         if not all(self._votes.values()):
             return
-        if not self._group_view() <= self._votes.keys():
+        if not self._group_view() - self._silent <= self._votes.keys():
             return  # someone in our view has not joined (or answered) yet
         self._finish("locked")
+
+    def _count_silent(self, now: float) -> bool:
+        """Count as failed the members that have not answered within the deadline;
+        whether any was."""
+        deadline = self.vote_deadline
+        assert deadline is not None
+        silent = [
+            node
+            for node in sorted(self._votes)
+            if node not in self._answered and now - self._asked.get(node, now) >= deadline - 1e-9
+        ]
+        for node in silent:
+            del self._votes[node]
+            self._silent.add(node)
+            if self._on_silent is not None:
+                self._on_silent(node)
+        return bool(silent)
 
     def _finish(self, outcome: str, *, end_session: bool = True) -> None:
         self.done = outcome

@@ -49,6 +49,7 @@ from agv_app.traffic.deadlock import (
     turn_offs,
 )
 from agv_app.traffic.lockbook import LockBook, LockEntry, RequestEntry, StaleRecord
+from agv_app.traffic.plausibility import PeerWatch
 from agv_app.vehicle.kinematics import Vehicle, VehicleSpec
 from objectplaces import RoleActivator
 from objectplaces.groups import GroupDefinition
@@ -123,6 +124,11 @@ class AgvConfig:
             one that avoids the segment it was waiting to drive (None: never); AGVs
             that fill a one-way loop each wait for the one ahead
             (docs/traffic.md, "Taking another way").
+        vote_deadline: seconds a member of a request's group may take to answer it at
+            all; one silent that long counts as failed (None: wait for ever;
+            :mod:`agv_app.traffic.plausibility`).
+        check_peers: refuse peers' positions and hull lengths that cannot be true
+            (:mod:`agv_app.traffic.plausibility`).
     """
 
     t_update: float = 1.0
@@ -140,6 +146,8 @@ class AgvConfig:
     keep_way_out: bool = True
     drive_on_after: float | None = 60.0
     detour_after: float | None = 60.0
+    vote_deadline: float | None = 10.0
+    check_peers: bool = True
 
 
 @mypyc_attr(allow_interpreted_subclasses=True)
@@ -190,6 +198,10 @@ class AgvController:
         self.home = home
         self.config = config or AgvConfig()
         self.tally = tally
+        self.distrust: dict[str, int] = {}
+        """What this AGV refused to believe of its peers, and how often (positions,
+        hull lengths, voters counted as failed: :mod:`agv_app.traffic.plausibility`)."""
+        self._max_peer_hull: float | None = None
         self._on_task_started = on_task_started
         self._on_task_done = on_task_done
         self._on_lock_wait = on_lock_wait
@@ -288,6 +300,15 @@ class AgvController:
             ),
         )
         node.set_participant_factory("bidder", lambda: Bidder(self, tally=self.tally))
+        self.peers = PeerWatch(
+            book,
+            node.view,
+            top_speed_m_s=self.spec.max_speed_m_s,
+            max_hull_length_m=self._largest_hull_length(),
+            count=self._distrust,
+        )
+        if self.config.check_peers:
+            node.set_property_check(self.peers.check)
         node.register_node_departure_observer(self._departed)
         node.register_node_property_observer(self._property, names=("hull_length",))
         node.update_node_property("kind", AGV_KIND)
@@ -347,7 +368,19 @@ class AgvController:
             wanted = inherited - 1e-6
         return self.book.next_priority(wanted, self.node_id, area)
 
+    def _largest_hull_length(self) -> float:
+        # Imported here: reach reads AgvConfig from this module.
+        from agv_app.traffic.reach import largest_hull_length
+
+        if self._max_peer_hull is None:
+            self._max_peer_hull = largest_hull_length(self.layout, self.spec, self.config)
+        return self._max_peer_hull
+
+    def _distrust(self, what: str) -> None:
+        self.distrust[what] = self.distrust.get(what, 0) + 1
+
     def _departed(self, node_id: str, last: Mapping[str, Any]) -> None:
+        self.peers.forget(node_id)
         if last.get("kind") != AGV_KIND:
             return
         pos, radius = last.get("position"), last.get("hull_length")
@@ -756,6 +789,8 @@ class AgvController:
             tally=self.tally,
             announced_at=announced_at,
             definition=definition,
+            vote_deadline=self.config.vote_deadline,
+            on_silent=self.peers.silent,
         )
         self._requester = requester
         self.node.start_interaction(requester, definition, "voter")

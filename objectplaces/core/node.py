@@ -69,7 +69,7 @@ from objectplaces.core.timers import (
     TimerAction,
 )
 from objectplaces.core.values import POSITION
-from objectplaces.core.view import PropertyView
+from objectplaces.core.view import PropertyCheck, PropertyView
 
 __all__ = ["NodeConfig", "NodeMachine", "ParticipationInfo", "SessionInfo"]
 
@@ -280,6 +280,11 @@ class NodeMachine(Introspection):
     def view(self) -> Mapping[str, Mapping[str, Any]]:
         """The latest known properties of every other node this node hears (read-only)."""
         return self._view.mapping
+
+    def set_property_check(self, check: PropertyCheck | None) -> None:
+        """Check every changed property value of a peer before taking it (see
+        ``PropertyView``); a refused value is dropped, counted per peer and logged."""
+        self._view.set_check(check, self._intake.drop)
 
     def view_group(self, definition: DefinitionLike) -> frozenset[str]:
         """Resolve ``definition`` over the local view, without sending anything."""

@@ -31,13 +31,17 @@ The view hands out read-only mappings (``mapping``): callers may keep and read t
 Group definitions are application code: the view runs them, but one that raises is
 logged, counted (``definition_errors``) and treated as "no match", so a bad definition
 costs its own session, never the node.
+
+A property check (``set_check``, application code too) may refuse a peer's value that
+cannot be true: it is not taken, and counted per peer like a bad frame. A check that
+raises lets the value through (counted): refusing would blind the node.
 """
 
 from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from types import MappingProxyType
 from typing import Any, Final
 
@@ -51,11 +55,15 @@ from objectplaces.core.spatial import footprint_bounds
 from objectplaces.core.values import POSITION, RADIUS
 from objectplaces.core.view_index import ViewIndex
 
-__all__ = ["SNAPSHOT_RETRY", "Cell", "PropertyView"]
+__all__ = ["SNAPSHOT_RETRY", "Cell", "PropertyCheck", "PropertyView", "Refuse"]
 
 log = logging.getLogger("objectplaces")
 
 Cell = tuple[int, int]
+PropertyCheck = Callable[[str, str, Any, float], bool]
+"""``check(node_id, name, value, now)``: whether a peer's new value may be true."""
+Refuse = Callable[[str, str, str, float], None]
+"""``refuse(node_id, reason, detail, now)``: count and log a refused value."""
 
 _REQUEST: Final = codec.encode(PropertyRequest())
 
@@ -76,6 +84,7 @@ class PropertyView:
     __slots__ = (
         "_asked",
         "_cell_size",
+        "_check",
         "_complete",
         "_footprint_margin",
         "_fresh",
@@ -87,6 +96,7 @@ class PropertyView:
         "_props",
         "_proxies",
         "_readonly",
+        "_refuse",
         "_resting",
         "_scope",
         "_scope_bounds",
@@ -119,6 +129,13 @@ class PropertyView:
         self._asked: dict[str, float] = {}  # when each incomplete node was last asked
         #: Whether this node hears only some cells (a plain attribute: read per update).
         self.scoped = False
+        self._check: PropertyCheck | None = None
+        self._refuse: Refuse | None = None
+
+    def set_check(self, check: PropertyCheck | None, refuse: Refuse) -> None:
+        """Check each changed value of a peer first (None: none); refused ones go to ``refuse``."""
+        self._check = check
+        self._refuse = refuse
 
     # ------------------------------------------------------------------ reading
 
@@ -238,11 +255,14 @@ class PropertyView:
         changed = False
         index, observers = self._index, self._observers
         indexes, maxima = index.indexes, index.maxima
+        check = self._check
         for name, value in values.items():
             if seq <= seqs.get(name, -1):
                 continue
             seqs[name] = seq
             if name in props and props[name] == value:
+                continue
+            if check is not None and not self._passes(check, source, name, value, now):
                 continue
             props[name] = value
             changed = True
@@ -251,6 +271,20 @@ class PropertyView:
             if observers.watching_properties:
                 observers.property_changed(source, name, value)
         return changed
+
+    def _passes(self, check: PropertyCheck, source: str, name: str, value: Any, now: float) -> bool:
+        try:
+            if check(source, name, value, now):
+                return True
+        except Exception:
+            log.exception(
+                "node %s: the property check failed on %s of %s", self._node_id, name, source
+            )
+            self._outbox.count("property_check_errors")
+            return True
+        if self._refuse is not None:
+            self._refuse(source, "refused_implausible", f"{name}={value!r}", now)
+        return False
 
     def ask_snapshot(self, node: str, now: float) -> None:
         """Ask ``node`` for a snapshot: it is heard only in deltas, so some of its

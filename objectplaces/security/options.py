@@ -36,6 +36,15 @@ class Credentials:
         """The ``tls``, ``secret`` and ``insecure`` arguments of ``start_node`` and the like."""
         return {"tls": self.tls, "secret": self.secret, "insecure": self.insecure}
 
+    def as_arguments(self, pki: Path | None = None, secret_file: Path | None = None) -> list[str]:
+        """The same credentials as command-line arguments for a child process: ``--pki``
+        (``pki``, the folder the identity came from) or ``--insecure --secret-file``."""
+        if self.tls is not None:
+            return ["--pki", str(pki if pki is not None else self.tls.ca.parent)]
+        if secret_file is None:
+            raise CredentialError("a child with plain links needs the secret in a file")
+        return ["--insecure", "--secret-file", str(secret_file)]
+
 
 def add_credential_arguments(parser: argparse.ArgumentParser) -> None:
     """Add ``--pki``, ``--insecure`` and ``--secret-file`` to ``parser``."""

@@ -13,10 +13,8 @@ live in sans-I/O parts, each tested alone:
 - ``routing.CellRouter``: the peers' cell subscriptions, who hears a ``Publish``;
 - ``policing.LinkPolicy``: what an open link may send (sizes, flood limit, frame types).
 
-Outputs of the node machine: ``Send`` goes to its target's link, ``Broadcast`` to every
-link, ``Publish`` to the peers whose subscription covers one of its cells; ``Subscribe``
-is declared to every peer (a mesh has no router). Frames queued for a peer while the
-writer was busy travel as one batch.
+Outputs of the node machine go to the links that carry them (``fanout.Fanout``);
+frames queued for a peer while its writer was busy travel as one batch.
 
 A node outlives whatever its peers send: a link that breaks the rules, or whose frame
 makes handling raise, is closed with a reason and counted; the node and its other links
@@ -33,11 +31,12 @@ import random
 from collections.abc import Callable, Iterable
 
 from objectplaces.core.errors import DecodeError, LocalProtocolError
-from objectplaces.core.events import Broadcast, Output, Publish, Send, Subscribe
+from objectplaces.core.events import Output
 from objectplaces.security.links import LinkSecurity
 from objectplaces.transport.base import NodeDriver
 from objectplaces.transport.connector import Connector
 from objectplaces.transport.directory import Dial, LinkInfo, PeerDirectory
+from objectplaces.transport.fanout import Fanout
 from objectplaces.transport.handshake import Established
 from objectplaces.transport.link import LEAVING, Connection, MeshLink, close_quietly
 from objectplaces.transport.mesh_frames import (
@@ -45,12 +44,11 @@ from objectplaces.transport.mesh_frames import (
     PeerAddress,
     SubscribeCells,
     encode_gossip,
-    encode_subscribe,
     parse_address,
 )
 from objectplaces.transport.options import MeshOptions, PeerStats
 from objectplaces.transport.policing import CloseCode, Delivered, Inbound, LinkPolicy
-from objectplaces.transport.routing import Cell, CellRouter
+from objectplaces.transport.routing import CellRouter
 
 __all__ = ["REVOCATION_CHECK", "WebSocketMesh"]
 
@@ -113,8 +111,14 @@ class WebSocketMesh:
             node_id, seeds=seed_list, options=self.options, rng=random.Random()
         )
         self._router = CellRouter()
-        self._own_subscription: frozenset[Cell] | None = None
-        self._subscribed = False
+        self._fanout = Fanout(
+            node_id,
+            links=self._links,
+            router=self._router,
+            directory=self._directory,
+            counters=self.counters,
+        )
+        self._enqueue = self._fanout.enqueue
         self._changed = asyncio.Event()
         self._links_event = asyncio.Event()
         self._closing = False
@@ -210,49 +214,8 @@ class WebSocketMesh:
     # ------------------------------------------------------------------ outputs
 
     def transmit(self, output: Output) -> int:
-        """Carry one output of the machine (never blocks; a full queue drops the frame).
-
-        Returns:
-            How many frames were queued for the wire.
-        """
-        match output:
-            case Send(target, data, _):
-                link = self._links.get(target)
-                if link is None:
-                    self._count("dropped_no_link")
-                    counters = self._directory.counters(target)
-                    if counters is not None:
-                        counters.drops += 1
-                    return 0
-                return self._enqueue(link, data)
-            case Broadcast(data, _):
-                return sum(self._enqueue(link, data) for link in list(self._links.values()))
-            case Publish(cells, data, _, home, snapshot):
-                if snapshot is None:
-                    routed = [(self._router.publish(self.node_id, cells, home), data)]
-                else:  # split before the router records the new home: who heard the last
-                    heard, fresh = self._router.publish_split(self.node_id, cells, home)
-                    routed = [(heard, data), (fresh, snapshot)]
-                sent = 0
-                for peers, frame in routed:
-                    for peer in peers:
-                        link = self._links.get(peer)
-                        if link is not None:
-                            sent += self._enqueue(link, frame)
-                return sent
-            case Subscribe(cells):
-                self._own_subscription = cells
-                self._subscribed = True
-                frame = encode_subscribe(cells)
-                for link in self._links.values():
-                    self._enqueue(link, frame)
-                return 0
-
-    def _enqueue(self, link: MeshLink, data: bytes) -> int:
-        if link.enqueue(data):
-            return 1
-        self._count("dropped_queue_full")
-        return 0
+        """Carry one output of the machine (``Fanout.transmit``)."""
+        return self._fanout.transmit(output)
 
     # ------------------------------------------------------------------ dialing
 
@@ -350,8 +313,7 @@ class WebSocketMesh:
             # The peer restarted: its earlier run is gone, with its sessions and roles.
             self._tell(self._driver_or_fail().peer_restarted, peer)
         self._router.unsubscribe(peer)
-        if self._subscribed:
-            self._enqueue(link, encode_subscribe(self._own_subscription))
+        self._fanout.greet(link)
         self._enqueue(link, encode_gossip(self._directory.gossip(self._own_entry())))
         news = encode_gossip([PeerAddress(peer, est.address, est.incarnation)])
         for other, other_link in self._links.items():

@@ -188,7 +188,7 @@ class ProcessHarness:
     def __init__(self, pool: PuppetPool) -> None:
         self.pool = pool
         self.nodes: dict[str, PuppetNode] = {}
-        self.secret = secrets.token_hex(16).encode()  # no link to another scenario's nodes
+        self.secret = secrets.token_hex(32).encode()  # no link to another scenario's nodes
 
     async def links(self) -> dict[str, Any]:
         """How the next node finds the others (``start_node`` keywords)."""
@@ -280,8 +280,8 @@ class ZenohProcesses(ProcessHarness):
             secret_file.write_bytes(self.secret)
             os.chmod(secret_file, 0o600)
             self.router = LineProcess(
-                ["-m", "objectplaces.router_cli", "--listen", "tcp/127.0.0.1:0", "--insecure",
-                 "--secret-file", str(secret_file), "--run-seconds", "120"]
+                ["-m", "objectplaces.router_cli", "--listen", "tcp/127.0.0.1:0",
+                 "--insecure", "--secret-file", str(secret_file), "--run-seconds", "120"]
             )  # fmt: skip
 
     async def _router_endpoints(self) -> list[str]:

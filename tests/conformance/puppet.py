@@ -75,7 +75,7 @@ class Puppet:
         self.node = await start_node(
             command["id"],
             transport=command["transport"],
-            insecure=True,  # plain links on 127.0.0.1, proven by the scenario's secret
+            insecure=True,
             secret=bytes.fromhex(command["secret"]),
             **command["options"],
         )

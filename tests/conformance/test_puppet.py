@@ -9,9 +9,10 @@ import pytest
 
 from objectplaces import groups
 from tests.conformance.proxy import PuppetNode, PuppetPool, poll
+from tests.credentials import TEST_SECRET
 
 pytestmark = pytest.mark.processes
-SECRET = b"the puppet fleet secret, 32 bytes"
+SECRET = TEST_SECRET
 
 
 @pytest.fixture

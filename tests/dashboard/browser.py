@@ -9,7 +9,17 @@ from typing import Any
 
 import pytest
 
-__all__ = ["BROWSER_MARKS", "CHROMIUM", "CHROMIUM_ARGS", "chromium_page", "load_dashboard"]
+from dashboard.auth import Role
+from tests.dashboard.served import Served
+
+__all__ = [
+    "BROWSER_MARKS",
+    "CHROMIUM",
+    "CHROMIUM_ARGS",
+    "chromium_page",
+    "load_dashboard",
+    "log_in",
+]
 
 CHROMIUM = Path("/usr/bin/chromium")
 CHROMIUM_ARGS = [
@@ -48,7 +58,14 @@ def chromium_page(*, width: int = 1400, height: int = 900) -> Iterator[tuple[Any
             browser.close()
 
 
-def load_dashboard(page: Any, url: str) -> None:
-    """Open the dashboard at ``url`` and wait until its page says it is ready."""
-    page.goto(url + "/")
+def log_in(page: Any, served: Served, role: Role = "operator") -> None:
+    """Open ``role``'s login URL of the ``served`` dashboard, as a user does, and wait
+    until the login page has sent the browser on to the dashboard."""
+    page.goto(served.login_url(role))
+    page.wait_for_url(served.url + "/", timeout=10_000)
+
+
+def load_dashboard(page: Any, served: Served, role: Role = "operator") -> None:
+    """Log in (``log_in``) and wait until the dashboard's page says it is ready."""
+    log_in(page, served, role)
     page.wait_for_function("window.__dashboard && window.__dashboard.ready", timeout=10_000)

@@ -8,27 +8,20 @@ group views run against the real middleware.
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Mapping, Sequence
 
 import pytest
-from starlette.exceptions import StarletteDeprecationWarning
-
-# Starlette's test client now prefers the httpx2 package and warns on import when it
-# falls back to httpx, which is what the dev extras provide; the warning says nothing
-# about this code.
-with warnings.catch_warnings():
-    warnings.simplefilter("ignore", StarletteDeprecationWarning)
-    from starlette.testclient import TestClient as TestClient
 
 from agv_app.layout import Layout, demo_warehouse
 from dashboard.app import create_app
 from dashboard.source import InitiatorFactory, UnknownStationError, VehicleView
 from objectplaces import RoleActivator
 from objectplaces.sim import SimulatedNetwork
+from tests.dashboard.login import TestClient, anonymous, logged_in
+
+__all__ = ["PARKED", "FailingSource", "NetworkSource", "TestClient", "advance"]
 
 PARKED = {"agv-1": (10.0, 9.0), "agv-2": (14.0, 9.0), "agv-3": (40.0, 30.0)}
-TOKEN = "s3cret"
 
 
 class NetworkSource:
@@ -133,14 +126,15 @@ def source() -> NetworkSource:
 
 @pytest.fixture
 def client(source: NetworkSource) -> TestClient:
-    """The app without its real-time runner: tests advance the network themselves."""
-    return TestClient(create_app(source))
+    """The app without its real-time runner, and an operator: tests advance the network
+    themselves."""
+    return logged_in(create_app(source))
 
 
 @pytest.fixture
-def guarded(source: NetworkSource) -> TestClient:
-    """The app with a token configured."""
-    return TestClient(create_app(source, token=TOKEN))
+def stranger(source: NetworkSource) -> TestClient:
+    """The app, and a client without a token."""
+    return anonymous(create_app(source))
 
 
 def advance(source: NetworkSource, seconds: float = 0.5) -> None:

@@ -12,7 +12,8 @@ import pytest
 from dashboard.app import create_app
 from dashboard.poll import PollInitiator
 from objectplaces import groups
-from tests.dashboard.conftest import PARKED, TOKEN, NetworkSource, TestClient, advance
+from tests.dashboard.conftest import PARKED, NetworkSource, TestClient, advance
+from tests.dashboard.login import FEED_URL, logged_in
 
 WITHIN_10 = {"type": "within", "distance": 10.0}
 PARKED_IDS = sorted(PARKED)
@@ -233,44 +234,17 @@ def test_locks_and_metrics(client: TestClient) -> None:
 
 
 def test_sim_controls(client: TestClient, source: NetworkSource) -> None:
-    assert client.post("/api/sim/pause").json()["paused"] is True
+    assert client.post("/api/sim/pause", json={}).json()["paused"] is True
     assert source.paused
-    assert client.post("/api/sim/resume").json()["paused"] is False
+    assert client.post("/api/sim/resume", json={}).json()["paused"] is False
     assert client.post("/api/sim/speed", json={"factor": 4}).json()["speed"] == 4.0
     assert source.speed == 4.0
     r = client.post("/api/sim/speed", json={"factor": 0})
     assert r.status_code == 422
     assert "factor" in r.json()["detail"]
-    r = client.post("/api/sim/rewind")
+    r = client.post("/api/sim/rewind", json={})
     assert r.status_code == 404
     assert r.json()["detail"] == "unknown sim action 'rewind' (known: pause, resume, speed)"
-
-
-def test_token_guards_every_mutation(guarded: TestClient, source: NetworkSource) -> None:
-    mutations = [
-        ("post", "/api/sim/pause", None),
-        ("post", "/api/sim/speed", {"factor": 2}),
-        ("post", "/api/tasks", {"station": "pick-A1-1"}),
-        ("delete", path("agv-1#1"), None),
-    ]
-    for method, url, body in mutations:
-        kwargs: dict[str, Any] = {} if body is None else {"json": body}
-        r = guarded.request(method, url, **kwargs)
-        assert r.status_code == 401, url
-        assert "Authorization: Bearer" in r.json()["detail"]
-        r = guarded.request(method, url, headers={"Authorization": "Bearer wrong"}, **kwargs)
-        assert r.status_code == 401, url
-    assert start_poll(guarded).status_code == 401
-    assert not source.paused
-    assert source.tasks == []
-    auth = {"Authorization": f"Bearer {TOKEN}"}
-    assert guarded.post("/api/sim/pause", headers=auth).status_code == 200
-    assert (
-        guarded.post("/api/tasks", json={"station": "pick-A1-1"}, headers=auth).status_code == 201
-    )
-    # Reads need no token.
-    assert guarded.get("/api/nodes").status_code == 200
-    assert guarded.get("/api/metrics").status_code == 200
 
 
 def test_page_and_openapi_are_served(client: TestClient) -> None:
@@ -299,7 +273,7 @@ def test_page_and_openapi_are_served(client: TestClient) -> None:
 
 def test_feed_snapshot_then_session_deltas(source: NetworkSource) -> None:
     app = create_app(source, tick_s=0.01)
-    with TestClient(app) as client, client.websocket_connect("/ws/events") as ws:
+    with logged_in(app) as client, client.websocket_connect(FEED_URL) as ws:
         snapshot = ws.receive_json()
         assert snapshot["type"] == "snapshot"
         assert snapshot["layout"]["name"] == source.layout.name

@@ -7,7 +7,6 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-import httpx
 import pytest
 
 from tests.dashboard.browser import BROWSER_MARKS, chromium_page, load_dashboard
@@ -27,7 +26,7 @@ def served(source: NetworkSource) -> Iterator[Served]:
 def page(served: Served, tmp_path: Path) -> Iterator[Any]:
     with chromium_page() as (page, problems):
         page.on("requestfailed", lambda r: problems.append(f"request failed: {r.url}"))
-        load_dashboard(page, served.url)
+        load_dashboard(page, served)
         yield page
         page.screenshot(path=str(tmp_path / "dashboard.png"))
     assert problems == [], problems
@@ -46,9 +45,9 @@ def test_page_loads_and_draws_without_errors(page: Any) -> None:
 
 
 def test_session_started_over_rest_shows_in_the_panel(page: Any, served: Served) -> None:
-    r = httpx.post(
-        served.url + "/api/sessions",
-        json={
+    r = served.post(
+        "/api/sessions",
+        {
             "node": "agv-1",
             "role": "poll",
             "definition": {"type": "within", "distance": 10.0},
@@ -78,7 +77,7 @@ def test_session_started_over_rest_shows_in_the_panel(page: Any, served: Served)
     assert '"agv-2": "idle"' in detail.text_content()
     row.click()
     assert page.locator("#session-detail").is_hidden()
-    httpx.delete(served.url + f"/api/sessions/{sid.replace('#', '%23')}")
+    served.delete(f"/api/sessions/{sid.replace('#', '%23')}")
     row.wait_for(state="detached", timeout=5_000)
 
 

@@ -8,7 +8,7 @@ from urllib.parse import urlsplit
 
 import pytest
 
-from tests.dashboard.browser import BROWSER_MARKS, chromium_page
+from tests.dashboard.browser import BROWSER_MARKS, chromium_page, log_in
 from tests.dashboard.conftest import NetworkSource
 from tests.dashboard.served import Served
 
@@ -30,6 +30,7 @@ def offline_page(source: NetworkSource) -> Iterator[tuple[Any, Served, list[str]
 
     with Served(source) as served, chromium_page() as (page, _):
         page.route("**/*", only_loopback)
+        log_in(page, served)
         yield page, served, blocked
 
 

@@ -22,7 +22,7 @@ def fleet_page(tmp_path: Path) -> Iterator[tuple[Any, Any]]:
     fleet.set_speed(8.0)  # eight simulated seconds per wall second: visible motion soon
     with Served(fleet) as served:
         with chromium_page() as (page, problems):
-            load_dashboard(page, served.url)
+            load_dashboard(page, served)
             yield page, fleet
         assert problems == [], problems
 

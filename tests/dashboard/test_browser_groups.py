@@ -7,7 +7,6 @@ import json
 from collections.abc import Iterator
 from typing import Any
 
-import httpx
 import pytest
 
 from agv_app.fleet import Fleet, FleetConfig
@@ -25,7 +24,7 @@ def groups_page() -> Iterator[tuple[Any, Served]]:
     fleet.set_speed(4.0)
     with Served(fleet) as served:
         with chromium_page() as (page, problems):
-            load_dashboard(page, served.url)
+            load_dashboard(page, served)
             yield page, served
         # Chromium logs as failed resources a refused definition (422) and the detail of
         # a clicked session that ended before the page asked for it (404).
@@ -34,10 +33,10 @@ def groups_page() -> Iterator[tuple[Any, Served]]:
 
 def test_a_sessions_members_and_history(groups_page: tuple[Any, Served]) -> None:
     page, served = groups_page
-    httpx.post(f"{served.url}/api/tasks", json={"station": "pick-A1-1"}, timeout=5)
+    served.post("/api/tasks", {"station": "pick-A1-1"})
 
     def a_session_with_joins() -> str | None:
-        listed = httpx.get(f"{served.url}/api/membership", timeout=5).json()
+        listed = served.get("/api/membership").json()
         return next((s["id"] for s in listed if s["joins"] > 0), None)
 
     sid = wait_for(a_session_with_joins, 30.0, "a session gains a member")
@@ -95,10 +94,8 @@ def test_a_typed_definition_is_shown_live_on_the_map(groups_page: tuple[Any, Ser
     definition = {"type": "within", "distance": 1000}
     page.fill("#groups-definition", json.dumps(definition))
     page.click("#groups-show")
-    expected = httpx.get(
-        f"{served.url}/api/groups/view",
-        params={"node": "agv-01", "definition": json.dumps(definition)},
-        timeout=5,
+    expected = served.get(
+        "/api/groups/view", {"node": "agv-01", "definition": json.dumps(definition)}
     ).json()["members"]
     assert len(expected) >= 3, "the other AGVs and the transport base are within 1 km"
     page.wait_for_function("window.__groupsPanel.members.length > 0", timeout=5_000)
@@ -106,7 +103,7 @@ def test_a_typed_definition_is_shown_live_on_the_map(groups_page: tuple[Any, Ser
     page.wait_for_function("window.__groupsPanel.drawn >= 3", timeout=5_000)
     # A member standing still (the transport base) is ringed in the legend's colour.
     assert BASE_ID in expected
-    base = httpx.get(f"{served.url}/api/nodes/{BASE_ID}", timeout=5).json()
+    base = served.get(f"/api/nodes/{BASE_ID}").json()
     at = page.evaluate(
         "([x, y]) => window.__dashboard.screenPosition(x, y)", base["properties"]["position"]
     )

@@ -8,7 +8,6 @@ import time
 from collections.abc import Iterator
 from typing import Any
 
-import httpx
 import pytest
 from playwright.sync_api import TimeoutError as PlaywrightTimeoutError
 
@@ -55,11 +54,9 @@ def served() -> Iterator[Served]:
     fleet.set_speed(4.0)
     with Served(fleet) as served:
         for station in ("pick-A1-1", "pick-A2-1", "pick-A3-1"):
-            httpx.post(f"{served.url}/api/tasks", json={"station": station}, timeout=5)
+            served.post("/api/tasks", {"station": station})
         deadline = time.monotonic() + 30
-        while not any(
-            s["joins"] for s in httpx.get(f"{served.url}/api/membership", timeout=5).json()
-        ):
+        while not any(s["joins"] for s in served.get("/api/membership").json()):
             assert time.monotonic() < deadline, "no session gained a member"
             time.sleep(0.2)  # polling a live server, not an assertion
         yield served
@@ -70,7 +67,7 @@ def _live_session(served: Served) -> str:
     listed a moment ago may have ended since)."""
     deadline = time.monotonic() + 30
     while True:
-        listed = httpx.get(f"{served.url}/api/membership", timeout=5).json()
+        listed = served.get("/api/membership").json()
         live = [s for s in listed if s["ended_at"] is None and s["members"]]
         if live:
             return str(max(live, key=lambda s: s["started_at"])["id"])
@@ -80,7 +77,7 @@ def _live_session(served: Served) -> str:
 
 def fill_panels(page: Any, served: Served) -> None:
     driving = next(
-        (v for v in httpx.get(f"{served.url}/api/vehicles", timeout=5).json() if v["task"]),
+        (v for v in served.get("/api/vehicles").json() if v["task"]),
         None,
     )
     page.evaluate("id => window.__vehiclePanel.select(id)", driving["id"] if driving else "agv-01")
@@ -107,7 +104,7 @@ def fill_panels(page: Any, served: Served) -> None:
 @pytest.mark.parametrize(("width", "height"), [(1400, 900), (1920, 1080)])
 def test_no_table_is_clipped(served: Served, width: int, height: int) -> None:
     with chromium_page(width=width, height=height) as (page, problems):
-        load_dashboard(page, served.url)
+        load_dashboard(page, served)
         fill_panels(page, served)
         time.sleep(1.0)  # a second of live updates: rows grow and shrink as they like
         assert page.evaluate(CLIPPED) == []

@@ -22,7 +22,7 @@ HULL_STATUSES = {
 @pytest.fixture
 def page(source: NetworkSource) -> Iterator[Any]:
     with Served(source) as served, chromium_page() as (page, _):
-        load_dashboard(page, served.url)
+        load_dashboard(page, served)
         yield page
 
 

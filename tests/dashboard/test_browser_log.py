@@ -5,7 +5,6 @@ from __future__ import annotations
 from collections.abc import Iterator
 from typing import Any
 
-import httpx
 import pytest
 
 from agv_app.fleet import Fleet, FleetConfig
@@ -21,7 +20,7 @@ def log_page() -> Iterator[tuple[Any, Served, Fleet]]:
     fleet = Fleet(config=FleetConfig(agvs=4, seed=3, task_until=0.0))
     with Served(fleet) as served:
         with chromium_page() as (page, problems):
-            load_dashboard(page, served.url)
+            load_dashboard(page, served)
             yield page, served, fleet
         assert problems == [], problems
 
@@ -31,7 +30,7 @@ def test_a_pause_and_a_failed_agv_show_with_the_alarm_on_top(
 ) -> None:
     page, served, fleet = log_page
     reason = "aisle 3 blocked by a pallet that fell off a shelf"
-    r = httpx.post(f"{served.url}/api/sim/pause", json={"reason": reason}, timeout=5)
+    r = served.post("/api/sim/pause", {"reason": reason})
     assert r.status_code == 200
     page.locator("#events-body td", has_text=f"fleet paused: {reason}").wait_for(timeout=5_000)
     victim = sorted(fleet.agvs)[0]

@@ -9,7 +9,6 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-import httpx
 import pytest
 
 from agv_app.fleet import Fleet, FleetConfig
@@ -35,7 +34,7 @@ def plots_page() -> Iterator[tuple[Any, Served]]:
     fleet = Fleet(config=FleetConfig(agvs=4, seed=3, task_until=0.0))
     with Served(fleet) as served:
         with chromium_page() as (page, problems):
-            load_dashboard(page, served.url)
+            load_dashboard(page, served)
             yield page, served
         assert problems == [], problems
 
@@ -45,9 +44,9 @@ def test_the_plots_draw_the_history_and_both_exports_download_and_parse(
 ) -> None:
     page, served = plots_page
     for station in ("pick-A1-1", "pick-A3-1", "pick-A1-1"):
-        r = httpx.post(f"{served.url}/api/tasks", json={"station": station}, timeout=5)
+        r = served.post("/api/tasks", {"station": station})
         assert r.status_code == 201, r.text
-    r = httpx.post(f"{served.url}/api/sim/speed", json={"factor": 20}, timeout=5)
+    r = served.post("/api/sim/speed", {"factor": 20})
     assert r.status_code == 200, r.text
     page.wait_for_function(
         "() => { const d = window.__plots.drawn;"

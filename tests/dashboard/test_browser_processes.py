@@ -11,7 +11,6 @@ import os
 import signal
 import time
 
-import httpx
 import pytest
 
 from agv_app.fleet import MeshFleet
@@ -24,12 +23,12 @@ pytestmark = [*BROWSER_MARKS, pytest.mark.processes, pytest.mark.timeout(120)]
 def test_agv_sessions_show_and_a_process_killed_with_sigkill_raises_its_alarm() -> None:
     fleet = MeshFleet(agvs=2, seed=8, task_interval=None, run_seconds=100.0)
     with Served(fleet) as served, chromium_page() as (page, problems):
-        load_dashboard(page, served.url)
+        load_dashboard(page, served)
         page.wait_for_function(
             "Object.keys(window.__dashboard.vehicles()).length === 2", timeout=40_000
         )
         page.locator("#nodes-panel tr[data-node-id='agv-01']").wait_for(timeout=10_000)
-        r = httpx.post(f"{served.url}/api/tasks", json={"station": "pick-A3-1"}, timeout=5)
+        r = served.post("/api/tasks", {"station": "pick-A3-1"})
         assert r.status_code == 201, r.text
         # The AGV that takes it asks its neighbours for floor: its sessions are listed.
         page.locator("#sessions-panel tr[data-session-id^='agv-']").first.wait_for(timeout=30_000)
@@ -43,7 +42,7 @@ def test_agv_sessions_show_and_a_process_killed_with_sigkill_raises_its_alarm() 
         page.wait_for_function(
             f"window.__dashboard.vehicles()[{victim!r}][2] === 'failed'", timeout=5_000
         )
-        metrics = httpx.get(f"{served.url}/api/metrics", timeout=5).json()["metrics"]
+        metrics = served.get("/api/metrics").json()["metrics"]
         assert metrics["agvs"] == 1
         assert metrics["agvs_failed"] == 1
         assert problems == [], problems

@@ -5,7 +5,6 @@ from __future__ import annotations
 from collections.abc import Iterator
 from typing import Any
 
-import httpx
 import pytest
 
 from agv_app.fleet import Fleet, FleetConfig
@@ -33,14 +32,14 @@ def tasks_page() -> Iterator[tuple[Any, Served]]:
     fleet.pause()
     with Served(fleet) as served:
         with chromium_page() as (page, problems):
-            load_dashboard(page, served.url)
+            load_dashboard(page, served)
             yield page, served
         # A refused cancel (409) is logged by chromium as a failed resource; nothing else.
         assert [p for p in problems if "409" not in p] == [], problems
 
 
 def create(served: Served, station: str) -> str:
-    r = httpx.post(f"{served.url}/api/tasks", json={"station": station}, timeout=5)
+    r = served.post("/api/tasks", {"station": station})
     assert r.status_code == 201, r.text
     return str(r.json()["task_id"])
 
@@ -68,7 +67,7 @@ def test_a_driving_order_has_no_cancel_and_the_filter_works(
 ) -> None:
     page, served = tasks_page
     first = create(served, "pick-A1-1")
-    httpx.post(f"{served.url}/api/sim/resume", timeout=5)
+    served.post("/api/sim/resume")
     page.wait_for_function(
         f"document.querySelector(\"tr[data-task-id='{first}'] td[data-state]\")"
         "?.textContent === 'driving'",

@@ -7,7 +7,6 @@ import time
 from collections.abc import Iterator
 from typing import Any
 
-import httpx
 import pytest
 
 from agv_app.fleet import Fleet, FleetConfig
@@ -26,13 +25,13 @@ def fleet_page() -> Iterator[tuple[Any, Served]]:
     fleet.pause()
     with Served(fleet) as served:
         with chromium_page() as (page, problems):
-            load_dashboard(page, served.url)
+            load_dashboard(page, served)
             yield page, served
         assert problems == [], problems
 
 
 def post(served: Served, path: str, body: dict[str, Any] | None = None) -> Any:
-    r = httpx.post(f"{served.url}{path}", json=body or {}, timeout=5)
+    r = served.post(path, body)
     assert r.status_code < 300, r.text
     return r.json()
 

@@ -6,7 +6,8 @@ import pytest
 
 from dashboard.app import create_app
 from dashboard.clock import RunClock
-from tests.dashboard.conftest import NetworkSource, TestClient
+from tests.dashboard.conftest import NetworkSource
+from tests.dashboard.login import logged_in
 
 
 def test_a_clock_that_never_ran_reports_zero() -> None:
@@ -24,7 +25,7 @@ def test_paused_time_does_not_count() -> None:
 
 def test_live_metrics_report_the_wall_time_and_the_speed_achieved(source: NetworkSource) -> None:
     app = create_app(source, tick_s=0.01)
-    client = TestClient(app)
+    client = logged_in(app)
     source.set_speed(4.0)
     driver = app.state.driver
     for i in range(21):  # 20 steps of 0.05 s of wall time: 1 s
@@ -32,7 +33,7 @@ def test_live_metrics_report_the_wall_time_and_the_speed_achieved(source: Networ
     metrics = client.get("/api/metrics").json()["metrics"]
     assert metrics["wall_seconds"] == pytest.approx(1.0)
     assert metrics["sim_speed"] == pytest.approx(4.0, rel=0.01)
-    client.post("/api/sim/pause")
+    client.post("/api/sim/pause", json={})
     for i in range(21, 41):
         driver.step(i * 0.05)
     assert client.get("/api/metrics").json()["metrics"]["wall_seconds"] == pytest.approx(1.0)

@@ -78,7 +78,9 @@ async def test_fifty_clients_start_read_and_stop_sessions_at_ten_times_speed() -
     limits = httpx.Limits(max_connections=CLIENTS, max_keepalive_connections=CLIENTS)
     try:
         with Served(fleet) as served:
-            async with httpx.AsyncClient(base_url=served.url, timeout=60, limits=limits) as http:
+            async with httpx.AsyncClient(
+                base_url=served.url, headers=served.headers(), timeout=60, limits=limits
+            ) as http:
                 nodes = [n["id"] for n in (await http.get("/api/nodes")).json()]
                 agvs = sorted(n for n in nodes if n.startswith("agv-"))
                 assert len(agvs) == 20

@@ -5,7 +5,7 @@ from __future__ import annotations
 from agv_app.fleet import Fleet, FleetConfig, demo_source
 from dashboard.app import create_app
 from dashboard.source import FleetSource
-from tests.dashboard.conftest import TestClient
+from tests.dashboard.login import logged_in
 
 
 def small_fleet() -> Fleet:
@@ -20,7 +20,7 @@ def test_the_fleet_is_a_fleet_source() -> None:
 
 def test_locks_and_a_task_over_rest() -> None:
     fleet = small_fleet()
-    client = TestClient(create_app(fleet))
+    client = logged_in(create_app(fleet))
     r = client.post("/api/tasks", json={"station": "pick-A1-1"})
     assert r.status_code == 201, r.text
     task_id = r.json()["task_id"]

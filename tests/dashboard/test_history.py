@@ -19,6 +19,7 @@ from dashboard.history import (
     wait_histogram,
 )
 from tests.dashboard.conftest import NetworkSource, TestClient
+from tests.dashboard.login import logged_in
 
 URL = "/api/metrics/history"
 
@@ -73,7 +74,7 @@ def fleet_with_history() -> tuple[Fleet, TestClient, HistorySampler]:
     fleet = Fleet(config=FleetConfig(agvs=4, seed=3, task_until=0.0))
     app = create_app(fleet)
     # Not entered: no real-time driver or sampler; the test advances and samples itself.
-    client = TestClient(app)
+    client = logged_in(app)
     return fleet, client, HistorySampler(app.state.dashboard, app.state.history)
 
 
@@ -148,7 +149,7 @@ def test_json_download_is_a_file_that_parses() -> None:
     ],
 )
 def test_bad_input_is_refused_with_422(params: dict[str, str]) -> None:
-    client = TestClient(create_app(NetworkSource()))
+    client = logged_in(create_app(NetworkSource()))
     r = client.get(URL, params=params)
     assert r.status_code == 422, r.text
     assert "detail" in r.json()
@@ -159,7 +160,7 @@ def test_a_fleet_without_a_task_book_has_no_waits_and_still_samples() -> None:
     app = create_app(source)
     sampler = HistorySampler(app.state.dashboard, app.state.history)
     assert sampler.sample()
-    body = TestClient(app).get(URL).json()
+    body = logged_in(app).get(URL).json()
     assert body["wait_times"]["orders"] == 0
     assert len(body["samples"]) == 1
 
@@ -167,7 +168,7 @@ def test_a_fleet_without_a_task_book_has_no_waits_and_still_samples() -> None:
 def test_the_running_app_samples_by_itself() -> None:
     source = NetworkSource()
     app = create_app(source)
-    with TestClient(app) as client:
+    with logged_in(app) as client:
         for _ in range(100):
             if client.get(URL).json()["samples"]:
                 break

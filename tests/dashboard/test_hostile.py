@@ -25,6 +25,7 @@ from dashboard.app import create_app
 from dashboard.feed import ClientFeed
 from tests.dashboard.bodies import nested_definition, poll_body
 from tests.dashboard.conftest import FailingSource, NetworkSource, TestClient
+from tests.dashboard.login import logged_in
 from tests.dashboard.served import Served
 
 DOCS = Path(__file__).resolve().parents[2] / "docs" / "dashboard.md"
@@ -62,7 +63,7 @@ def wait_for_time(client: TestClient, past: float) -> None:
 @pytest.fixture
 def running(source: NetworkSource) -> Any:
     """The app with its driver running: the fleet advances in real time."""
-    with TestClient(create_app(source, tick_s=0.01), raise_server_exceptions=False) as client:
+    with logged_in(create_app(source, tick_s=0.01), raise_server_exceptions=False) as client:
         yield client
 
 
@@ -160,7 +161,7 @@ def test_wrong_types_and_sizes_in_a_session_are_4xx(
 
 def test_a_failing_advance_does_not_pause_the_fleet() -> None:
     source = FailingSource({3})
-    with TestClient(create_app(source, tick_s=0.01)) as client:
+    with logged_in(create_app(source, tick_s=0.01)) as client:
         wait_for_time(client, source.net.now + 0.3)
         body = client.get("/api/metrics").json()
     assert source.calls > 3
@@ -176,7 +177,7 @@ def test_the_documented_curl_example_works_on_the_demo_fleet() -> None:
     assert example is not None, "docs/dashboard.md lost its curl example"
     body = json.loads(example.group(1))
     fleet = demo_source(agvs=12, seed=1)
-    client = TestClient(create_app(fleet))
+    client = logged_in(create_app(fleet))
     r = client.post("/api/sessions", json=body)
     assert r.status_code == 201, r.text
     sid = r.json()["id"]
@@ -208,9 +209,11 @@ async def test_a_sender_that_dies_closes_its_socket(
 
     monkeypatch.setattr(ClientFeed, "take", take_then_fail)
     with Served(source) as served:
-        async with connect(served.url.replace("http", "ws") + "/ws/events") as ws:
+        async with connect(
+            served.url.replace("http", "ws") + "/ws/events", additional_headers=served.headers()
+        ) as ws:
             assert json.loads(await ws.recv())["type"] == "snapshot"
-            async with httpx.AsyncClient(base_url=served.url) as http:
+            async with httpx.AsyncClient(base_url=served.url, headers=served.headers()) as http:
                 r = await http.post("/api/sessions", json=poll({"type": "within", "distance": 10}))
                 assert r.status_code == 201
             with pytest.raises(ConnectionClosed) as closed:

@@ -104,7 +104,9 @@ async def test_a_hostile_client_gets_4xx_and_the_fleet_runs_on() -> None:
     fleet.set_speed(10.0)
     limits = httpx.Limits(max_connections=100, max_keepalive_connections=100)
     with Served(fleet) as served:
-        async with httpx.AsyncClient(base_url=served.url, timeout=60, limits=limits) as http:
+        async with httpx.AsyncClient(
+            base_url=served.url, headers=served.headers(), timeout=60, limits=limits
+        ) as http:
             nodes = sorted(n["id"] for n in (await http.get("/api/nodes")).json())
             agvs = [n for n in nodes if n.startswith("agv-")]
             start = (await http.get("/api/metrics")).json()["sim"]["now"]

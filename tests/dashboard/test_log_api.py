@@ -8,6 +8,7 @@ import pytest
 
 from dashboard.app import create_app
 from tests.dashboard.conftest import NetworkSource, TestClient
+from tests.dashboard.login import logged_in
 from tests.dashboard.test_api import start_poll
 
 
@@ -18,7 +19,7 @@ def app(source: NetworkSource) -> Any:
 
 @pytest.fixture
 def logged(app: Any) -> TestClient:
-    return TestClient(app)
+    return logged_in(app)
 
 
 def texts(client: TestClient, **params: Any) -> list[str]:
@@ -42,7 +43,7 @@ def test_sessions_started_and_stopped_over_rest_are_logged(logged: TestClient) -
 
 def test_pause_and_resume_are_logged_with_why(logged: TestClient) -> None:
     assert logged.post("/api/sim/pause", json={"reason": "aisle 3 blocked"}).status_code == 200
-    assert logged.post("/api/sim/resume").status_code == 200
+    assert logged.post("/api/sim/resume", json={}).status_code == 200
     events = logged.get("/api/events").json()["events"]
     assert [(e["severity"], e["text"]) for e in events] == [
         ("warning", "fleet paused: aisle 3 blocked"),

@@ -13,6 +13,7 @@ from dashboard.state import DashboardState
 from dashboard.vehicle_detail import route_length
 from tests.dashboard.bodies import poll_body
 from tests.dashboard.conftest import NetworkSource, TestClient, advance
+from tests.dashboard.login import logged_in
 
 
 @pytest.fixture
@@ -22,7 +23,7 @@ def fleet() -> Fleet:
 
 @pytest.fixture
 def client(fleet: Fleet) -> TestClient:
-    return TestClient(create_app(fleet))
+    return logged_in(create_app(fleet))
 
 
 def dashboard(client: TestClient) -> DashboardState:
@@ -132,7 +133,7 @@ def test_bad_panel_requests_are_4xx(client: TestClient, url: str, status: int) -
 
 
 def test_an_api_sessions_members_join_and_leave_as_they_move(source: NetworkSource) -> None:
-    client = TestClient(create_app(source))
+    client = logged_in(create_app(source))
     state = dashboard(client)
     # agv-1 at (10, 9) polls within 5 m: agv-2 at (14, 9) is in, then moves away.
     r = client.post("/api/sessions", json=poll_body("agv-1", {"type": "within", "distance": 5.0}))
@@ -164,7 +165,7 @@ def test_an_api_sessions_members_join_and_leave_as_they_move(source: NetworkSour
 
 
 def test_a_fleet_without_vehicles_has_no_vehicle_detail(source: NetworkSource) -> None:
-    client = TestClient(create_app(source))
+    client = logged_in(create_app(source))
     r = client.get("/api/vehicles/agv-1/detail")  # a node, but no vehicle
     assert r.status_code == 404
     assert "agv-1" in r.json()["detail"]

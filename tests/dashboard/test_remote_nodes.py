@@ -16,6 +16,7 @@ from dashboard.app import create_app
 from objectplaces import NodeStats, ParticipationInfo, SessionInfo
 from objectplaces.groups import circles_overlap
 from tests.dashboard.conftest import NetworkSource, TestClient
+from tests.dashboard.login import logged_in
 
 REMOTE = "agv-9"
 SESSION = f"{REMOTE}#3"
@@ -52,7 +53,7 @@ class RemoteSource(NetworkSource):
 @pytest.fixture
 def remote_client() -> tuple[TestClient, RemoteSource]:
     source = RemoteSource()
-    return TestClient(create_app(source)), source
+    return logged_in(create_app(source)), source
 
 
 def test_a_remote_node_is_listed_and_detailed_like_a_local_one(

@@ -12,6 +12,7 @@ from dashboard.poll import PollInitiator
 from dashboard.state import ApiSession, ApiSessions, DashboardState
 from objectplaces import Session
 from tests.dashboard.conftest import NetworkSource, TestClient
+from tests.dashboard.login import logged_in
 
 POLL = {
     "node": "agv-1",
@@ -57,7 +58,7 @@ def test_too_many_live_http_sessions_is_429(source: NetworkSource) -> None:
     app = create_app(source)
     state: DashboardState = app.state.dashboard
     state.api.limit = 3
-    client = TestClient(app)
+    client = logged_in(app)
     started = [client.post("/api/sessions", json=POLL) for _ in range(3)]
     assert [r.status_code for r in started] == [201, 201, 201]
     r = client.post("/api/sessions", json=POLL)

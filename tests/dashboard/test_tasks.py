@@ -9,7 +9,8 @@ import pytest
 from agv_app.fleet import Fleet, FleetConfig
 from dashboard.app import create_app
 from dashboard.source import TaskBookSource
-from tests.dashboard.conftest import TOKEN, NetworkSource, TestClient
+from tests.dashboard.conftest import NetworkSource, TestClient
+from tests.dashboard.login import anonymous, logged_in
 
 TASK_FIELDS = {
     "id",
@@ -31,7 +32,7 @@ def fleet() -> Fleet:
 
 @pytest.fixture
 def fleet_client(fleet: Fleet) -> TestClient:
-    return TestClient(create_app(fleet))
+    return logged_in(create_app(fleet))
 
 
 def create(client: TestClient, station: str = "pick-A1-1") -> str:
@@ -140,15 +141,14 @@ def test_bad_task_requests_are_refused_with_4xx(
     assert r.json()["detail"]
 
 
-def test_cancel_needs_the_token(fleet: Fleet) -> None:
-    guarded = TestClient(create_app(fleet, token=TOKEN))
-    task_id = guarded.post(
-        "/api/tasks", json={"station": "pick-A1-1"}, headers={"Authorization": f"Bearer {TOKEN}"}
-    ).json()["task_id"]
-    assert guarded.delete(f"/api/tasks/{task_id}").status_code == 401
-    assert guarded.get(f"/api/tasks/{task_id}").json()["state"] == "waiting"
-    r = guarded.delete(f"/api/tasks/{task_id}", headers={"Authorization": f"Bearer {TOKEN}"})
-    assert r.status_code == 200
+def test_cancel_needs_the_operator_token(fleet: Fleet) -> None:
+    app = create_app(fleet)
+    operator, viewer, stranger = logged_in(app), logged_in(app, "viewer"), anonymous(app)
+    task_id = operator.post("/api/tasks", json={"station": "pick-A1-1"}).json()["task_id"]
+    assert stranger.delete(f"/api/tasks/{task_id}").status_code == 401
+    assert viewer.delete(f"/api/tasks/{task_id}").status_code == 403
+    assert viewer.get(f"/api/tasks/{task_id}").json()["state"] == "waiting"
+    assert operator.delete(f"/api/tasks/{task_id}").status_code == 200
 
 
 def test_a_fleet_without_a_task_book_lists_none(client: TestClient, source: NetworkSource) -> None:

@@ -9,6 +9,7 @@ import pytest
 from agv_app.fleet import Fleet, FleetConfig
 from dashboard.app import create_app
 from tests.dashboard.conftest import TestClient
+from tests.dashboard.login import logged_in
 
 FIELDS = {
     "id", "x", "y", "heading", "length", "width", "status", "task",
@@ -23,7 +24,7 @@ def fleet() -> Fleet:
 
 @pytest.fixture
 def fleet_client(fleet: Fleet) -> TestClient:
-    return TestClient(create_app(fleet))
+    return logged_in(create_app(fleet))
 
 
 def test_every_vehicle_is_listed_by_id(fleet: Fleet, fleet_client: TestClient) -> None:

@@ -25,12 +25,20 @@ Event = dict[str, Any]
 class NodeProcess:
     """One ``objectplaces node`` process with ``--control``."""
 
-    def __init__(self, node_id: str, secret_file: Path, args: list[str], run_seconds: float):
+    def __init__(
+        self,
+        node_id: str,
+        credentials: list[str],
+        args: list[str],
+        run_seconds: float,
+        prefix: list[str] | None = None,
+    ):
         self.node_id = node_id
         command = [
+            *(prefix or []),
             sys.executable, "-m", "objectplaces.node_cli",
             "--id", node_id,
-            "--secret-file", str(secret_file),
+            *credentials,
             "--control",
             "--run-seconds", str(run_seconds),
             "--log-level", "INFO",
@@ -165,16 +173,42 @@ class NodeProcess:
 
 
 class Cluster:
-    """Node processes sharing one secret; ``close()`` kills what is left."""
+    """Node processes of one mesh; ``close()`` kills what is left.
 
-    def __init__(self, secret_file: Path, *, run_seconds: float = 60.0):
+    Args:
+        secret_file: plain links on loopback, proven by the secret in this file.
+        pki: mutual TLS instead, each node with its certificate in this PKI folder.
+    """
+
+    def __init__(
+        self,
+        secret_file: Path | None = None,
+        *,
+        pki: Path | None = None,
+        run_seconds: float = 60.0,
+    ):
+        assert (secret_file is None) != (pki is None), "a secret file or a PKI folder"
         self.secret_file = secret_file
+        self.pki = pki
         self.run_seconds = run_seconds
         self.nodes: list[NodeProcess] = []
 
-    def start(self, node_id: str, *args: str, secret_file: Path | None = None) -> NodeProcess:
-        """Start one node process."""
-        node = NodeProcess(node_id, secret_file or self.secret_file, list(args), self.run_seconds)
+    def start(
+        self,
+        node_id: str,
+        *args: str,
+        secret_file: Path | None = None,
+        pki: Path | None = None,
+        prefix: list[str] | None = None,
+    ) -> NodeProcess:
+        """Start one node process (with the cluster's credentials unless others are given;
+        ``prefix`` runs it inside another command, e.g. ``ip netns exec``)."""
+        pki = pki or (None if secret_file else self.pki)
+        if pki is not None:
+            credentials = ["--pki", str(pki)]
+        else:
+            credentials = ["--insecure", "--secret-file", str(secret_file or self.secret_file)]
+        node = NodeProcess(node_id, credentials, list(args), self.run_seconds, prefix)
         self.nodes.append(node)
         return node
 

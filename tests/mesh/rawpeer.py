@@ -1,4 +1,8 @@
-"""A hand-driven mesh peer for the tests: it can authenticate, or misbehave on purpose."""
+"""A hand-driven mesh peer for the tests: it can authenticate, or misbehave on purpose.
+
+It speaks the plain links of ``insecure=True`` nodes: the handshake proves a key derived
+from the secret (``derive_key(secret, "mesh handshake")``), as every node does.
+"""
 
 from __future__ import annotations
 
@@ -7,6 +11,7 @@ import os
 from websockets.asyncio.client import ClientConnection, connect
 from websockets.asyncio.server import ServerConnection
 
+from objectplaces.security import derive_key
 from objectplaces.transport.mesh_frames import (
     Auth,
     Hello,
@@ -25,16 +30,25 @@ async def open_raw(address: str, *, max_size: int | None = None) -> ClientConnec
 
 
 async def authenticate(
-    ws: ClientConnection, secret: bytes, *, node: str = "intruder", address: str = "127.0.0.1:9"
+    ws: ClientConnection,
+    secret: bytes,
+    *,
+    node: str = "intruder",
+    address: str = "127.0.0.1:9",
+    key: bytes | None = None,
 ) -> Hello:
-    """Run the dialer's side of the handshake; returns the listener's challenge."""
+    """Run the dialer's side of the handshake; returns the listener's challenge.
+
+    ``key`` is the handshake key itself, when not derived from ``secret`` (a TLS mesh's).
+    """
     nonce = os.urandom(16)
     await ws.send(
         encode_hello(challenge=False, node=node, address=address, incarnation=1, nonce=nonce)
     )
     challenge = decode_transport(await ws.recv(decode=False))
     assert isinstance(challenge, Hello)
-    mac = handshake_macs(secret, node, challenge.node, nonce, challenge.nonce)[0]
+    key = key if key is not None else derive_key(secret, "mesh handshake")
+    mac = handshake_macs(key, node, challenge.node, nonce, challenge.nonce)[0]
     await ws.send(encode_auth(mac))
     welcome = decode_transport(await ws.recv(decode=False))
     assert isinstance(welcome, Auth)
@@ -55,7 +69,8 @@ async def accept_handshake(
     )
     auth = decode_transport(await ws.recv(decode=False))
     assert isinstance(auth, Auth)
-    dialer_mac, listener_mac = handshake_macs(secret, hello.node, node, hello.nonce, nonce)
+    key = derive_key(secret, "mesh handshake")
+    dialer_mac, listener_mac = handshake_macs(key, hello.node, node, hello.nonce, nonce)
     assert auth.mac == dialer_mac
     await ws.send(encode_auth(listener_mac, welcome=True))
     return hello

@@ -18,6 +18,7 @@ from websockets.exceptions import ConnectionClosed
 from objectplaces.core import codec
 from objectplaces.core.messages import PropertyUpdate
 from objectplaces.transport.mesh_frames import HELLO, encode_batch
+from tests.credentials import TEST_SECRET, write_secret
 from tests.mesh.procs import Cluster, NodeProcess
 from tests.mesh.rawpeer import authenticate, open_raw
 
@@ -29,9 +30,7 @@ FLOOD_RATE = 200
 
 @pytest.fixture
 def cluster(tmp_path: Path):
-    secret = tmp_path / "secret"
-    secret.write_bytes(b"the right secret")
-    cluster = Cluster(secret, run_seconds=60.0)
+    cluster = Cluster(write_secret(tmp_path), run_seconds=60.0)
     try:
         yield cluster
     finally:
@@ -85,8 +84,7 @@ async def test_abuse_is_refused_and_the_node_keeps_serving(
     await follows(a, b, 2.0)
 
     # A node with the wrong secret is refused, and both sides say so.
-    wrong = tmp_path / "wrong"
-    wrong.write_bytes(b"not the secret")
+    wrong = write_secret(tmp_path, b"not the secret, though long enough", name="wrong")
     intruder = cluster.start("c", "--join", address, secret_file=wrong)
     await asyncio.to_thread(a.wait_stderr, "authentication failed for 'c'")
     await asyncio.to_thread(intruder.wait_stderr, "authentication failed")
@@ -106,7 +104,7 @@ async def test_abuse_is_refused_and_the_node_keeps_serving(
     assert (code, "version" in reason) == (1008, True)
 
     # Authenticated, then misbehaving: each link is closed with its reason.
-    secret = b"the right secret"
+    secret = TEST_SECRET
     cases: list[tuple[list[bytes | str], int, str]] = [
         ([b"\x93\xc1\xc1"], 1002, "malformed"),
         ([msgpack.packb([99, 1, 2])], 1002, "unknown"),

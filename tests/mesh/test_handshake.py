@@ -18,7 +18,12 @@ SECRET = b"shared"
 
 
 def machine(
-    node: str, *, dialing: bool, secret: bytes = SECRET, now: float = 0.0
+    node: str,
+    *,
+    dialing: bool,
+    secret: bytes = SECRET,
+    now: float = 0.0,
+    certified: str | None = None,
 ) -> HandshakeMachine:
     return HandshakeMachine(
         node_id=node,
@@ -31,6 +36,7 @@ def machine(
         timeout=5.0,
         max_frame=4096,
         dialed="127.0.0.1:7000" if dialing else "",
+        certified=certified,
     )
 
 
@@ -53,6 +59,34 @@ def test_two_machines_with_the_secret_establish_a_link_in_four_frames() -> None:
     assert converse(dialer, listener) == 4
     assert dialer.outcome == Established("b", "127.0.0.1:7098", ord("b"), dialer="a")
     assert listener.outcome == Established("a", "127.0.0.1:7097", ord("a"), dialer="a")
+
+
+def test_a_hello_naming_another_id_than_the_certificate_is_refused() -> None:
+    # mallory holds a valid certificate, for "mallory", and says it is "a".
+    impostor = machine("a", dialing=True)
+    listener = machine("b", dialing=False, certified="mallory")
+    converse(impostor, listener)
+    assert listener.outcome == Refused(
+        1008, "certificate names 'mallory', hello claims 'a'", "refused_identity"
+    )
+    assert impostor.outcome is None  # it learned nothing: no challenge was sent
+
+
+def test_a_listener_whose_hello_is_not_its_certificate_is_refused() -> None:
+    dialer = machine("a", dialing=True, certified="mallory")
+    impostor = machine("b", dialing=False)
+    converse(dialer, impostor)
+    assert dialer.outcome == Refused(
+        1008, "certificate names 'mallory', hello claims 'b'", "refused_identity"
+    )
+
+
+def test_ids_that_match_their_certificates_link() -> None:
+    dialer = machine("a", dialing=True, certified="b")
+    listener = machine("b", dialing=False, certified="a")
+    assert converse(dialer, listener) == 4
+    assert isinstance(dialer.outcome, Established)
+    assert isinstance(listener.outcome, Established)
 
 
 def test_a_dialer_without_the_secret_is_refused_and_learns_nothing() -> None:

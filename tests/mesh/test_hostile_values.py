@@ -23,13 +23,14 @@ import pytest
 from websockets.asyncio.server import ServerConnection, serve
 from websockets.exceptions import ConnectionClosed
 
+from tests.credentials import TEST_SECRET, write_secret
 from tests.mesh.procs import Cluster, NodeProcess
 from tests.mesh.rawpeer import accept_handshake, authenticate, open_raw
 from tests.mesh.test_bad_input import follows
 
 pytestmark = pytest.mark.processes
 
-SECRET = b"the right secret"
+SECRET = TEST_SECRET
 HOSTILE_POSITIONS: list[object] = [
     ["x", "y"],
     [math.nan, 0],
@@ -45,9 +46,7 @@ def property_frame(seq: int, values: dict[str, Any]) -> bytes:
 
 @pytest.fixture
 def cluster(tmp_path: Path):
-    secret = tmp_path / "secret"
-    secret.write_bytes(SECRET)
-    cluster = Cluster(secret, run_seconds=60.0)
+    cluster = Cluster(write_secret(tmp_path), run_seconds=60.0)
     try:
         yield cluster
     finally:

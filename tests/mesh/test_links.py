@@ -13,10 +13,11 @@ from objectplaces import Initiator, Participant, groups
 from objectplaces.core.messages import PropertyUpdate
 from objectplaces.mesh import MeshNode, MeshOptions, start_mesh_node
 from objectplaces.roles import ParticipantRef
+from tests.credentials import TEST_SECRET
 from tests.mesh.rawpeer import authenticate, open_raw
 from tests.waiting import until
 
-SECRET = b"links"
+SECRET = TEST_SECRET
 
 
 class Recorder(Initiator):
@@ -40,7 +41,13 @@ class Greeter(Participant):
 
 async def node(node_id: str, join: list[str], **kwargs: Any) -> MeshNode:
     return await start_mesh_node(
-        node_id, join=join, secret=SECRET, property_interval=0.2, failure_timeout=30.0, **kwargs
+        node_id,
+        join=join,
+        insecure=True,
+        secret=SECRET,
+        property_interval=0.2,
+        failure_timeout=30.0,
+        **kwargs,
     )
 
 

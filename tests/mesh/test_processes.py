@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 
+from tests.credentials import write_secret
 from tests.mesh.procs import Cluster, Event, NodeProcess
 
 pytestmark = pytest.mark.processes
@@ -19,9 +20,7 @@ TIMING = ["--property-interval", str(INTERVAL), "--failure-timeout", str(FAILURE
 
 @pytest.fixture
 def secret_file(tmp_path: Path) -> Path:
-    path = tmp_path / "secret"
-    path.write_bytes(os.urandom(16).hex().encode())
-    return path
+    return write_secret(tmp_path, os.urandom(32).hex().encode())
 
 
 @pytest.fixture

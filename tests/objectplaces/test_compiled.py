@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 import threading
@@ -11,9 +12,20 @@ from pathlib import Path
 import pytest
 
 import objectplaces
-from objectplaces.compiled import ACTIVE_ENV, Build, CompiledBuildError, ensure_built
+from objectplaces.compiled import (
+    ACTIVE_ENV,
+    Build,
+    CompiledBuildError,
+    ensure_built,
+    find_built,
+)
 
-pytestmark = pytest.mark.source_only("builds from the source tree it runs in")
+pytestmark = [
+    pytest.mark.source_only("builds from the source tree it runs in"),
+    # Each test builds a one-module package: seconds on a quiet machine, a minute or more
+    # on a loaded one; the bound only catches a hang.
+    pytest.mark.timeout(900),
+]
 
 _FAST = """
 class Counter:
@@ -59,9 +71,13 @@ def _run_on(tree: Path, code: str) -> str:
 def test_a_build_runs_the_module_compiled_with_the_same_results(tmp_path: Path) -> None:
     build = _package(tmp_path / "src")
     lines: list[str] = []
+    assert find_built(build, tmp_path / "cache") is None
     tree = ensure_built(build, tmp_path / "cache", report=lines.append)
+    assert find_built(build, tmp_path / "cache") == tree
     assert tree.name == f"compiled-{build.digest()}"
     assert lines[0].startswith("compiling 1 modules with mypyc")
+    assert lines[1] == "type-checking 1 modules and translating them to C"
+    assert any(re.fullmatch(r"compiled (\d+) of \1 C files", line) for line in lines)
     assert lines[-1].startswith("compiled in ")
     out = _run_on(
         tree,

@@ -165,12 +165,12 @@ def tls_router(pki: TemporaryPki, tmp_path: Path) -> Iterator[str]:
 
 
 def test_clients_of_a_tls_router_process_and_a_killed_client_leaves(
-    pki: TemporaryPki, tls_router: str, secret_file: Path
+    pki: TemporaryPki, tls_router: str
 ) -> None:
-    cluster = Cluster(secret_file, run_seconds=60.0)  # the secret goes unused with --pki
+    cluster = Cluster(pki=pki.directory, run_seconds=60.0)
     client = [
-        "--transport", "zenoh", "--pki", str(pki.directory), "--mode", "client",
-        "--connect", tls_router, "--property-interval", "0.2", "--failure-timeout", "60",
+        "--transport", "zenoh", "--mode", "client", "--connect", tls_router,
+        "--property-interval", "0.2", "--failure-timeout", "60",
     ]  # fmt: skip
     try:
         collector = cluster.start(

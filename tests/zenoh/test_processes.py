@@ -18,9 +18,7 @@ from tests.mesh.test_processes import check_only_members_speak, group_events
 
 pytestmark = pytest.mark.processes
 
-ZENOH = [
-    "--transport", "zenoh", "--insecure", "--property-interval", "0.2", "--failure-timeout", "60"
-]  # fmt: skip
+ZENOH = ["--transport", "zenoh", "--property-interval", "0.2", "--failure-timeout", "60"]
 
 
 @pytest.fixture

@@ -12,10 +12,13 @@ from typing import Any
 import pytest
 
 from agv_app.fleet.compiled import SIM_MODULES, sim_build
-from objectplaces.compiled import ensure_built
+from objectplaces.compiled import default_cache, find_built
 
 pytestmark = [
     pytest.mark.slow,
+    # Fleets run as child processes, and one test type-checks the whole build: seconds
+    # on a quiet machine, minutes on a loaded one; the bound only catches a hang.
+    pytest.mark.timeout(900),
     pytest.mark.source_only("compares the source with the build"),
 ]
 
@@ -37,7 +40,15 @@ print(json.dumps({"summary": summary, "compiled": loaded_compiled(SIM_MODULES)})
 
 @pytest.fixture(scope="module")
 def build() -> Path:
-    return ensure_built(sim_build())
+    """The build ``make test`` made before the suite; a test never compiles it, as a cold
+    build takes minutes on a busy machine."""
+    tree = find_built(sim_build())
+    if tree is None:
+        pytest.fail(
+            f"no compiled build of this source in {default_cache()}: make it first with "
+            "`make compiled` (or `.venv/bin/python -m agv_app.fleet.compiled`)"
+        )
+    return tree
 
 
 def _run(path: list[Path], args: list[Any]) -> dict[str, Any]:

@@ -9,19 +9,14 @@ import asyncio
 import math
 import stat
 import time
-import warnings
 from pathlib import Path
 
 import pytest
-from starlette.exceptions import StarletteDeprecationWarning
 
 from agv_app.fleet import OBSERVER_ID, MeshFleet
 from agv_app.tasks import BASE_ID
 from dashboard.app import create_app
-
-with warnings.catch_warnings():
-    warnings.simplefilter("ignore", StarletteDeprecationWarning)
-    from starlette.testclient import TestClient
+from tests.dashboard.login import logged_in
 
 pytestmark = [pytest.mark.processes, pytest.mark.timeout(90)]
 
@@ -37,9 +32,9 @@ def _cmdline(pid: int) -> bytes:
     return Path(f"/proc/{pid}/cmdline").read_bytes()
 
 
-def _secret_file(pid: int) -> Path:
+def _pki_dir(pid: int) -> Path:
     args = _cmdline(pid).split(b"\0")
-    return Path(args[args.index(b"--secret-file") + 1].decode())
+    return Path(args[args.index(b"--pki") + 1].decode())
 
 
 async def test_agv_processes_take_a_task_and_are_reaped() -> None:
@@ -48,9 +43,13 @@ async def test_agv_processes_take_a_task_and_are_reaped() -> None:
     pids = fleet.pids()
     try:
         assert len(pids) == 3
-        secret = _secret_file(pids[0])
-        assert stat.S_IMODE(secret.stat().st_mode) == 0o600
-        assert secret.read_bytes() not in _cmdline(pids[0])
+        # Every link is mutual TLS: the run's throwaway CA issued each AGV its key,
+        # which only its owner can read and which no command line holds.
+        pki = _pki_dir(pids[0])
+        key = pki / "agv-01.key"
+        assert stat.S_IMODE(key.stat().st_mode) == 0o600
+        assert key.read_bytes() not in _cmdline(pids[0])
+        assert not (pki / "private").stat().st_mode & 0o077
         try:
             async with asyncio.timeout(40):
                 await fleet.wait_ready()
@@ -106,7 +105,7 @@ async def test_agv_processes_take_a_task_and_are_reaped() -> None:
         await fleet.stop()
     assert not any(_alive(pid) for pid in pids)
     assert fleet.exit_codes() == dict.fromkeys(AGVS, 0), "each left the mesh gracefully"
-    assert not secret.exists()
+    assert not pki.exists(), "the throwaway CA is removed with the run"
 
 
 async def test_speed_is_real_time_and_pause_only_stops_new_tasks() -> None:
@@ -128,7 +127,7 @@ async def test_speed_is_real_time_and_pause_only_stops_new_tasks() -> None:
 
 def test_dashboard_shows_the_agv_processes() -> None:
     fleet = MeshFleet(agvs=3, seed=5, task_interval=None, run_seconds=80.0)
-    with TestClient(create_app(fleet)) as client:
+    with logged_in(create_app(fleet)) as client:
         assert fleet.started  # the app's lifespan ran the optional start hook
         pids = fleet.pids()
         assert len(pids) == 3

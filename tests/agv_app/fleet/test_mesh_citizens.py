@@ -9,19 +9,14 @@ from __future__ import annotations
 import os
 import signal
 import time
-import warnings
 from collections.abc import Callable
 from typing import Any
 
 import pytest
-from starlette.exceptions import StarletteDeprecationWarning
 
 from agv_app.fleet import OBSERVER_ID, MeshFleet
 from dashboard.app import create_app
-
-with warnings.catch_warnings():
-    warnings.simplefilter("ignore", StarletteDeprecationWarning)
-    from starlette.testclient import TestClient
+from tests.dashboard.login import logged_in
 
 pytestmark = [pytest.mark.processes, pytest.mark.timeout(120)]
 
@@ -43,7 +38,7 @@ def wait_for(what: str, probe: Callable[[], Any], timeout_s: float, fleet: MeshF
 def test_agvs_are_nodes_vehicles_and_session_initiators_of_the_api() -> None:
     fleet = MeshFleet(agvs=3, seed=4, task_interval=None, run_seconds=100.0)
     agvs = fleet.agv_ids
-    with TestClient(create_app(fleet)) as client:
+    with logged_in(create_app(fleet)) as client:
 
         def listed() -> bool:
             ids = [n["id"] for n in client.get("/api/nodes").json()]
@@ -123,7 +118,7 @@ def test_agvs_are_nodes_vehicles_and_session_initiators_of_the_api() -> None:
 
 def test_an_agv_process_killed_with_sigkill_raises_an_alarm_within_10_s() -> None:
     fleet = MeshFleet(agvs=2, seed=6, task_interval=None, run_seconds=100.0)
-    with TestClient(create_app(fleet)) as client:
+    with logged_in(create_app(fleet)) as client:
 
         def both_heard() -> bool:
             return len(client.get("/api/vehicles").json()) == 2

@@ -360,7 +360,7 @@ def test_footprints_let_an_agv_hear_fewer_agvs(
 
 # -- the AGV process on the mesh --------------------------------------------------------
 
-_PROCESS_ARGS = ["--id", "agv-1", "--secret-file", "secret", "--home", "P0350n"]
+_PROCESS_ARGS = ["--id", "agv-1", "--pki", "pki", "--home", "P0350n"]
 
 
 @pytest.mark.parametrize(
