@@ -189,6 +189,13 @@ def issue(
         raise CredentialError(f"days must be in 1..3650, got {days!r}")
     ca_cert, ca_key = _load_ca(directory)
     index = _read_index(directory)
+    revoked = [e for e in index if e.node_id == node_id and e.revoked is not None]
+    if revoked:
+        raise CredentialError(
+            f"{node_id!r} was revoked at {revoked[-1].revoked}: a revoked id is not issued "
+            "again (Zenoh's access control tells certificates apart by id alone, so the "
+            "revoked one would be let back in); issue the replacement under a new id"
+        )
     earlier = _current(index, node_id)
     if earlier is not None:
         raise CredentialError(

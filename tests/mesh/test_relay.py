@@ -31,6 +31,7 @@ class Relay:
         self.captured = bytearray()
         self.connections = 0
         self._upstream: list[asyncio.StreamWriter] = []
+        self._writers: list[asyncio.StreamWriter] = []
         self._server: asyncio.Server | None = None
 
     async def start(self) -> None:
@@ -39,11 +40,13 @@ class Relay:
 
     async def _serve(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
         self.connections += 1
+        self._writers.append(writer)
         try:
             up_reader, up_writer = await asyncio.open_connection(*self.target)
         except OSError:
             writer.close()
             return
+        self._writers.append(up_writer)
         self._upstream.append(up_writer)
         async with asyncio.TaskGroup() as tg:
             tg.create_task(self._pump(reader, up_writer))
@@ -69,8 +72,12 @@ class Relay:
     async def close(self) -> None:
         if self._server is not None:
             self._server.close()
-        for writer in self._upstream:
+        for writer in self._writers:
             writer.close()
+            with contextlib.suppress(OSError):
+                await writer.wait_closed()
+        if self._server is not None:
+            await self._server.wait_closed()
 
 
 def forged_property_frame(x: float, y: float) -> bytes:

@@ -25,7 +25,14 @@ from websockets.exceptions import ConnectionClosed, InvalidHandshake
 
 from objectplaces import LocalProtocolError
 from objectplaces.mesh import MeshNode, start_mesh_node
-from objectplaces.security import CredentialError, Identity, TemporaryPki, derive_key, revoke
+from objectplaces.security import (
+    CredentialError,
+    Identity,
+    TemporaryPki,
+    derive_key,
+    issue,
+    revoke,
+)
 from objectplaces.security.pki import write_private
 from tests.credentials import TEST_SECRET
 from tests.mesh.rawpeer import authenticate
@@ -236,3 +243,12 @@ def test_an_expired_certificate_is_refused_naming_when(pki: TemporaryPki) -> Non
     )
     with pytest.raises(CredentialError, match=r"old\.pem expired on 2020-01-31"):
         Identity.from_pki(d, "old")
+
+
+def test_a_revoked_id_is_not_issued_again(pki: TemporaryPki) -> None:
+    pki.identity("lost", role="agv")
+    revoke(pki.directory, "lost")
+    with pytest.raises(CredentialError, match="a revoked id is not issued again"):
+        issue(pki.directory, "lost", role="agv")
+    with pytest.raises(CredentialError, match="holds no certificate that is not revoked"):
+        revoke(pki.directory, "lost")
