@@ -31,12 +31,14 @@ _OFFLINE_TIMEOUT_S = 1.0
 
 
 class BridgeCounters:
-    """Messages the bridge published and received, and whether it is connected."""
+    """Messages the bridge published and received, whether it is connected, and how
+    often it connected."""
 
     def __init__(self) -> None:
         self.published = 0
         self.received = 0
         self.connected = False
+        self.connects = 0
 
 
 class ConnectionTrouble:
@@ -169,6 +171,7 @@ async def run_bridge(
         try:
             async with client:
                 counters.connected = connected = True
+                counters.connects += 1
                 trouble.connected()
                 try:
                     await _serve_connection(client, endpoint, counters, tick_s)

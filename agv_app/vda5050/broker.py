@@ -15,10 +15,11 @@ address it listens on) it has one TLS 1.3 listener that:
   :mod:`agv_app.vda5050.acl`).
 
 It re-reads the PKI's ``members.json`` and CRL when they change (checked every
-``watch_s``, by a thread that only looks at those two files): the access list is
-written anew and mosquitto reloads it and the CRL (SIGHUP), so a master issued later
-gets its rights and a revoked certificate is refused on its next connect (a connection
-open at the revocation stays until it closes). A plain listener with anonymous clients
+``watch_s`` by a thread of its own, which touches only those files, the access list and
+the mosquitto process): the access list is written anew and mosquitto reloads it and
+the CRL (SIGHUP), so a master issued later gets its rights and a revoked certificate
+is refused on its next connect (a connection open at the revocation stays until it
+closes). A plain listener with anonymous clients
 is had only when asked for by name (``insecure``) and only on loopback. Either way: no
 persistence, and ``set_tcp_nodelay true`` (without it, QoS 1 round trips were measured
 at 88 ms).
@@ -47,6 +48,7 @@ from typing import Final
 from cryptography import x509
 
 from agv_app.vda5050.acl import access_list
+from agv_app.vda5050.link import BrokerError, MqttLink, probe_broker
 from agv_app.vda5050.topics import BrokerAddress
 from objectplaces.core.errors import LocalProtocolError
 from objectplaces.security import CredentialError, Identity, is_loopback, issued
@@ -58,6 +60,7 @@ BROKER_ID: Final = "broker"
 """The broker's id in a fleet PKI by default (role ``router``)."""
 
 _HOST: Final = "127.0.0.1"
+_RELOADING: Final = "Reloading config."  # what mosquitto logs as it handles SIGHUP
 _CANDIDATES: Final = (
     "/usr/sbin/mosquitto",
     "/usr/local/sbin/mosquitto",
@@ -201,7 +204,7 @@ class LocalBroker:
         self.watch_s = watch_s
         self.address: BrokerAddress | None = None
         self.reloads = 0
-        """How often mosquitto was told to reload its access list and CRL."""
+        """How often mosquitto reloaded its access list and CRL."""
         self._proc: subprocess.Popen[bytes] | None = None
         self._dir: Path | None = None
         self._watcher: threading.Thread | None = None
@@ -298,15 +301,51 @@ class LocalBroker:
         tmp.write_text(text)
         os.replace(tmp, self._dir / "acl")  # mosquitto never reads half a list
 
-    def reload(self) -> None:
+    def reload(self) -> bool:
         """Write the access list anew from ``members.json`` and have mosquitto reload it
-        and the CRL. A ``members.json`` that cannot be read now keeps the list before."""
+        and the CRL; return once it has (blocks; bounded by ``start_timeout_s``). A
+        ``members.json`` that cannot be read now keeps the list before.
+
+        Returns:
+            True once mosquitto enforces what the files say now; False if it is not
+            running or did not say it reloaded in time.
+        """
         with contextlib.suppress(CredentialError):
             self._write_acl()
-        proc = self._proc
-        if proc is not None and proc.poll() is None:
-            proc.send_signal(signal.SIGHUP)
-            self.reloads += 1
+        proc, address = self._proc, self.address
+        if proc is None or proc.poll() is not None or address is None:
+            return False
+        before = self._log_size()
+        proc.send_signal(signal.SIGHUP)
+        deadline = time.monotonic() + self.start_timeout_s
+        while _RELOADING not in self._log_from(before):
+            if time.monotonic() > deadline or proc.poll() is not None:
+                return False
+            time.sleep(0.02)
+        # mosquitto reloads within one turn of its loop, which has begun: a handshake it
+        # answers now, it answers after the reload (one that met the reload may fail).
+        with contextlib.suppress(BrokerError):
+            probe_broker(MqttLink(address, self.tls), timeout_s=self.start_timeout_s)
+        self.reloads += 1
+        return True
+
+    def _log_size(self) -> int:
+        if self._dir is None:
+            return 0
+        try:
+            return (self._dir / "mosquitto.log").stat().st_size
+        except OSError:
+            return 0
+
+    def _log_from(self, offset: int) -> str:
+        if self._dir is None:
+            return ""
+        try:
+            with open(self._dir / "mosquitto.log", "rb") as log:
+                log.seek(offset)
+                return log.read().decode(errors="replace")
+        except OSError:
+            return ""
 
     def _start_watching(self) -> None:
         if self.pki is None or self.watch_s is None:
@@ -352,11 +391,7 @@ class LocalBroker:
 
     def log(self) -> str:
         """What mosquitto has logged so far (empty when stopped)."""
-        if self._dir is None:
-            return ""
-        with contextlib.suppress(OSError):
-            return (self._dir / "mosquitto.log").read_text(errors="replace")
-        return ""
+        return self._log_from(0)
 
     def __enter__(self) -> BrokerAddress:
         return self.start()

@@ -10,16 +10,18 @@ when asked for by name (``insecure``), and only to a loopback address.
 
 :func:`probe_broker` tells why a broker cannot be used, in words: unreachable, not
 speaking TLS, a certificate we refuse, or ours refused (the client library only says
-"timed out" then). It shakes hands and sends an MQTT ``PINGREQ`` instead of a
-``CONNECT``: the broker closes the link without a session, so a probe never takes
-over the client id of a running vehicle.
+"timed out" then). It shakes hands and waits for the broker's verdict on its
+certificate, and never sends a ``CONNECT``: it opens no session, so a probe never
+takes over the client id of a running vehicle.
 """
 
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import socket
 import ssl
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Final
@@ -42,6 +44,8 @@ __all__ = [
 _NODELAY: Final = (socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
 _PINGREQ: Final = b"\xc0\x00"  # an MQTT PINGREQ: no session, the broker just hangs up
 _PROBE_TIMEOUT_S: Final = 10.0
+_TICKET_WAIT_S: Final = 3.0
+_POLL_S: Final = 0.02
 _ALERTS: Final = {
     "certificate revoked": "the certificate is revoked",
     "unknown ca": "the broker trusts another CA",
@@ -268,23 +272,58 @@ def probe_broker(link: MqttLink, *, timeout_s: float = _PROBE_TIMEOUT_S) -> None
             ) from None
         with tls:
             try:
-                # TLS 1.3: the broker checks our certificate after our side of the
-                # handshake is done; a refusal arrives as an alert on the first read.
-                tls.sendall(_PINGREQ)
-                tls.recv(1)
-            except ssl.SSLError as exc:
-                alert = _alert(exc)
-                if alert is not None:
-                    raise BrokerError(
-                        f"broker {broker.url} refused the certificate {link.identity.cert} of "
-                        f"{link.identity.node_id!r}: {alert}"
-                    ) from None
+                alert = _verdict(tls, timeout_s=timeout_s)
             except TimeoutError:
                 raise BrokerError(
                     f"broker {broker.url}: no answer within {timeout_s:g} s after the handshake"
                 ) from None
-            except OSError:
-                pass  # closed: it took the certificate and hung up on the ping
+        if alert is not None:
+            raise BrokerError(
+                f"broker {broker.url} refused the certificate {link.identity.cert} of "
+                f"{link.identity.node_id!r}: {alert}"
+            )
+
+
+def _verdict(tls: ssl.SSLSocket, *, timeout_s: float) -> str | None:
+    """The broker's verdict on our certificate: the alert it sent, in words, or None
+    when it took it (raises TimeoutError after ``timeout_s`` without one).
+
+    In TLS 1.3 the broker checks a client's certificate after the client's side of the
+    handshake is done: it then sends session tickets (taken) or an alert (refused),
+    and nothing else before an MQTT CONNECT. So wait for either. A broker that sends
+    no tickets is sent a ``PINGREQ`` after a while instead: it hangs up on that if it
+    took the certificate (an alert sent just as the ping arrives may then be lost).
+    """
+    deadline = time.monotonic() + timeout_s
+    ticket_by = time.monotonic() + min(timeout_s, _TICKET_WAIT_S)
+    tls.settimeout(_POLL_S)
+    pinged = False
+    while True:
+        try:
+            said = tls.recv(1)
+        except TimeoutError:
+            session = tls.session
+            if session is not None and session.has_ticket:
+                return None
+            now = time.monotonic()
+            if now > deadline:
+                raise
+            if now > ticket_by and not pinged:
+                pinged = True
+                with contextlib.suppress(OSError):
+                    tls.sendall(_PINGREQ)
+            continue
+        except ssl.SSLError as exc:
+            alert = _alert(exc)
+            if alert is not None or pinged:
+                return alert
+        except OSError:
+            if pinged:
+                return None  # hung up on the ping: it took the certificate
+        else:
+            if said or pinged:
+                return None  # it spoke, or hung up on the ping: it took the certificate
+        return "it closed the connection after the handshake"
 
 
 async def check_broker(link: MqttLink, *, timeout_s: float = _PROBE_TIMEOUT_S) -> None:
