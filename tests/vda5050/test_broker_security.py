@@ -35,7 +35,7 @@ from tests.vda5050.harness import OneVehicle, instant, make_order
 from tests.vda5050.probe import Probe, probe
 from tests.waiting import until
 
-pytestmark = [pytest.mark.slow, pytest.mark.timeout(120)]
+pytestmark = [pytest.mark.slow]
 
 WITHIN = 60.0  # seconds: events on a loaded 2-core machine, never a speed
 

@@ -169,7 +169,6 @@ def test_an_unreachable_broker_is_named() -> None:
 
 
 @needs_mosquitto
-@pytest.mark.timeout(120)
 async def test_a_plain_broker_on_loopback_carries_a_vehicle_when_asked_for_by_name() -> None:
     with LocalBroker(insecure=True) as address:
         assert address.url.startswith("mqtt://127.0.0.1:")
@@ -192,7 +191,6 @@ async def test_a_plain_broker_on_loopback_carries_a_vehicle_when_asked_for_by_na
 
 @needs_mosquitto
 @pytest.mark.processes
-@pytest.mark.timeout(120)
 def test_the_broker_command_runs_until_sigterm_and_refuses_a_missing_pki(
     pki: TemporaryPki, tmp_path: Path
 ) -> None:
