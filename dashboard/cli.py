@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING
 
 from dashboard.listen import Listening, add_listen_arguments, listening_from_args, login_url
 from objectplaces.arguments import number, whole
+from objectplaces.core.errors import LocalProtocolError
 from objectplaces.security import CredentialError
 from objectplaces.security.pki import write_private
 
@@ -92,13 +93,19 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
         nargs="?",
         const="local",
         default=None,
-        metavar="mqtt://HOST:PORT",
-        help="every AGV speaks VDA 5050 over this MQTT broker, with --processes from its own "
-        "process (the flag alone: a mosquitto started on 127.0.0.1 for the demo); no "
-        "automatic tasks",
+        metavar="mqtts://HOST:PORT",
+        help="every AGV speaks VDA 5050 over this MQTT broker with its certificate of "
+        "--pki DIR (mqtt:// only with --insecure, on loopback), with --processes from its "
+        "own process (the flag alone: a mosquitto with a throwaway fleet PKI on 127.0.0.1 "
+        "for the demo); no automatic tasks",
     )
     parser.add_argument("--open", action="store_true", help="open the dashboard in a browser")
     add_listen_arguments(parser)
+    parser.add_argument(
+        "--insecure",
+        action="store_true",
+        help="with --vda5050: a plain MQTT link (mqtt://), on loopback only",
+    )
     parser.set_defaults(func=run_demo)
 
 
@@ -118,7 +125,9 @@ def build_source(args: argparse.Namespace) -> FleetSource:
     try:
         # --agvs left out (None): the demo fleet's own default.
         vda5050 = getattr(args, "vda5050", None)
-        extra: dict[str, str] = {} if vda5050 is None else {"vda5050": vda5050}
+        extra: dict[str, object] = {} if vda5050 is None else {"vda5050": vda5050}
+        if vda5050 is not None:
+            extra["vda5050_credentials"] = getattr(args, "vda5050_credentials", None)
         if getattr(args, "transport", "websocket") != "websocket":
             extra["transport"] = args.transport
         limit = getattr(args, "max_open_tasks", "crowded")
@@ -133,6 +142,9 @@ def build_source(args: argparse.Namespace) -> FleetSource:
         )
     except ValueError as exc:
         raise SystemExit(f"objectplaces demo: {exc}") from exc
+    except LocalProtocolError as exc:  # a certificate that cannot be used, named
+        print(f"objectplaces demo: {exc}", file=sys.stderr)
+        raise SystemExit(2) from None
 
 
 def serve(source: FleetSource, *, listening: Listening, open_browser: bool = False) -> None:
@@ -211,16 +223,17 @@ def run_demo(args: argparse.Namespace, *, builder: SourceBuilder = build_source)
     except CredentialError as exc:
         print(f"objectplaces demo: {exc}", file=sys.stderr)
         return 2
-    from agv_app.vda5050.broker import demo_broker
+    from agv_app.vda5050.demo import demo_vda5050
 
     with contextlib.ExitStack() as stack:
         try:
-            args.vda5050 = stack.enter_context(demo_broker(getattr(args, "vda5050", None)))
-        except (ValueError, OSError, RuntimeError) as exc:
+            vda5050 = stack.enter_context(demo_vda5050(args))
+        except (ValueError, OSError, RuntimeError, LocalProtocolError) as exc:
             print(f"objectplaces demo: --vda5050: {exc}", file=sys.stderr)
             return 2
-        if args.vda5050 is not None:
-            print(f"VDA 5050 over {args.vda5050}", flush=True)
+        if vda5050 is not None:
+            args.vda5050, args.vda5050_credentials = vda5050.url, vda5050.credentials
+            print(vda5050.describe(), flush=True)
         source = builder(args)
         serve(source, listening=listening, open_browser=args.open)
     return 0

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
 from agv_app.fleet.mesh import MeshFleet
 from agv_app.fleet.sim import Fleet, FleetConfig
@@ -25,6 +26,7 @@ def demo_source(
     processes: int = 0,
     load: float | None = None,
     vda5050: str | None = None,
+    vda5050_credentials: Any = None,
     transport: str = "websocket",
     max_open_tasks: int | str | None = CROWDED,
 ) -> Fleet | MeshFleet:
@@ -38,10 +40,11 @@ def demo_source(
     AGVs busy (default :data:`~agv_app.tasks.load.DEFAULT_LOAD`), and about ``load``
     times the AGVs get a task at the start, so most of them move within seconds.
 
-    With ``vda5050`` (``mqtt://HOST:PORT``) every AGV speaks VDA 5050 over that broker
+    With ``vda5050`` (``mqtts://HOST:PORT``) every AGV speaks VDA 5050 over that broker
     (an :class:`~agv_app.vda5050.sim_fleet.VdaSimFleet` in this process, or with
-    ``processes`` each AGV process its own client), and no task arrives by itself: the
-    master control sends orders (docs/vda5050.md).
+    ``processes`` each AGV process its own client) with its certificate from
+    ``vda5050_credentials`` (an :class:`~agv_app.vda5050.link.VdaCredentials`), and no
+    task arrives by itself: the master control sends orders (docs/vda5050.md).
 
     ``max_open_tasks`` keeps at most that many tasks on the floor; the others wait at
     the task desk (:class:`~agv_app.tasks.desk.TaskDesk`; ``"auto"``: a limit that
@@ -59,6 +62,7 @@ def demo_source(
         processes = getattr(args, "processes", processes) or 0
         load = getattr(args, "load", load)
         vda5050 = getattr(args, "vda5050", vda5050)
+        vda5050_credentials = getattr(args, "vda5050_credentials", vda5050_credentials)
         transport = getattr(args, "transport", transport)
         max_open_tasks = getattr(args, "max_open_tasks", max_open_tasks)
     load = check_load(DEFAULT_LOAD if load is None else load)
@@ -71,7 +75,12 @@ def demo_source(
         # Imported here: agv_app.vda5050 builds on this package's simulated fleet.
         from agv_app.vda5050.sim_fleet import VdaSimFleet
 
-        return VdaSimFleet(agvs=agvs or DEMO_AGVS, seed=seed, vda5050=vda5050)
+        return VdaSimFleet(
+            agvs=agvs or DEMO_AGVS,
+            seed=seed,
+            vda5050=vda5050,
+            credentials=vda5050_credentials,
+        )
     if processes:
         layout = demo_warehouse()
         spec = VehicleSpec(DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M)

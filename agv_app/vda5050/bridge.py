@@ -1,11 +1,14 @@
 """The MQTT shell around a :class:`~agv_app.vda5050.endpoint.VdaEndpoint`: one client per AGV.
 
 :func:`run_bridge` connects the vehicle to the broker (``aiomqtt``, an asyncio client
-on paho, with TCP_NODELAY) with ``connection: CONNECTION_BROKEN`` as its last will,
-says ``ONLINE``, publishes its factsheet, subscribes to its ``order`` and
-``instantActions``, and publishes what the endpoint says is due every ``tick_s``. When
-cancelled it says ``OFFLINE`` and disconnects. A lost broker is retried every
-``retry_s`` for as long as the bridge runs.
+on paho, with TCP_NODELAY) over its :class:`~agv_app.vda5050.link.MqttLink` (mutual
+TLS with the vehicle's certificate, whose id is its serial number) with ``connection:
+CONNECTION_BROKEN`` as its last will, says ``ONLINE``, publishes its factsheet,
+subscribes to its ``order`` and ``instantActions``, and publishes what the endpoint
+says is due every ``tick_s``. When cancelled it says ``OFFLINE`` and disconnects. A
+lost broker is retried every ``retry_s`` for as long as the bridge runs; a connection
+that fails is diagnosed (:func:`~agv_app.vda5050.link.probe_broker`) and logged in
+words, once for each new reason.
 """
 
 from __future__ import annotations
@@ -13,28 +16,57 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-import socket
 
 import aiomqtt
 
 from agv_app.vda5050.endpoint import Outgoing, VdaEndpoint
+from agv_app.vda5050.link import BrokerError, MqttLink, check_broker
 from agv_app.vda5050.messages import connection_message
-from agv_app.vda5050.topics import BrokerAddress
+from objectplaces.security import CredentialError
 
-__all__ = ["BridgeCounters", "honour_cancellation", "run_bridge"]
+__all__ = ["BridgeCounters", "ConnectionTrouble", "honour_cancellation", "run_bridge"]
 
 _log = logging.getLogger(__name__)
-_NODELAY = (socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
 _OFFLINE_TIMEOUT_S = 1.0
 
 
 class BridgeCounters:
-    """Messages the bridge published and received, and whether it is connected."""
+    """Messages the bridge published and received, whether it is connected, and how
+    often it connected."""
 
     def __init__(self) -> None:
         self.published = 0
         self.received = 0
         self.connected = False
+        self.connects = 0
+
+
+class ConnectionTrouble:
+    """Says in words why a client cannot connect, once for each new reason (a bridge
+    retries every second; the log should not)."""
+
+    def __init__(self, who: str) -> None:
+        self.who = who
+        self.last: str | None = None
+
+    async def failed(self, link: MqttLink, error: Exception, *, connected: bool) -> str:
+        """Note that the connection failed (or, ``connected``, was lost) with ``error``;
+        log why if that is news. Returns the reason."""
+        reason = str(error) or type(error).__name__
+        if not connected:
+            try:
+                await check_broker(link)
+            except BrokerError as diagnosed:
+                reason = str(diagnosed)
+        if reason != self.last:
+            self.last = reason
+            what = "connection lost" if connected else "cannot connect"
+            _log.warning("%s: %s: %s", self.who, what, reason)
+        return reason
+
+    def connected(self) -> None:
+        """The connection is up: the next failure is news again."""
+        self.last = None
 
 
 def _connection(endpoint: VdaEndpoint, state: str) -> Outgoing:
@@ -97,7 +129,7 @@ async def _serve_connection(
 
 async def run_bridge(
     endpoint: VdaEndpoint,
-    broker: BrokerAddress,
+    link: MqttLink,
     *,
     counters: BridgeCounters | None = None,
     tick_s: float = 0.05,
@@ -108,27 +140,39 @@ async def run_bridge(
 
     Args:
         endpoint: the vehicle's interface.
-        broker: where the broker listens.
+        link: the broker and the vehicle's identity (its id: the serial number).
         counters: updated with what goes through the bridge.
         tick_s: how often due messages are looked for.
         retry_s: wait before connecting again after the broker was lost.
         tcp_nodelay: set TCP_NODELAY on the socket (off only to measure what it saves).
+
+    Raises:
+        CredentialError: the link's certificate names another id than the serial number
+            (the broker would let it publish nothing of this vehicle's).
     """
     counters = counters or BridgeCounters()
     topics = endpoint.topics
+    if link.client_id is not None and link.client_id != topics.serial_number:
+        assert link.identity is not None
+        raise CredentialError(
+            f"certificate {link.identity.cert} names {link.client_id!r}, but the vehicle's "
+            f"serial number is {topics.serial_number!r}"
+        )
+    trouble = ConnectionTrouble(f"VDA 5050 bridge of {topics.serial_number}")
     while True:
         will = _connection(endpoint, "CONNECTION_BROKEN")
-        client = aiomqtt.Client(
-            broker.host,
-            broker.port,
+        client = link.client(
             identifier=f"{topics.manufacturer}-{topics.serial_number}",
             will=aiomqtt.Will(topics.topic("connection"), will.payload(), qos=1, retain=True),
-            socket_options=[_NODELAY] if tcp_nodelay else [],
+            tcp_nodelay=tcp_nodelay,
             keepalive=5,
         )
+        connected = False
         try:
             async with client:
-                counters.connected = True
+                counters.connected = connected = True
+                counters.connects += 1
+                trouble.connected()
                 try:
                     await _serve_connection(client, endpoint, counters, tick_s)
                 except asyncio.CancelledError:
@@ -137,7 +181,7 @@ async def run_bridge(
                             await _publish(client, endpoint, _connection(endpoint, "OFFLINE"))
                     raise
         except* aiomqtt.MqttError as group:
-            _log.warning("VDA 5050 bridge of %s: %s", topics.serial_number, group.exceptions[0])
+            await trouble.failed(link, group.exceptions[0], connected=connected)
         finally:
             counters.connected = False
         await asyncio.sleep(retry_s)

@@ -2,7 +2,9 @@
 
 :class:`BrokerMonitor` subscribes to every vehicle's topics (``uagv/v3/+/+/#``) and
 counts: is it connected to the broker, messages per second over the last few seconds,
-and each vehicle's last ``connectionState``.
+and each vehicle's last ``connectionState``. Over TLS it connects as an observer (a
+certificate of role ``control``: the broker lets it read every vehicle's topics and
+write none, ``agv_app.vda5050.acl``).
 """
 
 from __future__ import annotations
@@ -11,38 +13,44 @@ import asyncio
 import collections
 import contextlib
 import json
-import socket
 import time
 from collections.abc import Callable
 
 import aiomqtt
 
-from agv_app.vda5050.bridge import honour_cancellation
-from agv_app.vda5050.topics import BrokerAddress, fleet_filter
+from agv_app.vda5050.bridge import ConnectionTrouble, honour_cancellation
+from agv_app.vda5050.link import MqttLink
+from agv_app.vda5050.topics import fleet_filter
 
-__all__ = ["BrokerMonitor"]
+__all__ = ["MONITOR_ID", "MONITOR_ROLES", "BrokerMonitor"]
+
+MONITOR_ID = "vda5050-monitor"
+"""The broker monitor's id in a fleet PKI by default (role ``control``)."""
+
+MONITOR_ROLES = ("control", "master")
+"""The certificate roles a monitor may have: both may read every vehicle's topics."""
 
 _WINDOW_S = 5.0
-_NODELAY = (socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
 
 
 class BrokerMonitor:
     """Counts the fleet's VDA 5050 messages (run :meth:`run` as a task).
 
     Args:
-        broker: where the broker listens.
+        link: the broker, and the monitor's identity.
         clock: monotonic seconds.
         retry_s: wait before connecting again after the broker was lost.
     """
 
     def __init__(
         self,
-        broker: BrokerAddress,
+        link: MqttLink,
         *,
         clock: Callable[[], float] = time.monotonic,
         retry_s: float = 1.0,
     ) -> None:
-        self.broker = broker
+        self.link = link
+        self.broker = link.broker
         self.clock = clock
         self.retry_s = retry_s
         self.connected = False
@@ -77,19 +85,19 @@ class BrokerMonitor:
 
     async def run(self) -> None:
         """Watch until cancelled, reconnecting after a lost broker."""
+        trouble = ConnectionTrouble("VDA 5050 broker monitor")
         while True:
             try:
-                async with aiomqtt.Client(
-                    self.broker.host, self.broker.port, socket_options=[_NODELAY]
-                ) as client:
+                async with self.link.client() as client:
                     self.connected = True
+                    trouble.connected()
                     await client.subscribe(fleet_filter())
                     honour_cancellation()
                     async for message in client.messages:
                         payload = message.payload if isinstance(message.payload, bytes) else b""
                         self.seen(str(message.topic), payload)
-            except aiomqtt.MqttError:
-                pass
+            except aiomqtt.MqttError as error:
+                await trouble.failed(self.link, error, connected=self.connected)
             finally:
                 self.connected = False
             await asyncio.sleep(self.retry_s)

@@ -6,6 +6,11 @@ a broker monitor on the event loop that advances it. Its AGVs move in simulated 
 (the dashboard's speed factor applies); their messages carry wall-clock timestamps. No
 task arrives by itself: the master control sends orders.
 
+Every AGV's client connects with that AGV's own certificate (role ``agv``, its id the
+serial number), the monitor with its own (role ``control``), all from one
+:class:`~agv_app.vda5050.link.VdaCredentials`: a PKI folder, a throwaway PKI that
+issues them, or plain links on loopback.
+
 ``await fleet.start()`` before use and ``await fleet.stop()`` after (the dashboard's
 app does both in its lifespan); ``stop`` says ``OFFLINE`` for every AGV.
 """
@@ -22,9 +27,12 @@ from agv_app.fleet.sim import Fleet, FleetConfig
 from agv_app.layout.graph import Layout
 from agv_app.vda5050.bridge import BridgeCounters, run_bridge
 from agv_app.vda5050.endpoint import VdaEndpoint
-from agv_app.vda5050.monitor import BrokerMonitor
+from agv_app.vda5050.link import MqttLink, VdaCredentials
+from agv_app.vda5050.monitor import MONITOR_ID, MONITOR_ROLES, BrokerMonitor
+from agv_app.vda5050.process import VEHICLE_ROLES
 from agv_app.vda5050.topics import MANUFACTURER, VehicleTopics, parse_broker_url
 from agv_app.vda5050.vehicle import OrderAgv
+from objectplaces.core.errors import LocalProtocolError
 
 __all__ = ["VdaSimFleet"]
 
@@ -36,11 +44,16 @@ class VdaSimFleet(Fleet):
         layout: the floor plan (default: the demo warehouse).
         agvs: number of AGVs.
         seed: seeds the network.
-        vda5050: the broker, ``mqtt://HOST:PORT``.
+        vda5050: the broker, ``mqtts://HOST:PORT`` (``mqtt://`` on loopback, insecure).
+        credentials: where the clients' certificates come from.
+        monitor_id: the broker monitor's id in the PKI (role ``control``).
         fleet_options: further :class:`~agv_app.fleet.sim.FleetConfig` fields.
 
     Raises:
         ValueError: a malformed broker address.
+        LocalProtocolError: the address and the credentials do not go together
+            (:func:`~agv_app.vda5050.link.mqtt_link`).
+        CredentialError: an AGV's or the monitor's certificate is missing or unusable.
     """
 
     def __init__(
@@ -50,9 +63,15 @@ class VdaSimFleet(Fleet):
         agvs: int = 12,
         seed: int = 1,
         vda5050: str,
+        credentials: VdaCredentials,
+        monitor_id: str = MONITOR_ID,
         **fleet_options: Any,
     ) -> None:
         broker = parse_broker_url(vda5050)
+        if not isinstance(credentials, VdaCredentials):
+            raise LocalProtocolError(
+                f"the VDA 5050 clients need credentials=VdaCredentials(...), got {credentials!r}"
+            )
         config = FleetConfig(agvs=agvs, seed=seed, task_until=0.0, **fleet_options)
         super().__init__(
             layout, config, vehicle=functools.partial(OrderAgv, manufacturer=MANUFACTURER)
@@ -64,8 +83,14 @@ class VdaSimFleet(Fleet):
             for agv_id, agv in self.agvs.items()
             if isinstance(agv, OrderAgv)
         }
+        self.links: dict[str, MqttLink] = {
+            agv_id: credentials.link(broker, agv_id, roles=VEHICLE_ROLES)
+            for agv_id in self.endpoints
+        }
         self.counters = {agv_id: BridgeCounters() for agv_id in self.endpoints}
-        self.broker_monitor = BrokerMonitor(broker)
+        self.broker_monitor = BrokerMonitor(
+            credentials.link(broker, monitor_id, roles=MONITOR_ROLES)
+        )
         self._tasks: list[asyncio.Task[None]] = []
 
     @property
@@ -83,7 +108,7 @@ class VdaSimFleet(Fleet):
             raise RuntimeError("VdaSimFleet.start() called twice")
         loop = asyncio.get_running_loop()
         for agv_id, endpoint in self.endpoints.items():
-            bridge = run_bridge(endpoint, self.broker, counters=self.counters[agv_id])
+            bridge = run_bridge(endpoint, self.links[agv_id], counters=self.counters[agv_id])
             self._tasks.append(loop.create_task(bridge, name=f"vda5050-{agv_id}"))
         self._tasks.append(loop.create_task(self.broker_monitor.run(), name="vda5050-monitor"))
 

@@ -1,8 +1,10 @@
-"""VDA 5050 3.0 topic names and the broker address ``mqtt://HOST:PORT``.
+"""VDA 5050 3.0 topic names and the broker address ``mqtts://HOST:PORT``.
 
 Every message of one vehicle travels under
 ``<interfaceName>/<majorVersion>/<manufacturer>/<serialNumber>/<subtopic>``; the
-interface name is ``uagv`` and the major version ``v3``.
+interface name is ``uagv`` and the major version ``v3``. A vehicle's serial number is
+its node id, which is also the id its certificate names: the broker's access list
+(``agv_app.vda5050.acl``) gives each certificate the topics of that serial number.
 """
 
 from __future__ import annotations
@@ -16,6 +18,8 @@ __all__ = [
     "MANUFACTURER",
     "PROTOCOL_VERSION",
     "SUBTOPICS",
+    "TO_MASTER",
+    "TO_VEHICLE",
     "BrokerAddress",
     "VehicleTopics",
     "fleet_filter",
@@ -34,41 +38,55 @@ PROTOCOL_VERSION = "3.0.0"
 MANUFACTURER = "ObjectPlaces"
 """The ``manufacturer`` of the fleet's vehicles."""
 
-SUBTOPICS = ("order", "instantActions", "state", "visualization", "connection", "factsheet")
+TO_VEHICLE = ("order", "instantActions")
+"""The subtopics a master control writes and a vehicle reads."""
+
+TO_MASTER = ("state", "visualization", "connection", "factsheet")
+"""The subtopics a vehicle writes and a master control reads."""
+
+SUBTOPICS = TO_VEHICLE + TO_MASTER
 """The subtopics the bridge uses (``zoneSet`` and ``responses`` are not supported)."""
 
-_DEFAULT_PORT = 1883
+_PORTS = {"mqtts": 8883, "mqtt": 1883}
 
 
 @dataclass(frozen=True, slots=True)
 class BrokerAddress:
-    """Where the MQTT broker listens."""
+    """Where the MQTT broker listens, and whether over TLS (``mqtts``, the default)."""
 
     host: str
     port: int
+    tls: bool = True
 
     @property
     def url(self) -> str:
-        """The address as ``mqtt://HOST:PORT``."""
-        return f"mqtt://{self.host}:{self.port}"
+        """The address as ``mqtts://HOST:PORT`` (``mqtt://`` for a plain listener)."""
+        scheme = "mqtts" if self.tls else "mqtt"
+        host = f"[{self.host}]" if ":" in self.host else self.host
+        return f"{scheme}://{host}:{self.port}"
 
 
 def parse_broker_url(url: str) -> BrokerAddress:
-    """Parse ``mqtt://HOST[:PORT]`` (the port defaults to 1883).
+    """Parse ``mqtts://HOST[:PORT]`` (TLS, port 8883 by default) or ``mqtt://HOST[:PORT]``
+    (plain, port 1883 by default; who may use it is ``agv_app.vda5050.link``'s to say).
 
     Raises:
         ValueError: another scheme, no host, or a port out of range.
     """
     parts = urlsplit(url)
-    if parts.scheme != "mqtt":
-        raise ValueError(f"the broker address must look like mqtt://HOST:PORT, got {url!r}")
+    if parts.scheme not in _PORTS:
+        raise ValueError(f"the broker address must look like mqtts://HOST:PORT, got {url!r}")
     try:
         port = parts.port
     except ValueError as exc:
         raise ValueError(f"bad port in broker address {url!r}") from exc
     if not parts.hostname:
         raise ValueError(f"no host in broker address {url!r}")
-    return BrokerAddress(parts.hostname, _DEFAULT_PORT if port is None else port)
+    return BrokerAddress(
+        parts.hostname,
+        _PORTS[parts.scheme] if port is None else port,
+        tls=parts.scheme == "mqtts",
+    )
 
 
 @dataclass(frozen=True, slots=True)

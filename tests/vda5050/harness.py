@@ -74,14 +74,15 @@ def instant(serial: str, *actions: tuple[str, str]) -> dict[str, Any]:
 
 
 class OneVehicle:
-    """One order-driven AGV at its parking spot on the demo warehouse, virtual time."""
+    """One order-driven AGV (``node_id``) at its parking spot on the demo warehouse,
+    virtual time."""
 
-    def __init__(self, seed: int = 1) -> None:
+    def __init__(self, seed: int = 1, *, node_id: str = "agv-01") -> None:
         self.layout = demo_warehouse()
         spec = VehicleSpec(DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M)
         self.home = ParkingPlan(self.layout, spec, 1, rest_elsewhere=False).homes[0]
         self.net = SimulatedNetwork(seed, property_interval=1.0, failure_timeout=3.0)
-        node = self.net.add_node("agv-01")
+        node = self.net.add_node(node_id)
         self.agv = OrderAgv(
             node,
             self.layout,
@@ -91,7 +92,7 @@ class OneVehicle:
             config=AgvConfig(),
             manufacturer=MANUFACTURER,
         )
-        self.endpoint = VdaEndpoint(self.agv, VehicleTopics(MANUFACTURER, "agv-01"))
+        self.endpoint = VdaEndpoint(self.agv, VehicleTopics(MANUFACTURER, node_id))
 
     def run(self, seconds: float) -> None:
         """Step the network and the AGV for ``seconds`` of virtual time."""

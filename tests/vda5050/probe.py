@@ -1,4 +1,8 @@
-"""A master control's view of the broker in tests: every message of every vehicle, timed."""
+"""A master control's view of the broker in tests: every message of every vehicle, timed.
+
+It connects as the link says: over TLS with a master control's certificate (the broker
+lets it read every vehicle's topics and send every vehicle orders and instant actions).
+"""
 
 from __future__ import annotations
 
@@ -7,7 +11,6 @@ import contextlib
 import datetime as dt
 import itertools
 import json
-import socket
 import time
 from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
@@ -16,7 +19,8 @@ from typing import Any
 
 import aiomqtt
 
-from agv_app.vda5050.topics import MANUFACTURER, BrokerAddress, VehicleTopics, fleet_filter
+from agv_app.vda5050.link import MqttLink
+from agv_app.vda5050.topics import MANUFACTURER, VehicleTopics, fleet_filter
 
 _POLL_S = 0.05
 _SEND_TIMEOUT_S = 30.0  # a PUBACK on a machine loaded far beyond its cores
@@ -80,13 +84,9 @@ class Probe:
 
 
 @asynccontextmanager
-async def probe(broker: BrokerAddress) -> AsyncIterator[Probe]:
+async def probe(link: MqttLink) -> AsyncIterator[Probe]:
     """A connected probe, subscribed to every vehicle's topics."""
-    async with aiomqtt.Client(
-        broker.host,
-        broker.port,
-        socket_options=[(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)],
-    ) as client:
+    async with link.client() as client:
         p = Probe(client)
         await client.subscribe(fleet_filter())
 

@@ -1,4 +1,5 @@
-"""The simulated fleet speaking VDA 5050 from this process: one client per AGV, mosquitto."""
+"""The simulated fleet speaking VDA 5050 from this process: one client per AGV, mosquitto,
+every client with its own certificate, the test as the master control."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ import contextlib
 
 import pytest
 
+from agv_app.vda5050.link import MqttLink, VdaCredentials
 from agv_app.vda5050.sim_fleet import VdaSimFleet
 from agv_app.vda5050.topics import BrokerAddress
 from agv_app.vda5050.validation import schema_errors
@@ -25,9 +27,12 @@ async def drive(fleet: VdaSimFleet) -> None:
         await asyncio.sleep(DT)
 
 
-async def test_every_simulated_agv_speaks_and_drives_an_order(broker: BrokerAddress) -> None:
-    fleet = VdaSimFleet(agvs=2, seed=4, vda5050=broker.url)
-    async with probe(broker) as p:
+async def test_every_simulated_agv_speaks_and_drives_an_order(
+    broker: BrokerAddress, credentials: VdaCredentials, master: MqttLink
+) -> None:
+    assert broker.url.startswith("mqtts://")
+    fleet = VdaSimFleet(agvs=2, seed=4, vda5050=broker.url, credentials=credentials)
+    async with probe(master) as p:
         await fleet.start()
         driver = asyncio.get_running_loop().create_task(drive(fleet))
         try:
@@ -41,7 +46,11 @@ async def test_every_simulated_agv_speaks_and_drives_an_order(broker: BrokerAddr
                 assert max(gaps) <= 1.5, gaps
                 assert p.of(a, "connection")[-1].message["connectionState"] == "ONLINE"
                 assert schema_errors("factsheet", p.of(a, "factsheet")[-1].message) == []
-            assert fleet.metrics()["vda5050_vehicles_online"] == 2.0
+            await p.wait_for(
+                lambda: fleet.metrics()["vda5050_vehicles_online"] == 2.0,
+                within=30,
+                why="the monitor sees both vehicles online",
+            )
             start = fleet.agvs["agv-02"].point
             station = fleet.layout.station("pick-A3-1").point
             path = list(fleet.layout.shortest_path(start, station))[:12]

@@ -9,6 +9,7 @@ import json
 import pytest
 
 from agv_app.vda5050.bridge import honour_cancellation
+from agv_app.vda5050.link import MqttLink
 from agv_app.vda5050.monitor import BrokerMonitor
 from agv_app.vda5050.topics import BrokerAddress, VehicleTopics, fleet_filter, parse_broker_url
 
@@ -26,17 +27,22 @@ def test_topics_follow_the_spec() -> None:
 
 
 def test_broker_urls() -> None:
-    assert parse_broker_url("mqtt://127.0.0.1:1884") == BrokerAddress("127.0.0.1", 1884)
-    assert parse_broker_url("mqtt://broker.local") == BrokerAddress("broker.local", 1883)
-    assert BrokerAddress("127.0.0.1", 1884).url == "mqtt://127.0.0.1:1884"
-    for bad in ("tcp://127.0.0.1:1883", "mqtt://:1883", "mqtt://h:70000", "127.0.0.1:1883"):
+    assert parse_broker_url("mqtts://127.0.0.1:1884") == BrokerAddress("127.0.0.1", 1884)
+    assert parse_broker_url("mqtts://broker.local") == BrokerAddress("broker.local", 8883)
+    assert parse_broker_url("mqtt://127.0.0.1:1884") == BrokerAddress("127.0.0.1", 1884, tls=False)
+    assert parse_broker_url("mqtt://broker.local").port == 1883
+    assert BrokerAddress("127.0.0.1", 1884).url == "mqtts://127.0.0.1:1884"
+    assert BrokerAddress("127.0.0.1", 1884, tls=False).url == "mqtt://127.0.0.1:1884"
+    assert BrokerAddress("::1", 8883).url == "mqtts://[::1]:8883"
+    assert parse_broker_url("mqtts://[::1]:8883") == BrokerAddress("::1", 8883)
+    for bad in ("tcp://127.0.0.1:1883", "mqtts://:1883", "mqtt://h:70000", "127.0.0.1:1883"):
         with pytest.raises(ValueError, match=r"broker address|port"):
             parse_broker_url(bad)
 
 
 def test_the_monitor_counts_messages_per_second_and_connection_states() -> None:
     now = [100.0]
-    monitor = BrokerMonitor(BrokerAddress("127.0.0.1", 1), clock=lambda: now[0])
+    monitor = BrokerMonitor(MqttLink(BrokerAddress("127.0.0.1", 1)), clock=lambda: now[0])
     state = json.dumps({"connectionState": "ONLINE"}).encode()
     for serial in ("agv-01", "agv-02"):
         monitor.seen(f"uagv/v3/ObjectPlaces/{serial}/connection", state)
