@@ -1,7 +1,8 @@
 """VDA 5050 over MQTT: round trips through a local mosquitto, with and without TCP_NODELAY.
 
 Two figures, each with TCP_NODELAY on (broker ``set_tcp_nodelay true`` and the clients'
-sockets, as the bridge runs) and off:
+sockets, as the bridge runs) and off, over a plain loopback listener (asked for by name:
+``insecure``; the fleet's own links are mutual TLS):
 
 - QoS 1 publish: from ``publish`` to the broker's PUBACK, one message at a time.
 - stateRequest to state: a master control publishes ``instantActions`` with a
@@ -17,7 +18,6 @@ import argparse
 import asyncio
 import contextlib
 import json
-import socket
 import statistics
 import sys
 import time
@@ -30,16 +30,16 @@ import aiomqtt
 from agv_app.vda5050.bridge import run_bridge
 from agv_app.vda5050.broker import LocalBroker, find_mosquitto
 from agv_app.vda5050.endpoint import VdaEndpoint
+from agv_app.vda5050.link import mqtt_link
 from agv_app.vda5050.topics import MANUFACTURER, BrokerAddress, VehicleTopics
 from bench.report import markdown_table, publish
 from tests.vda5050.harness import OneVehicle, instant
 
-_NODELAY = (socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
 _WAIT_S = 5.0
 
 
 def _client(broker: BrokerAddress, nodelay: bool) -> aiomqtt.Client:
-    return aiomqtt.Client(broker.host, broker.port, socket_options=[_NODELAY] if nodelay else [])
+    return mqtt_link(broker, insecure=True).client(tcp_nodelay=nodelay)
 
 
 async def qos1_round_trips(broker: BrokerAddress, nodelay: bool, samples: int) -> list[float]:
@@ -61,7 +61,7 @@ async def state_request_round_trips(
     topics = VehicleTopics(MANUFACTURER, "agv-01")
     endpoint = VdaEndpoint(vehicle.agv, topics)
     bridge = asyncio.get_running_loop().create_task(
-        run_bridge(endpoint, broker, tcp_nodelay=nodelay)
+        run_bridge(endpoint, mqtt_link(broker, insecure=True), tcp_nodelay=nodelay)
     )
     out: list[float] = []
     try:
@@ -96,7 +96,7 @@ def _summary(values: list[float]) -> tuple[str, str, str]:
 async def _run(samples: int) -> list[list[object]]:
     rows: list[list[object]] = []
     for nodelay in (True, False):
-        with LocalBroker(tcp_nodelay=nodelay) as broker:
+        with LocalBroker(insecure=True, tcp_nodelay=nodelay) as broker:
             qos1 = await qos1_round_trips(broker, nodelay, samples)
             request = await state_request_round_trips(broker, nodelay, samples)
         label = "on" if nodelay else "off"

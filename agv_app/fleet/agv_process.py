@@ -57,7 +57,8 @@ from agv_app.geometry import Area, polygon_to_coords
 from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
 from agv_app.layout.graph import Layout
 from agv_app.traffic.reach import interest_radius
-from agv_app.vda5050.process import bridge_for, vehicle_class
+from agv_app.vda5050.link import BrokerError, MqttLink, check_broker
+from agv_app.vda5050.process import bridge_for, vehicle_class, vehicle_link
 from agv_app.vehicle.controller import AgvConfig, AgvController
 from agv_app.vehicle.kinematics import VehicleSpec
 from objectplaces.arguments import POSITIVE, number, whole
@@ -328,7 +329,11 @@ def build_parser() -> argparse.ArgumentParser:
         "layout; 'none': hear every node",
     )
     parser.add_argument(
-        "--vda5050", default=None, metavar="mqtt://HOST:PORT", help="speak VDA 5050 over MQTT"
+        "--vda5050",
+        default=None,
+        metavar="mqtts://HOST:PORT",
+        help="speak VDA 5050 over MQTT with the certificate of --pki (mqtt:// only with "
+        "--insecure, on loopback)",
     )
     return parser
 
@@ -458,6 +463,14 @@ async def run(args: argparse.Namespace, credentials: Credentials) -> int:
     if args.home not in layout.points:
         print(f"agv_process: unknown home point {args.home!r}", file=sys.stderr)
         return 2
+    vda5050: MqttLink | None = None
+    if args.vda5050 is not None:
+        try:
+            vda5050 = vehicle_link(args.vda5050, credentials, args.id)
+            await check_broker(vda5050)
+        except (ValueError, LocalProtocolError, BrokerError) as exc:
+            print(f"agv_process {args.id}: --vda5050: {exc}", file=sys.stderr)
+            return 2
     parent = os.getppid()
     loop = asyncio.get_running_loop()
     stop = asyncio.Event()
@@ -519,8 +532,8 @@ async def run(args: argparse.Namespace, credentials: Credentials) -> int:
                 tg.create_task(_watch_stdin(stop)),
                 tg.create_task(_watch_parent(stop, parent)),
             ]
-            if args.vda5050 is not None:
-                tasks.append(tg.create_task(bridge_for(agv, args.vda5050)))
+            if vda5050 is not None:
+                tasks.append(tg.create_task(bridge_for(agv, vda5050)))
             with contextlib.suppress(TimeoutError):
                 async with asyncio.timeout(args.run_seconds):
                     await stop.wait()

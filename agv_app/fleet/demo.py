@@ -70,7 +70,13 @@ def demo_source(
     if processes < 0:
         raise ValueError(f"processes must be 0 or more, got {processes!r}")
     if vda5050 is not None and processes:
-        return MeshFleet(agvs=processes, seed=seed, task_interval=None, vda5050=vda5050)
+        return MeshFleet(
+            agvs=processes,
+            seed=seed,
+            task_interval=None,
+            vda5050=vda5050,
+            vda5050_credentials=vda5050_credentials,
+        )
     if vda5050 is not None:
         # Imported here: agv_app.vda5050 builds on this package's simulated fleet.
         from agv_app.vda5050.sim_fleet import VdaSimFleet

@@ -54,8 +54,8 @@ from agv_app.tasks.desk import BASE_ID, TaskDesk, require_task_stations
 from agv_app.tasks.free_flow import FreeFlowBound, FreeFlowTimer
 from agv_app.tasks.load import TaskArrivals
 from agv_app.traffic.monitor import SafetyMonitor
-from agv_app.vda5050.monitor import BrokerMonitor
-from agv_app.vda5050.topics import parse_broker_url
+from agv_app.vda5050.link import VdaCredentials
+from agv_app.vda5050.monitor import MONITOR_ID, MONITOR_ROLES, BrokerMonitor
 from agv_app.vehicle.kinematics import VehicleSpec
 from objectplaces import RoleActivator
 from objectplaces.mesh import MeshNode, start_node
@@ -114,8 +114,12 @@ class MeshFleet(FleetSourceBase):
         python: the interpreter that runs the AGV processes.
         capture_output: keep the children's stdout and stderr off this process's
             terminal (they go to files in the run's temp dir).
-        vda5050: ``mqtt://HOST:PORT`` of a broker: every AGV process speaks VDA 5050
+        vda5050: ``mqtts://HOST:PORT`` of a broker: every AGV process speaks VDA 5050
             over it (docs/vda5050.md), and ``metrics()`` adds the broker's figures.
+        vda5050_credentials: with ``vda5050``, the broker's fleet PKI, a throwaway one
+            (:class:`~objectplaces.security.TemporaryPki`): the run issues every
+            certificate from it (the mesh's too, one CA), and the broker monitor
+            connects as ``vda5050-monitor``.
         transport: ``websocket`` (the mesh) or ``zenoh``.
         zenoh_mode: on Zenoh, ``client`` (default: a router in this process, every node
             its client) or ``peer`` (every node a peer, found through the observer).
@@ -158,6 +162,7 @@ class MeshFleet(FleetSourceBase):
         python: str = sys.executable,
         capture_output: bool = True,
         vda5050: str | None = None,
+        vda5050_credentials: VdaCredentials | None = None,
         transport: str = "websocket",
         zenoh_mode: str = "client",
         publish_interval: float | None = None,
@@ -228,7 +233,18 @@ class MeshFleet(FleetSourceBase):
         )
         self.processes = AgvProcesses(python=python, capture_output=capture_output)
         self.vda5050 = vda5050
-        self.broker_monitor = None if vda5050 is None else BrokerMonitor(parse_broker_url(vda5050))
+        self.broker_monitor: BrokerMonitor | None = None
+        self._shared_pki: TemporaryPki | None = None
+        if vda5050 is not None:
+            if vda5050_credentials is None or not isinstance(vda5050_credentials.pki, TemporaryPki):
+                raise ValueError(
+                    "vda5050 needs vda5050_credentials with the broker's throwaway PKI "
+                    "(the AGV processes hold one certificate for the mesh and the broker)"
+                )
+            self._shared_pki = vda5050_credentials.pki
+            self.broker_monitor = BrokerMonitor(
+                vda5050_credentials.link(vda5050, MONITOR_ID, roles=MONITOR_ROLES)
+            )
         self._monitor_task: asyncio.Task[None] | None = None
         self.observer: MeshNode | None = None
         self.display = DisplayCollector(on_report=self._on_report)
@@ -284,7 +300,7 @@ class MeshFleet(FleetSourceBase):
 
     async def _start(self, loop: asyncio.AbstractEventLoop) -> None:
         self.processes.open_run_dir()
-        self._pki = pki = TemporaryPki(fleet="demo")
+        self._pki = pki = self._shared_pki or TemporaryPki(fleet="demo")
         for agv_id in self.agv_ids:
             pki.identity(agv_id, role="agv")
         liveness = process_liveness(self.t_update, self.republish_beats, self.rest_beat)
@@ -400,9 +416,9 @@ class MeshFleet(FleetSourceBase):
             self._router = None
         self.final_logs = self.processes.logs()
         self.processes.close()
-        if self._pki is not None:
+        if self._pki is not None and self._pki is not self._shared_pki:
             self._pki.remove()
-            self._pki = None
+        self._pki = None
 
     # -- observing --------------------------------------------------------------------
 

@@ -16,6 +16,7 @@ from pathlib import Path
 import pytest
 
 import dashboard.cli
+from agv_app.fleet import MeshFleet
 from agv_app.fleet.demo import DEMO_AGVS
 from agv_app.vda5050.broker import find_mosquitto
 from agv_app.vda5050.demo import MASTER_ID
@@ -64,6 +65,13 @@ def test_a_broker_url_builds_a_fleet_without_automatic_tasks(pki: TemporaryPki) 
     built = build_source(small)
     assert isinstance(built, VdaSimFleet)
     assert len(built.agvs) == 3
+    processes = parse("--vda5050", url, "--processes", "3")
+    processes.vda5050_credentials = VdaCredentials(pki)
+    mesh = build_source(processes)
+    assert isinstance(mesh, MeshFleet)
+    assert mesh.vda5050 == url
+    assert mesh.agv_count == 3
+    assert mesh.task_interval is None
     assert parse().vda5050 is None
 
 

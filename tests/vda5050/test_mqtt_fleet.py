@@ -1,6 +1,8 @@
 """The VDA 5050 bridge end to end: mosquitto, AGV processes on the mesh, a probe as master.
 
-Real processes on 127.0.0.1; every wait is bounded, and every child is reaped.
+Real processes on 127.0.0.1; one fleet PKI for the mesh and the broker (every AGV
+process holds one certificate for both); every wait is bounded, and every child is
+reaped.
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ import pytest
 
 from agv_app.fleet import MeshFleet
 from agv_app.layout.demo import demo_warehouse
+from agv_app.vda5050.link import MqttLink, VdaCredentials
 from agv_app.vda5050.topics import BrokerAddress
 from agv_app.vda5050.validation import schema_errors
 from tests.vda5050.harness import instant, make_order
@@ -37,17 +40,24 @@ def far_path(p: Probe, serial: str) -> list[str]:
     return list(LAYOUT.shortest_path(start, far))
 
 
-async def started_fleet(broker: BrokerAddress) -> MeshFleet:
-    fleet = MeshFleet(agvs=2, seed=3, task_interval=None, run_seconds=100.0, vda5050=broker.url)
+async def started_fleet(broker: BrokerAddress, credentials: VdaCredentials) -> MeshFleet:
+    fleet = MeshFleet(
+        agvs=2,
+        seed=3,
+        task_interval=None,
+        run_seconds=100.0,
+        vda5050=broker.url,
+        vda5050_credentials=credentials,
+    )
     await fleet.start()
     return fleet
 
 
 async def test_every_agv_publishes_valid_messages_and_drives_an_order(
-    broker: BrokerAddress,
+    broker: BrokerAddress, credentials: VdaCredentials, master: MqttLink
 ) -> None:
-    async with probe(broker) as p:
-        fleet = await started_fleet(broker)
+    async with probe(master) as p:
+        fleet = await started_fleet(broker, credentials)
         try:
             await p.wait_for(
                 lambda: all(len(p.of(a, "state")) >= 5 for a in AGVS), within=40, why="states"
@@ -111,10 +121,10 @@ async def test_every_agv_publishes_valid_messages_and_drives_an_order(
 
 
 async def test_bad_orders_are_reported_cancel_stops_and_a_killed_agv_breaks(
-    broker: BrokerAddress,
+    broker: BrokerAddress, credentials: VdaCredentials, master: MqttLink
 ) -> None:
-    async with probe(broker) as p:
-        fleet = await started_fleet(broker)
+    async with probe(master) as p:
+        fleet = await started_fleet(broker, credentials)
         try:
             await p.wait_for(
                 lambda: all(p.last_state(a) for a in AGVS), within=40, why="first states"
