@@ -98,7 +98,6 @@ _DOCK_WAITS = [
 
 # Two fleets that lock (about 50 and 30 s of CPU) and two that do not (a few seconds).
 @pytest.mark.slow
-@pytest.mark.timeout(300)
 @pytest.mark.parametrize("run", _DOCK_WAITS)
 def test_an_agv_waiting_for_a_dock_stays_off_the_way_out(run: FloorRun) -> None:
     # Found before the turn-off rule, which keeps these AGVs off the lane too.
@@ -151,7 +150,6 @@ class _DrivingOn(AgvController):
 
 # One fleet that locks (about 40 s of CPU) and one that does not (a few seconds).
 @pytest.mark.slow
-@pytest.mark.timeout(300)
 def test_an_agv_held_up_before_its_dock_drives_on_and_the_queue_behind_it_clears() -> None:
     # Found before the turn-off rule, which keeps the first AGV off the lane too.
     locked = run_floor(
@@ -192,7 +190,6 @@ def test_an_agv_held_up_before_its_dock_drives_on_and_the_queue_behind_it_clears
 # stretch of an aisle after a turn off a lane is no resting place (docs/traffic.md,
 # "Resting just past a turn off a lane").
 @pytest.mark.slow
-@pytest.mark.timeout(300)
 def test_the_queued_floor_no_longer_locks_just_past_a_turn_off_the_lane() -> None:
     # As found: before drop stations took one load at a time, which avoids it too.
     locked = run_floor(
@@ -236,7 +233,6 @@ class _Detouring(AgvController):
 # at the fork into aisle 5 takes the north lane on, round another aisle, and the loop
 # opens.
 @pytest.mark.slow
-@pytest.mark.timeout(300)
 def test_a_full_loop_opens_when_an_agv_at_a_fork_takes_another_way() -> None:
     locked = run_floor(
         _QUEUED,

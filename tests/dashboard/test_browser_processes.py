@@ -17,7 +17,7 @@ from agv_app.fleet import MeshFleet
 from tests.dashboard.browser import BROWSER_MARKS, chromium_page, load_dashboard
 from tests.dashboard.served import Served
 
-pytestmark = [*BROWSER_MARKS, pytest.mark.processes, pytest.mark.timeout(120)]
+pytestmark = [*BROWSER_MARKS, pytest.mark.processes]
 
 
 def test_agv_sessions_show_and_a_process_killed_with_sigkill_raises_its_alarm() -> None:

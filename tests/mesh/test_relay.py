@@ -15,7 +15,7 @@ from objectplaces.security import TemporaryPki
 from tests.mesh.procs import Cluster, NodeProcess
 from tests.netns import Network
 
-pytestmark = [pytest.mark.processes, pytest.mark.timeout(300)]
+pytestmark = pytest.mark.processes
 
 MARKER = "plaintext-marker-7f3a"
 _CAPTURE_LIMIT = 4 << 20

@@ -20,7 +20,7 @@ from agv_app.vda5050.validation import schema_errors
 from tests.vda5050.harness import instant, make_order
 from tests.vda5050.probe import Probe, probe, state_gaps
 
-pytestmark = [pytest.mark.processes, pytest.mark.slow, pytest.mark.timeout(120)]
+pytestmark = [pytest.mark.processes, pytest.mark.slow]
 
 AGVS = ["agv-01", "agv-02"]
 LAYOUT = demo_warehouse()

@@ -15,7 +15,7 @@ from agv_app.vda5050.validation import schema_errors
 from tests.vda5050.harness import DT, make_order
 from tests.vda5050.probe import probe, state_gaps
 
-pytestmark = [pytest.mark.slow, pytest.mark.timeout(150)]
+pytestmark = pytest.mark.slow
 
 AGVS = ["agv-01", "agv-02"]
 

@@ -15,7 +15,7 @@ from agv_app.fleet.liveness import REPUBLISH_BEATS, REST_BEAT_S
 from agv_app.tasks import BASE_ID
 from objectplaces.cli import build_parser
 
-pytestmark = [pytest.mark.processes, pytest.mark.timeout(150)]
+pytestmark = pytest.mark.processes
 
 AGVS = ["agv-01", "agv-02", "agv-03"]
 

@@ -34,8 +34,6 @@ from tests.zenoh.counting import Counter
 from tests.zenoh.intruder import open_tls_session
 from tests.zenoh.test_bad_input import Talker
 
-pytestmark = pytest.mark.timeout(180)
-
 FLEET = "f"
 PREFIX = f"objectplaces/{FLEET}"
 MEMBERS = ("a", "b", "c")

@@ -18,7 +18,7 @@ from agv_app.tasks import BASE_ID
 from dashboard.app import create_app
 from tests.dashboard.login import logged_in
 
-pytestmark = [pytest.mark.processes, pytest.mark.timeout(90)]
+pytestmark = pytest.mark.processes
 
 AGVS = ["agv-01", "agv-02", "agv-03"]
 PICK = "pick-A3-1"

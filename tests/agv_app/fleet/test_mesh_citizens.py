@@ -18,7 +18,7 @@ from agv_app.fleet import OBSERVER_ID, MeshFleet
 from dashboard.app import create_app
 from tests.dashboard.login import logged_in
 
-pytestmark = [pytest.mark.processes, pytest.mark.timeout(120)]
+pytestmark = pytest.mark.processes
 
 PICK = "pick-A3-1"
 
