@@ -18,6 +18,7 @@ from agv_app.traffic.lockbook import LockBook
 from agv_app.traffic.plausibility import PeerWatch
 from agv_app.vehicle.controller import AgvController
 from objectplaces import Participant, RoleActivator
+from tuplespace import TupleSpace
 
 LIAR = "agv-03"
 
@@ -83,7 +84,7 @@ def test_a_position_that_jumps_is_refused_by_every_agv_that_hears_it() -> None:
 def test_peer_watch_believes_what_a_vehicle_can_drive() -> None:
     counted: list[str] = []
     watch = PeerWatch(
-        LockBook.__new__(LockBook),
+        LockBook(TupleSpace()),
         dict,
         top_speed_m_s=1.5,
         max_hull_length_m=30.0,
