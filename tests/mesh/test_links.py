@@ -196,3 +196,19 @@ async def test_a_frame_whose_handling_raises_costs_its_link_never_the_node(
     finally:
         await b.close()
         await a.close()
+
+
+async def test_a_node_of_another_fleet_tag_is_refused_and_told_why() -> None:
+    a = await node("a", [], tag="layout:aaaa")
+    b = await node("b", [a.address], tag="layout:bbbb")
+    try:
+        await until(lambda: a.address in b.refusals())
+        assert (
+            b.refusals()[a.address]
+            == "1008 another fleet: b runs 'layout:bbbb', a runs 'layout:aaaa'"
+        )
+        assert a.transport_counters()["refused_tag"] >= 1
+        assert a.peers() == b.peers() == []
+    finally:
+        await b.close()
+        await a.close()
