@@ -54,7 +54,9 @@ from agv_app.fleet.liveness import (
 from agv_app.fleet.parking import home_heading
 from agv_app.fleet.remote import roles_wire, sessions_wire, traffic_wire
 from agv_app.geometry import Area, polygon_to_coords
-from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
+from agv_app.layout.choice import layout_digest, layout_from_argument
+from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M
+from agv_app.layout.elements import LayoutError
 from agv_app.layout.graph import Layout
 from agv_app.traffic.reach import interest_radius
 from agv_app.vda5050.link import BrokerError, MqttLink, check_broker
@@ -74,17 +76,21 @@ from objectplaces.security import (
 from objectplaces.zenoh_node import ZenohNode, start_zenoh_node
 
 __all__ = [
+    "AnotherFleet",
     "DisplayPublisher",
     "StepLag",
+    "add_agv_arguments",
     "build_parser",
     "dissemination_radius",
     "main",
     "parse_args",
     "process_liveness",
+    "register",
     "run",
 ]
 
 _PARENT_CHECK_S = 1.0
+_SETTLE_REPORT_S = 10.0
 _MAX_LAG_S = 1.0
 _LAG_EVERY_S = 5.0
 POLL_INTERVAL_S = 0.05
@@ -253,9 +259,21 @@ def build_parser() -> argparse.ArgumentParser:
     """The command line's parser (``parse_args`` also checks ``--interest-radius``)."""
     parser = argparse.ArgumentParser(
         prog="python -m agv_app.fleet.agv_process",
-        description="Run one AGV of the demo warehouse as a node on the WebSocket mesh.",
+        description="Run one AGV as a node of its fleet (the process behind `objectplaces agv`).",
     )
+    add_agv_arguments(parser)
+    return parser
+
+
+def add_agv_arguments(parser: argparse.ArgumentParser, *, joining: bool = False) -> None:
+    """The options of one AGV process (``joining``: the defaults of ``objectplaces agv``,
+    which waits for the fleet before it drives)."""
     parser.add_argument("--id", required=True, help="node id of the AGV, unique in the mesh")
+    parser.add_argument(
+        "--layout",
+        help="the layout it drives: a .json or openTCS .xml file, generated:N, or demo "
+        "(default: the demo warehouse); every process of a fleet must run the same one",
+    )
     parser.add_argument("--listen", default="127.0.0.1:0", help="host:port to listen on")
     parser.add_argument(
         "--join", action="append", default=[], metavar="HOST:PORT", help="a node to join through"
@@ -268,7 +286,7 @@ def build_parser() -> argparse.ArgumentParser:
         action="append",
         default=[],
         metavar="ENDPOINT",
-        help="zenoh: a peer, or the router of a client",
+        help="a node to join through (the mesh), or a router or peer (zenoh); repeatable",
     )
     parser.add_argument(
         "--mode", choices=["peer", "client"], default="peer", help="zenoh: peer or client"
@@ -309,14 +327,15 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--expect-peers",
         type=whole(at_least=0),
-        default=0,
-        help="wait for this many linked peers first",
+        default=1 if joining else 0,
+        help="wait for this many linked peers before driving",
     )
     parser.add_argument(
         "--settle-timeout",
         type=number(at_least=0),
-        default=20.0,
-        help="longest wait for those peers, s",
+        default=math.inf if joining else 20.0,
+        help="longest wait for those peers, s (then it drives; default: "
+        + ("for ever, saying so every 10 s)" if joining else "20)"),
     )
     parser.add_argument(
         "--dwell", type=number(at_least=0), default=5.0, help="seconds at a station"
@@ -335,7 +354,6 @@ def build_parser() -> argparse.ArgumentParser:
         help="speak VDA 5050 over MQTT with the certificate of --pki (mqtt:// only with "
         "--insecure, on loopback)",
     )
-    return parser
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -387,15 +405,36 @@ async def _watch_parent(stop: asyncio.Event, parent: int) -> None:
             return
 
 
+class AnotherFleet(Exception):
+    """The peers this process reached run another layout: it may not join them."""
+
+
 async def _settle(node: MeshNode | ZenohNode, args: argparse.Namespace) -> None:
-    """Wait (bounded) until the expected peers are linked and have been heard.
+    """Wait (bounded by ``--settle-timeout``) until the expected peers are linked and
+    have been heard, saying every ``_SETTLE_REPORT_S`` what it waits for.
 
     Moving earlier is safe (the requester waits the safe time for late members), but
     an AGV that has not yet heard its neighbours would ask fewer of them than it should.
+
+    Raises:
+        AnotherFleet: a peer refused our link for running another layout.
     """
-    if args.expect_peers > 0:
+    loop = asyncio.get_running_loop()
+    deadline = loop.time() + args.settle_timeout
+    while len(node.peers()) < args.expect_peers and loop.time() < deadline:
+        refusals = node.refusals() if isinstance(node, MeshNode) else {}
+        foreign = [f"{where}: {why}" for where, why in refusals.items() if "another fleet" in why]
+        if foreign:
+            raise AnotherFleet("; ".join(foreign))
+        _emit(
+            "waiting",
+            peers=node.peers(),
+            expected=args.expect_peers,
+            connect=[*args.join, *args.connect],
+            refusals=refusals,
+        )
         with contextlib.suppress(TimeoutError):
-            async with asyncio.timeout(args.settle_timeout):
+            async with asyncio.timeout(min(_SETTLE_REPORT_S, max(0.0, deadline - loop.time()))):
                 await node.wait_for_peers(args.expect_peers)
     await asyncio.sleep(args.t_update)
 
@@ -459,17 +498,25 @@ async def run(args: argparse.Namespace, credentials: Credentials) -> int:
     Returns:
         The exit status (0 after a graceful stop).
     """
-    layout = demo_warehouse()
-    if args.home not in layout.points:
-        print(f"agv_process: unknown home point {args.home!r}", file=sys.stderr)
+    try:
+        layout = layout_from_argument(args.layout)
+    except (LayoutError, ValueError, OSError) as exc:
+        print(f"{_who(args)}: --layout: {exc}", file=sys.stderr)
         return 2
+    if args.home not in layout.points:
+        print(
+            f"{_who(args)}: --home {args.home!r} is no point of layout {layout.name!r}",
+            file=sys.stderr,
+        )
+        return 2
+    tag = f"layout:{layout_digest(layout)}"
     vda5050: MqttLink | None = None
     if args.vda5050 is not None:
         try:
             vda5050 = vehicle_link(args.vda5050, credentials, args.id)
             await check_broker(vda5050)
         except (ValueError, LocalProtocolError, BrokerError) as exc:
-            print(f"agv_process {args.id}: --vda5050: {exc}", file=sys.stderr)
+            print(f"{_who(args)}: --vda5050: {exc}", file=sys.stderr)
             return 2
     parent = os.getppid()
     loop = asyncio.get_running_loop()
@@ -502,7 +549,8 @@ async def run(args: argparse.Namespace, credentials: Credentials) -> int:
         node = await start_node(
             args.id,
             listen=args.listen,
-            join=args.join,
+            join=[*args.join, *args.connect],
+            tag=tag,
             tls=credentials.tls,
             insecure=credentials.insecure,
             secret=credentials.secret,
@@ -521,8 +569,15 @@ async def run(args: argparse.Namespace, credentials: Credentials) -> int:
         display.publish()
         _emit("ready", id=node.node_id, address=node.address, home=args.home)
 
+        refused: list[str] = []
+
         async def drive() -> None:
-            await _settle(node, args)
+            try:
+                await _settle(node, args)
+            except AnotherFleet as exc:
+                refused.append(str(exc))
+                stop.set()
+                return
             _emit("driving", peers=node.peers())
             await _drive(agv, display, args, lag)
 
@@ -540,6 +595,13 @@ async def run(args: argparse.Namespace, credentials: Credentials) -> int:
             _emit("stopping")
             for task in tasks:
                 task.cancel()
+        if refused:
+            print(
+                f"{_who(args)}: refused by its fleet: this process runs {tag!r} "
+                f"({layout.name}); {refused[0]}",
+                file=sys.stderr,
+            )
+            return 2
     finally:
         await node.close()
         _emit("closed", **lag.fields())
@@ -551,6 +613,31 @@ async def run(args: argparse.Namespace, credentials: Credentials) -> int:
     return 0
 
 
+def _who(args: argparse.Namespace) -> str:
+    return f"objectplaces agv {args.id}"
+
+
+def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """Add the ``agv`` subcommand to the ``objectplaces`` command line."""
+    parser = subcommands.add_parser(
+        "agv",
+        help="run one vehicle of a fleet, on its own host",
+        description="Run one AGV as a node of its fleet: it joins the fleet at --connect, "
+        "waits until it hears a peer, then drives the layout's routes and takes tasks.",
+    )
+    add_agv_arguments(parser, joining=True)
+    parser.set_defaults(func=lambda args: _run_checked(args, parser))
+
+
+def _run_checked(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    if args.interest_radius not in ("auto", "none"):
+        try:
+            args.interest_radius = POSITIVE(args.interest_radius)
+        except argparse.ArgumentTypeError:
+            parser.error("--interest-radius must be 'auto', 'none' or a number > 0")
+    return _main(args)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the AGV process.
 
@@ -560,7 +647,10 @@ def main(argv: list[str] | None = None) -> int:
     Returns:
         The exit status.
     """
-    args = parse_args(argv)
+    return _main(parse_args(argv))
+
+
+def _main(args: argparse.Namespace) -> int:
     profile_dir = os.environ.get(PROFILE_ENV)
     profiler = None
     if profile_dir:
@@ -571,10 +661,10 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return asyncio.run(run(args, credentials_from_args(args, args.id)))
     except CredentialError as exc:
-        print(f"agv_process {args.id}: {exc}", file=sys.stderr)
+        print(f"{_who(args)}: {exc}", file=sys.stderr)
         return 2
     except (LocalProtocolError, OSError) as exc:
-        print(f"agv_process {args.id}: {exc}", file=sys.stderr)
+        print(f"{_who(args)}: {exc}", file=sys.stderr)
         return 1
     finally:
         if profiler is not None and profile_dir:
