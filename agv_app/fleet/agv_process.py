@@ -59,6 +59,7 @@ from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M
 from agv_app.layout.elements import LayoutError
 from agv_app.layout.graph import Layout
 from agv_app.traffic.reach import interest_radius
+from agv_app.traffic.stale_relay import StaleListener, StaleRelay
 from agv_app.vda5050.link import BrokerError, MqttLink, check_broker
 from agv_app.vda5050.process import bridge_for, vehicle_class, vehicle_link
 from agv_app.vehicle.controller import AgvConfig, AgvController
@@ -565,6 +566,11 @@ async def run(args: argparse.Namespace, credentials: Credentials) -> int:
             heading_rad=home_heading(layout, args.home),
             config=config,
         )
+        if timing["interest_radius"] is not None:
+            # Scoped: who never heard a vehicle fail learns it from the vehicles that
+            # did, whether or not the control process runs (traffic/stale_relay.py).
+            StaleRelay(node)
+            StaleListener(node, lambda: agv.book)
         display = DisplayPublisher(agv, traffic_interval_s=args.introspection_interval)
         display.publish()
         _emit("ready", id=node.node_id, address=node.address, home=args.home)
