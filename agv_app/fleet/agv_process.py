@@ -53,6 +53,7 @@ from agv_app.fleet.liveness import (
 )
 from agv_app.fleet.parking import home_heading
 from agv_app.fleet.remote import roles_wire, sessions_wire, traffic_wire
+from agv_app.fleet.trace import VehicleTrace
 from agv_app.geometry import Area, polygon_to_coords
 from agv_app.layout.choice import layout_digest, layout_from_argument
 from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M
@@ -349,6 +350,13 @@ def add_agv_arguments(parser: argparse.ArgumentParser, *, joining: bool = False)
         "layout; 'none': hear every node",
     )
     parser.add_argument(
+        "--trace",
+        type=Path,
+        metavar="FILE",
+        help="write the vehicle's own safety trace here (JSON lines: poses, locks at each "
+        "change, metres outside its locked floor; agv_app.fleet.trace)",
+    )
+    parser.add_argument(
         "--vda5050",
         default=None,
         metavar="mqtts://HOST:PORT",
@@ -462,7 +470,11 @@ class StepLag:
 
 
 async def _drive(
-    agv: AgvController, display: DisplayPublisher, args: argparse.Namespace, lag: StepLag
+    agv: AgvController,
+    display: DisplayPublisher,
+    args: argparse.Namespace,
+    lag: StepLag,
+    trace: VehicleTrace | None = None,
 ) -> None:
     """Step the AGV every ``dt`` of real time, for ever, noting how late each step ran."""
     loop = asyncio.get_running_loop()
@@ -475,6 +487,8 @@ async def _drive(
     while True:
         lag.note(loop.time() - next_step, dt)
         agv.step(dt)
+        if trace is not None:
+            trace.step()
         now = loop.time()
         if now >= next_lag_report:
             next_lag_report = now + _LAG_EVERY_S
@@ -534,6 +548,7 @@ async def run(args: argparse.Namespace, credentials: Credentials) -> int:
         ),
     }
     lag = StepLag()
+    trace: VehicleTrace | None = None
     node: MeshNode | ZenohNode
     if args.transport == "zenoh":
         node = await start_zenoh_node(
@@ -573,6 +588,7 @@ async def run(args: argparse.Namespace, credentials: Credentials) -> int:
             StaleListener(node, lambda: agv.book)
         display = DisplayPublisher(agv, traffic_interval_s=args.introspection_interval)
         display.publish()
+        trace = VehicleTrace(agv, args.trace) if args.trace is not None else None
         _emit("ready", id=node.node_id, address=node.address, home=args.home)
 
         refused: list[str] = []
@@ -585,7 +601,7 @@ async def run(args: argparse.Namespace, credentials: Credentials) -> int:
                 stop.set()
                 return
             _emit("driving", peers=node.peers())
-            await _drive(agv, display, args, lag)
+            await _drive(agv, display, args, lag, trace)
 
         async with asyncio.TaskGroup() as tg:
             tasks = [
@@ -609,8 +625,12 @@ async def run(args: argparse.Namespace, credentials: Credentials) -> int:
             )
             return 2
     finally:
+        outside: dict[str, float] = {}
+        if trace is not None:
+            trace.close()
+            outside = {"outside_m": trace.outside_m}
         await node.close()
-        _emit("closed", **lag.fields())
+        _emit("closed", **lag.fields(), **outside)
         for signum in (signal.SIGTERM, signal.SIGINT):
             loop.remove_signal_handler(signum)
             # Already on the way out: a late SIGTERM (the parent sends one after closing
