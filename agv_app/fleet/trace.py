@@ -9,7 +9,9 @@ JSON lines stamped with the host's wall clock (the hosts of one test share a clo
 - ``{"t", "k": "locks", "w": WKT}`` at the very moment its lock book changes (a
   tuplespace notification): the union of its locked projections, exactly;
 - ``{"t", "k": "outside", "m": metres}`` whenever the metres it drove with its hull
-  not inside its own locked floor grow (it checks every control step).
+  not inside its own locked floor grow (it checks every control step);
+- ``{"t", "k": "cut", "v": true|false}`` when it is cut off from its fleet, and back
+  (``agv_app.vehicle.isolation``).
 
 :func:`check_traces` merges the traces after a run: two vehicles' locks overlapping at
 any moment (their lock changes in time order), two hulls meeting (poses interpolated),
@@ -60,6 +62,7 @@ class VehicleTrace:
         self._file: IO[str] = path.open("a", buffering=1)
         self._next_pose = 0.0
         self._last_xy: tuple[float, float] | None = None
+        self._cut = False
         self.outside_m = 0.0
         """Metres driven with the hull not inside the AGV's own locked floor."""
         self._write("size", m=[agv.spec.length_m, agv.spec.width_m])
@@ -91,6 +94,9 @@ class VehicleTrace:
                     self.outside_m += moved
                     self._write("outside", m=self.outside_m)
         self._last_xy = (pose.x, pose.y)
+        if agv.cut_off.cut_off != self._cut:
+            self._cut = agv.cut_off.cut_off
+            self._write("cut", v=self._cut)
         if now >= self._next_pose:
             # Standing, a pose a second says where it stands (poses are interpolated).
             moving = agv.vehicle.speed > 0.0
