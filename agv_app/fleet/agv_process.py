@@ -431,7 +431,7 @@ async def _settle(node: MeshNode | ZenohNode, args: argparse.Namespace) -> None:
     loop = asyncio.get_running_loop()
     deadline = loop.time() + args.settle_timeout
     while len(node.peers()) < args.expect_peers and loop.time() < deadline:
-        refusals = node.refusals() if isinstance(node, MeshNode) else {}
+        refusals = node.refusals()
         foreign = [f"{where}: {why}" for where, why in refusals.items() if "another fleet" in why]
         if foreign:
             raise AnotherFleet("; ".join(foreign))
@@ -559,6 +559,7 @@ async def run(args: argparse.Namespace, credentials: Credentials) -> int:
             connect=args.connect,
             mode=args.mode,
             poll_interval=args.poll_interval or None,
+            tag=tag,
             **timing,
         )
     else:

@@ -328,7 +328,7 @@ class MeshFleet(FleetSourceBase):
 
     async def _start(self, loop: asyncio.AbstractEventLoop) -> None:
         liveness = process_liveness(self.t_update, self.republish_beats, self.rest_beat)
-        node_args: dict[str, Any] = liveness_arguments(liveness)
+        node_args: dict[str, Any] = {**liveness_arguments(liveness), "tag": self.tag}
         zenoh = self.transport == "zenoh"
         if zenoh:
             node_args["poll_interval"] = self.poll_interval or None
@@ -356,7 +356,7 @@ class MeshFleet(FleetSourceBase):
         elif zenoh:  # every node a peer; the others find each other through the observer
             node_args.update(transport="zenoh", listen=[f"tls/{_HOST}:0"])
         else:
-            node_args.update(listen=f"{_HOST}:0", tag=self.tag)
+            node_args["listen"] = f"{_HOST}:0"
         observer = await self._start_observer(pki.identity(OBSERVER_ID, role="control"), node_args)
         if not (zenoh and self.zenoh_mode == "client"):
             link = {"connect": [observer.address]} if zenoh else {"join": [observer.address]}
@@ -413,7 +413,6 @@ class MeshFleet(FleetSourceBase):
             node_args.update(transport="zenoh", mode="client", connect=list(joining.connect))
             base_link: dict[str, Any] = {}
         else:
-            node_args.update(tag=self.tag)
             base_link = {"join": [*joining.connect]}
         observer = await self._start_observer(
             observer_id,

@@ -78,3 +78,21 @@ async def test_clients_move_to_the_other_router_when_theirs_dies(pki: TemporaryP
         await a.close()
         await r1.close()
         await r2.close()
+
+
+async def test_a_node_of_another_fleet_tag_is_no_member_and_told_why(pki: TemporaryPki) -> None:
+    a = await start_zenoh_node("a", tls=pki.identity("a"), tag="layout:aaaa")
+    b = await start_zenoh_node(
+        "b", tls=pki.identity("b"), connect=a.address.split(","), tag="layout:bbbb"
+    )
+    try:
+        a.update_node_property("position", (1.0, 0.0))
+        await until(lambda: "a" in b.refusals(), WITHIN)
+        assert b.refusals()["a"] == "another fleet: a runs 'layout:aaaa', b runs 'layout:bbbb'"
+        await until(lambda: "b" in a.refusals(), WITHIN)
+        assert "a" not in b.view()
+        assert b.peers() == []
+        assert b.transport_counters()["refused_tag"] == 1
+    finally:
+        await b.close()
+        await a.close()
