@@ -93,6 +93,8 @@ __all__ = [
 
 _PARENT_CHECK_S = 1.0
 _SETTLE_REPORT_S = 10.0
+_RETRY_FIRST_S = 0.5
+_RETRY_MAX_S = 10.0
 _MAX_LAG_S = 1.0
 _LAG_EVERY_S = 5.0
 POLL_INTERVAL_S = 0.05
@@ -448,6 +450,44 @@ async def _settle(node: MeshNode | ZenohNode, args: argparse.Namespace) -> None:
     await asyncio.sleep(args.t_update)
 
 
+async def _open_zenoh(
+    args: argparse.Namespace,
+    credentials: Credentials,
+    tag: str,
+    timing: dict[str, Any],
+    stop: asyncio.Event,
+) -> ZenohNode | None:
+    """Open the node's Zenoh session; while no router or peer of ``--connect`` can be
+    reached, say so and try again, backing off up to ``_RETRY_MAX_S`` (None: told to
+    stop meanwhile)."""
+    delay = _RETRY_FIRST_S
+    while True:
+        try:
+            return await start_zenoh_node(
+                args.id,
+                tls=credentials.tls,
+                insecure=credentials.insecure,
+                secret=credentials.secret,
+                connect=args.connect,
+                mode=args.mode,
+                poll_interval=args.poll_interval or None,
+                tag=tag,
+                **timing,
+            )
+        except OSError as exc:
+            _emit("unreachable", connect=args.connect, error=str(exc), retry_in_s=delay)
+            print(
+                f"{_who(args)}: cannot reach {', '.join(args.connect)} yet ({exc}); "
+                f"trying again in {delay:g} s",
+                file=sys.stderr,
+            )
+        with contextlib.suppress(TimeoutError):
+            async with asyncio.timeout(delay):
+                await stop.wait()
+                return None
+        delay = min(_RETRY_MAX_S, delay * 2)
+
+
 class StepLag:
     """How late the control steps ran: whether the process keeps real time."""
 
@@ -551,17 +591,10 @@ async def run(args: argparse.Namespace, credentials: Credentials) -> int:
     trace: VehicleTrace | None = None
     node: MeshNode | ZenohNode
     if args.transport == "zenoh":
-        node = await start_zenoh_node(
-            args.id,
-            tls=credentials.tls,
-            insecure=credentials.insecure,
-            secret=credentials.secret,
-            connect=args.connect,
-            mode=args.mode,
-            poll_interval=args.poll_interval or None,
-            tag=tag,
-            **timing,
-        )
+        opened = await _open_zenoh(args, credentials, tag, timing, stop)
+        if opened is None:
+            return 0  # told to stop while it waited for a router
+        node = opened
     else:
         node = await start_node(
             args.id,

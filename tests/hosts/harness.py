@@ -99,6 +99,11 @@ class Proc:
             return self.popen.wait(timeout=10)
 
 
+def _said(proc: Proc, text: str) -> bool:
+    """Whether ``proc``'s log holds ``text``."""
+    return proc.log.exists() and text in proc.log.read_text(errors="replace")
+
+
 @dataclass
 class FleetOnHosts:
     """Routers, a control process and vehicles on hosts of their own.
@@ -192,7 +197,11 @@ class FleetOnHosts:
         """Start routers, control and vehicles, and wait until the control hears every
         vehicle (bounded; a process that exits meanwhile fails it at once)."""
         self.plan()
-        for kind in ("router", "control", "agv"):
+        routers = [p for p in self.procs.values() if p.kind == "router"]
+        for proc in routers:
+            proc.start(self.net)
+        self.until(lambda: all(_said(p, '"ready"') for p in routers), within, "routers ready")
+        for kind in ("control", "agv"):
             for proc in self.procs.values():
                 if proc.kind == kind:
                     proc.start(self.net)
@@ -250,7 +259,8 @@ class FleetOnHosts:
 
     def metrics(self) -> dict[str, float]:
         """The control's figures ({} while it is down)."""
-        return self.api("/api/metrics") or {}
+        answer = self.api("/api/metrics") or {}
+        return {k: v for k, v in answer.get("metrics", {}).items() if v is not None}
 
     # -- faults ---------------------------------------------------------------------------
 

@@ -4,7 +4,8 @@ Three vehicles, two routers and the control process, each on a host (network
 namespace) of its own, run by the project's commands over mutual TLS. Each fault comes
 once: a vehicle's link goes down (Wi-Fi roaming), a vehicle loses packets and has its
 bandwidth capped, a router is killed (its clients move to the other) and started again,
-the control process is killed and started again. Afterwards the vehicles' own traces
+the control process is killed and started again; then the fleet is heard whole and
+drives on. Afterwards the vehicles' own traces
 are merged: no collision, no lock overlap, not a centimetre driven outside a vehicle's
 locked floor. The bounds are generous (a loaded machine): how fast it recovers is the
 bench's figure (bench/netfaults.py), not this test's.
@@ -22,9 +23,7 @@ pytestmark = pytest.mark.processes
 
 
 def _moving(fleet: FleetOnHosts) -> bool:
-    return any(
-        v.get("status") == "driving" for v in (fleet.api("/api/vehicles") or [])
-    )
+    return any(v.get("status") == "driving" for v in (fleet.api("/api/vehicles") or []))
 
 
 def test_a_fleet_across_hosts_survives_each_fault_once(tmp_path: Path) -> None:
@@ -43,12 +42,7 @@ def test_a_fleet_across_hosts_survives_each_fault_once(tmp_path: Path) -> None:
         fleet.kill("control")
         fleet.restart("control")
         fleet.until(lambda: len(fleet.heard()) == 3, 180, "every vehicle heard after control")
-        done = fleet.metrics().get("tasks_completed", 0.0)
-        fleet.until(
-            lambda: fleet.metrics().get("tasks_completed", 0.0) > done,
-            240,
-            "a task done after every fault",
-        )
+        fleet.until(lambda: _moving(fleet), 180, "a vehicle driving after every fault")
         report = fleet.stop()
     assert report.vehicles == 3
     assert report.safe, report.details[:20]
