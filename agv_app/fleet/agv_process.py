@@ -337,7 +337,7 @@ def add_agv_arguments(parser: argparse.ArgumentParser, *, joining: bool = False)
     parser.add_argument(
         "--settle-timeout",
         type=number(at_least=0),
-        default=math.inf if joining else 20.0,
+        default=None if joining else 20.0,
         help="longest wait for those peers, s (then it drives; default: "
         + ("for ever, saying so every 10 s)" if joining else "20)"),
     )
@@ -431,7 +431,7 @@ async def _settle(node: MeshNode | ZenohNode, args: argparse.Namespace) -> None:
         AnotherFleet: a peer refused our link for running another layout.
     """
     loop = asyncio.get_running_loop()
-    deadline = loop.time() + args.settle_timeout
+    deadline = loop.time() + (math.inf if args.settle_timeout is None else args.settle_timeout)
     while len(node.peers()) < args.expect_peers and loop.time() < deadline:
         refusals = node.refusals()
         foreign = [f"{where}: {why}" for where, why in refusals.items() if "another fleet" in why]
