@@ -113,6 +113,11 @@ class ZenohNode(NetworkNode):
         """Per-peer link counters: none on Zenoh, which keeps the links (see counters)."""
         return {}
 
+    def twin_up_for(self) -> float | None:
+        """Seconds another run with this node's id has held its token (None: none does).
+        An earlier run of this process holds it at most the lease after it died."""
+        return self._transport.membership.twin_up_for()
+
     def refusals(self) -> dict[str, str]:
         """Why nodes of another fleet tag are not heard, by node."""
         return dict(self._transport.membership.refusals)

@@ -93,6 +93,9 @@ __all__ = [
 
 _PARENT_CHECK_S = 1.0
 _SETTLE_REPORT_S = 10.0
+_TWIN_AFTER_S = 15.0
+"""Seconds another run's token of our id may stay up: a crashed run's lasts the lease
+(10 s), and then some for a loaded machine."""
 _RETRY_FIRST_S = 0.5
 _RETRY_MAX_S = 10.0
 _MAX_LAG_S = 1.0
@@ -407,6 +410,19 @@ async def _watch_stdin(stop: asyncio.Event) -> None:
         transport.close()
 
 
+async def _watch_twin(node: MeshNode | ZenohNode, args: argparse.Namespace) -> None:
+    """Return when another process has run as this vehicle's id past a dead run's
+    lease (on Zenoh, where every run holds a token): this one must give way."""
+    if not isinstance(node, ZenohNode):
+        await asyncio.Event().wait()  # for ever: the mesh keeps the newer run's links
+        return
+    while True:
+        await asyncio.sleep(1.0)
+        twin = node.twin_up_for()
+        if twin is not None and twin > _TWIN_AFTER_S:
+            return
+
+
 async def _watch_parent(stop: asyncio.Event, parent: int) -> None:
     """Set ``stop`` when the parent process is gone (we were re-parented)."""
     while True:
@@ -637,11 +653,20 @@ async def run(args: argparse.Namespace, credentials: Credentials) -> int:
             _emit("driving", peers=node.peers())
             await _drive(agv, display, args, lag, trace)
 
+        async def twin() -> None:
+            await _watch_twin(node, args)
+            refused.append(
+                f"another process runs as {args.id} (its token has been up past the lease "
+                "of a run that died): give each vehicle its own id"
+            )
+            stop.set()
+
         async with asyncio.TaskGroup() as tg:
             tasks = [
                 tg.create_task(drive()),
                 tg.create_task(_watch_stdin(stop)),
                 tg.create_task(_watch_parent(stop, parent)),
+                tg.create_task(twin()),
             ]
             if vda5050 is not None:
                 tasks.append(tg.create_task(bridge_for(agv, vda5050)))

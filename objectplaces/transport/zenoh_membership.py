@@ -78,6 +78,8 @@ class Membership:
         """Nodes whose token has another fleet tag: what they send is dropped."""
         self.refusals: dict[str, str] = {}
         """Why each of ``foreign`` is no member."""
+        self._incarnation: int | None = None
+        self._twins: dict[int, float] = {}  # another run's token of our own id: since when
 
     def attach(self, driver: NodeDriver) -> None:
         """Connect the driver of the node machine that hears of arrivals and departures."""
@@ -89,6 +91,7 @@ class Membership:
         Again on a new session (``suspend`` first): the tokens already known stay."""
         self.suspend()
         self._session, self._inbox = session, inbox
+        self._incarnation = incarnation
         liveliness = session.liveliness()
         declared = [
             liveliness.declare_subscriber(
@@ -136,18 +139,38 @@ class Membership:
 
     # ------------------------------------------------------------------ reports
 
+    def twin_up_for(self) -> float | None:
+        """Seconds a token of our own id but of an earlier run has been up (None: none).
+
+        A run that crashed and was started again sees its old token until the lease
+        runs out; one that stays up longer is another process with this id, which was
+        there first (the later run gives way: an earlier one sees no twin)."""
+        if not self._twins:
+            return None
+        return asyncio.get_running_loop().time() - min(self._twins.values())
+
     def token_up(self, node: str, incarnation: int, tag: str = "") -> None:
         """Zenoh reported a token of ``node``'s run ``incarnation`` with fleet ``tag``."""
+        if node == self.keys.node:
+            ours = self._incarnation
+            if ours is not None and incarnation < ours:
+                self._twins.setdefault(incarnation, asyncio.get_running_loop().time())
+            return
         if self._same_fleet(node, tag):
             self._new_run(node, self._table.token_up(node, incarnation))
 
     def answered(self, node: str, incarnation: int, tag: str, query: int) -> None:
         """Liveliness query number ``query`` found this token up."""
+        if node == self.keys.node:
+            return  # a twin of ours is seen by its own report (``token_up``)
         if self._same_fleet(node, tag):
             self._new_run(node, self._table.answered(node, incarnation, query))
 
     def token_down(self, node: str, incarnation: int) -> None:
         """Zenoh reported that the token of ``node``'s run ``incarnation`` went."""
+        if node == self.keys.node:
+            self._twins.pop(incarnation, None)
+            return
         if node in self.foreign:
             return
         loop = asyncio.get_running_loop()
