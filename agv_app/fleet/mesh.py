@@ -52,6 +52,7 @@ from agv_app.protocol import AGV_KIND, OBSERVER_KIND
 from agv_app.tasks.admission import CROWDED, limit_for
 from agv_app.tasks.desk import BASE_ID, TaskDesk, require_task_stations
 from agv_app.tasks.free_flow import FreeFlowBound, FreeFlowTimer
+from agv_app.tasks.journal import TaskJournal
 from agv_app.tasks.load import TaskArrivals
 from agv_app.traffic.monitor import SafetyMonitor
 from agv_app.vda5050.link import VdaCredentials
@@ -139,6 +140,8 @@ class MeshFleet(FleetSourceBase):
             long waits; :data:`~agv_app.tasks.admission.CROWDED`, the default:
             ``"auto"`` for a fleet larger than its floor carries, else none, as the
             simulated fleet; :class:`~agv_app.tasks.desk.TaskDesk`).
+        store: the durable order book the task desk writes through to and resumes
+            from (:class:`~agv_app.tasks.store.OrderStore`; None: none).
 
     Raises:
         ValueError: ``agvs`` < 1, ``start_tasks`` < 0, more AGVs than parking spots,
@@ -170,6 +173,7 @@ class MeshFleet(FleetSourceBase):
         rest_beat: float | None = REST_BEAT_S,
         poll_interval: float = POLL_INTERVAL_S,
         max_open_tasks: int | str | None = CROWDED,
+        store: TaskJournal | None = None,
     ) -> None:
         if agvs < 1:
             raise ValueError(f"agvs must be at least 1, got {agvs!r}")
@@ -229,6 +233,7 @@ class MeshFleet(FleetSourceBase):
                 tally=self.metrics_raw.tally,
                 on_created=self.free_flow.add,
                 max_open=limit_for(max_open_tasks, self.layout, agvs),
+                store=store,
             ),
         )
         self.processes = AgvProcesses(python=python, capture_output=capture_output)
