@@ -570,6 +570,8 @@ def _refusal(path: Path, exc: sqlite3.Error) -> str:
     text = str(exc)
     if "locked" in text or "busy" in text:
         return f"order store {path} is locked by another process ({text})"
+    if "no such table" in text:
+        return f"order store {path} is damaged ({text})"
     if "not a database" in text:
         return f"order store {path} is not an SQLite database ({text})"
     if isinstance(exc, sqlite3.DatabaseError) and not isinstance(exc, sqlite3.OperationalError):

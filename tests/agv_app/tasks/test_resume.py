@@ -17,6 +17,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from agv_app.layout.demo import demo_warehouse
+from agv_app.tasks.book import TaskRecord
 from agv_app.tasks.desk import TaskDesk
 from agv_app.tasks.store import OrderStore
 from objectplaces.sim import SimulatedNetwork
@@ -81,6 +82,12 @@ def holders(agvs: list[FakeAgv]) -> dict[str, str]:
     return {t.id: a.node_id for a in agvs for t in a.held}
 
 
+def record(desk: TaskDesk, task_id: str) -> TaskRecord:
+    found = desk.book.get(task_id)
+    assert found is not None, task_id
+    return found
+
+
 def open_tasks(desk: TaskDesk) -> list[tuple[str, str, str | None]]:
     return [(r.id, r.state, r.vehicle) for r in desk.book.records() if r.id in desk.book.open_ids()]
 
@@ -101,8 +108,7 @@ def test_a_restarted_desk_resumes_every_open_task_and_carries_none_twice(tmp_pat
     again = Control.start(net, image)
     assert open_tasks(again.desk) == before
     station = again.desk.stations["dock-in-1"]
-    book = again.desk.book
-    assert station.assigned == {i: (book.get(i).task, agv) for i, agv in first.items()}
+    assert station.assigned == {i: (record(again.desk, i).task, agv) for i, agv in first.items()}
     assert [t.id for t in station.queue] == ids[2:]
 
     # The free vehicle takes the next ones; the one that holds a task keeps it.
@@ -131,9 +137,9 @@ def test_a_task_reported_done_while_the_control_was_down_is_closed_on_restart(
     agv.deliver()  # while no control listens
     net.run_for(2.0)
     again = Control.start(net, image)
-    assert again.desk.book.get(task_id).state == "assigned"
+    assert record(again.desk, task_id).state == "assigned"
     assert net.run_until(lambda: again.desk.book.open_ids() == [], timeout=10.0)
-    assert again.desk.book.get(task_id).state == "done"
+    assert record(again.desk, task_id).state == "done"
     assert agv.delivered == [task_id]
     control.store.close()
     again.store.close()
@@ -166,8 +172,8 @@ def test_a_vehicle_that_no_longer_holds_its_task_hands_it_back_to_another(
     assert net.run_until(lambda: task_id in [t.id for t in other.held], timeout=3 * GRACE)
     waited = net.now - start
     assert waited < GRACE if how == "returned" else waited >= GRACE
-    record = again.desk.book.get(task_id)
-    assert (record.state, record.vehicle) == ("assigned", other.node_id)
+    held = record(again.desk, task_id)
+    assert (held.state, held.vehicle) == ("assigned", other.node_id)
     assert again.desk.book.double_assignments == 0
     assert again.desk.returned == 1
     control.store.close()
@@ -245,8 +251,8 @@ def test_a_crash_after_any_commit_restores_the_same_open_orders(ops, crash_at, m
             restored = Control.start(fresh, image, wall=lambda at=at: 5000.0 + at)
             assert _snapshot(restored.desk, 0.0) == expected
             rdesk = restored.desk
-            records = [rdesk.book.get(i) for i in rdesk.book.open_ids()]
-            held = {r.id: r.vehicle for r in records if r and r.state in ("assigned", "driving")}
+            records = [record(rdesk, i) for i in rdesk.book.open_ids()]
+            held = {r.id: r.vehicle for r in records if r.state in ("assigned", "driving")}
             at_stations = {
                 task_id: agv
                 for s in rdesk.stations.values()
@@ -256,7 +262,7 @@ def test_a_crash_after_any_commit_restores_the_same_open_orders(ops, crash_at, m
             for sid, station in rdesk.stations.items():  # back in line, oldest first
                 unheld = [
                     i for i in rdesk.book.open_ids()
-                    if i not in held and rdesk.book.get(i).task.pick == sid
+                    if i not in held and record(rdesk, i).task.pick == sid
                 ]  # fmt: skip
                 assert [t.id for t in station.queue] == unheld
             restored.store.close()
