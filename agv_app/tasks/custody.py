@@ -7,9 +7,13 @@ and acts on what the machine concludes; the machine reads no clock (``now`` come
 and touches no node. A vehicle that holds a task either delivers it or hands it back:
 
 * **delivered**: its ``last_done`` names the task. A vehicle carries its tasks in the
-  order they were awarded, so every task it held from an earlier award is delivered
-  too: a control that was down while the vehicle reported one of them hears only the
-  last (properties keep the newest value, not the history).
+  order they were awarded, and is awarded a task while it holds another only as it
+  dwells at that one's drop station; so the task it named when this one was awarded is
+  delivered too, and so on back (a control that was down while the vehicle reported
+  one of them hears only the last: properties keep the newest value, not the history).
+  Tasks restored after a restart count as awarded in their order, the later after the
+  earlier ones; a task the vehicle did not name when the next was awarded (it had
+  forgotten it, or never heard of it) is not taken as delivered.
 * **returned**: its ``returned`` names the task, and its ``task`` does not (a stale
   ``returned`` from before a new award of the same task means nothing);
 * **unnamed**: its ``task`` has not named the task for ``grace`` seconds: from the award
@@ -73,6 +77,9 @@ class _Holding:
     vehicle: str
     unnamed_since: float | None
     """Since when the vehicle has not named the task (None: it names it now)."""
+    after: tuple[str, ...]
+    """The tasks of the vehicle delivered before this one, once this one is."""
+    restored: bool
 
 
 class CustodyMachine:
@@ -103,11 +110,17 @@ class CustodyMachine:
         """The held tasks' ids, oldest award first."""
         return list(self._held)
 
-    def hold(self, task_id: str, vehicle: str, *, now: float) -> None:
-        """``task_id`` was awarded to ``vehicle`` (or restored as held by it) at ``now``."""
+    def hold(self, task_id: str, vehicle: str, *, now: float, restored: bool = False) -> None:
+        """``task_id`` was awarded to ``vehicle`` at ``now``, or ``restored`` as held by it
+        (restore a vehicle's tasks in the order they were awarded)."""
         self._held.pop(task_id, None)  # a new award is the newest
+        after = tuple(
+            t
+            for t, h in self._held.items()
+            if h.vehicle == vehicle and (h.restored if restored else h.unnamed_since is None)
+        )
         named = self._naming.get(vehicle) == task_id
-        self._held[task_id] = _Holding(vehicle, None if named else now)
+        self._held[task_id] = _Holding(vehicle, None if named else now, after, restored)
 
     def release(self, task_id: str) -> bool:
         """``task_id`` is no longer held (finished or returned elsewhere); False if it was not."""
@@ -126,18 +139,23 @@ class CustodyMachine:
                 holding.unnamed_since = now
 
     def done(self, vehicle: str, task: object) -> list[Delivered]:
-        """``vehicle``'s ``last_done`` became ``task``: it and every task the vehicle held
-        from an earlier award are delivered (oldest first); none if it holds no such task."""
-        holding = self._held.get(task) if isinstance(task, str) else None
-        if holding is None or holding.vehicle != vehicle:
+        """``vehicle``'s ``last_done`` became ``task``: it is delivered, and the tasks the
+        vehicle carried before it (see the module docstring), oldest first; none if the
+        vehicle holds no such task."""
+        if not isinstance(task, str):
             return []
-        out: list[Delivered] = []
-        for task_id, each in list(self._held.items()):
-            if each.vehicle == vehicle:
-                del self._held[task_id]
-                out.append(Delivered(task_id, vehicle))
-            if task_id == task:
-                break
+        ended: set[str] = set()
+        todo = [task]
+        while todo:
+            task_id = todo.pop()
+            holding = self._held.get(task_id)
+            if task_id in ended or holding is None or holding.vehicle != vehicle:
+                continue
+            ended.add(task_id)
+            todo.extend(holding.after)
+        out = [Delivered(t, vehicle) for t in self._held if t in ended]
+        for t in ended:
+            del self._held[t]
         return out
 
     def returned(self, vehicle: str, task: object) -> list[HandedBack]:

@@ -47,7 +47,6 @@ from agv_app.tasks.custody import (
     DEFAULT_HAND_BACK_AFTER,
     CustodyMachine,
     Delivered,
-    HandedBack,
     Verdict,
 )
 from agv_app.tasks.journal import TaskJournal
@@ -256,7 +255,11 @@ class TaskDesk:
         self.book.restore(stored.open, stored.finished, created=stored.created)
         held = [r for r in stored.open if r.state in HELD_STATES and r.vehicle is not None]
         held.sort(key=lambda r: r.times.get("assigned", r.times["created"]))
-        for record in held:
+        now = self.clock()
+        for record in held:  # in the order they were awarded (``custody``)
+            vehicle = record.vehicle
+            assert vehicle is not None
+            self.custody.hold(record.id, vehicle, now=now, restored=True)
             self._adopt.setdefault(record.task.pick, []).append(record)
             self._open.add(record.id)
         for record in stored.open:
@@ -299,12 +302,10 @@ class TaskDesk:
         )
         self.stations[station_id] = station
         self._follow(node)
-        now = self.clock()
         for record in self._adopt.pop(station_id, []):
-            vehicle = record.vehicle
-            assert vehicle is not None
-            station.adopt(record.task, vehicle)
-            self.custody.hold(record.id, vehicle, now=now)
+            vehicle = self.custody.holder(record.id)
+            if vehicle is not None:  # still held
+                station.adopt(record.task, vehicle)
         self._arm()
         self._hand_out()  # tasks restored for this station wait no longer for it
         return station
@@ -513,8 +514,12 @@ class TaskDesk:
                 self.finish(verdict.task_id, now=self.clock())
                 if station is not None:
                     station.release(verdict.task_id)
-            elif isinstance(verdict, HandedBack) and station is not None:
+            elif station is not None:
                 station.give_back(verdict.task_id)
+            else:  # restored for a station not open: back at the desk, first in line
+                self._open.discard(verdict.task_id)
+                self.book.fail(verdict.task_id, now=self.clock())
+                self._waiting.appendleft(record.task)
         self._arm()
 
     def _arm(self) -> None:

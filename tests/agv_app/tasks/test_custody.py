@@ -59,18 +59,42 @@ def test_dwelling_at_a_drop_with_the_next_task_named_is_within_the_grace() -> No
     assert m.held() == ["task-2"]
 
 
-def test_a_later_task_reported_done_delivers_the_earlier_ones_of_that_vehicle() -> None:
+def test_a_later_task_reported_done_delivers_the_one_it_was_awarded_behind() -> None:
     m = machine()
     m.hold("task-1", "agv-1", now=0.0)
+    m.named("agv-1", "task-1", now=0.1)
     m.hold("task-7", "agv-2", now=0.5)
-    m.hold("task-2", "agv-1", now=1.0)
-    m.hold("task-3", "agv-1", now=2.0)
+    m.hold("task-2", "agv-1", now=1.0)  # while it dwells at task-1's drop
+    m.named("agv-1", "task-2", now=1.1)
+    m.hold("task-3", "agv-1", now=2.0)  # behind task-2
     # The control heard only the last of two reports (it was down for the first).
     assert m.done("agv-1", "task-2") == [
         Delivered("task-1", "agv-1"),
         Delivered("task-2", "agv-1"),
     ]
     assert m.held() == ["task-7", "task-3"]
+
+
+def test_tasks_restored_in_award_order_are_delivered_up_to_the_one_reported() -> None:
+    m = machine()
+    for task_id in ("task-1", "task-2", "task-3"):
+        m.hold(task_id, "agv-1", now=0.0, restored=True)
+    m.named("agv-1", None, now=1.0)
+    assert m.done("agv-1", "task-2") == [
+        Delivered("task-1", "agv-1"),
+        Delivered("task-2", "agv-1"),
+    ]
+    assert m.held() == ["task-3"]
+
+
+def test_a_task_not_named_when_the_next_was_awarded_is_not_taken_as_delivered() -> None:
+    m = machine()
+    m.hold("task-1", "agv-1", now=0.0, restored=True)  # its award never reached the vehicle
+    m.named("agv-1", None, now=1.0)
+    m.hold("task-2", "agv-1", now=2.0)  # won while free
+    m.named("agv-1", "task-2", now=2.1)
+    assert m.done("agv-1", "task-2") == [Delivered("task-2", "agv-1")]
+    assert m.tick(now=31.0) == [HandedBack("task-1", "agv-1", "unnamed")]
 
 
 def test_a_vehicle_that_says_returned_hands_the_task_back_at_once() -> None:
