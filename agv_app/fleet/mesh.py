@@ -223,6 +223,7 @@ class MeshFleet(FleetSourceBase):
         self.overlaps = LastingOverlaps(self.monitor, min_s=2 * t_update)
         # The desk is made below; the watch tells it of long waits once the fleet runs.
         self.stalls = StallWatch(on_long_wait=lambda _agv, now: self.desk.long_wait(now))
+        self._started_at: float | None = None  # before the desk, which reads the clock
         super().__init__(
             self.layout,
             TaskDesk(
@@ -256,7 +257,6 @@ class MeshFleet(FleetSourceBase):
         """What each AGV process shows, reported to the observer (its display session)."""
         self._base: MeshNode | None = None
         self._watcher: asyncio.Task[None] | None = None
-        self._started_at: float | None = None
         self._stopped = False
         self._advanced = 0.0
         self._next_task_at: float | None = None

@@ -200,9 +200,11 @@ class OrderStore:
                 keep_events=keep_events,
                 wall=wall,
             )
-        except BaseException:
+        except BaseException as exc:
             db.close()
             _unlock(lock_fd)
+            if isinstance(exc, sqlite3.Error | ValueError):  # a row not as written
+                raise StoreError(f"order store {path} is damaged ({exc})") from None
             raise
 
     @property

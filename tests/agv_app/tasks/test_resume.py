@@ -16,6 +16,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from agv_app.fleet import Fleet, FleetConfig
+from agv_app.fleet.mesh import MeshFleet
 from agv_app.layout.demo import demo_warehouse
 from agv_app.tasks.book import TaskRecord
 from agv_app.tasks.desk import TaskDesk
@@ -266,3 +268,20 @@ def test_a_crash_after_any_commit_restores_the_same_open_orders(ops, crash_at, m
                 ]  # fmt: skip
                 assert [t.id for t in station.queue] == unheld
             restored.store.close()
+
+
+def test_the_fleets_take_back_the_open_tasks_of_their_store(tmp_path: Path) -> None:
+    net = SimulatedNetwork(seed=9)
+    control = Control.start(net, tmp_path / "orders.db")
+    ids = [control.desk.create("dock-in-1", "dock-out-1") for _ in range(3)]
+    control.desk.cancel(ids[1])
+    control.store.close()
+    with OrderStore.open(tmp_path / "orders.db") as store:
+        mesh = MeshFleet(agvs=2, store=store)
+        assert mesh.open_tasks == [ids[0], ids[2]]
+        assert [r.state for r in mesh.task_records()] == ["cancelled", "created", "created"]
+    with OrderStore.open(tmp_path / "orders.db") as store:
+        sim = Fleet(LAYOUT, FleetConfig(agvs=2, seed=1, task_interval=1e9), store=store)
+        assert sim.open_tasks == [ids[0], ids[2]]
+        assert [t.id for t in sim.stations["dock-in-1"].queue] == [ids[0], ids[2]]
+        assert sim.create_task("dock-in-2") == "task-4"

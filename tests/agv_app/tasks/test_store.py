@@ -237,3 +237,16 @@ def test_a_closed_store_refuses_writes(tmp_path: Path) -> None:
     assert store.closed
     with pytest.raises(StoreError, match="is closed"):
         store.add_event(0, 0.0, "info", "fleet", "late")
+
+
+def test_a_store_with_a_row_not_as_written_is_refused(tmp_path: Path) -> None:
+    path = tmp_path / "orders.db"
+    store = OrderStore.open(path)
+    TaskBook(on_change=store.task_changed).create("p", "d", now=0.0)
+    store.close()
+    db = sqlite3.connect(path)
+    db.execute("UPDATE tasks SET history = '[oops'")
+    db.commit()
+    db.close()
+    with pytest.raises(StoreError, match=rf"order store {path} is damaged"):
+        OrderStore.open(path)
