@@ -22,16 +22,10 @@ a kernel crash, which may lose the last commits; a client that was told its orde
 taken does not send it again. The price is one fsync per change, a few a second at a
 fleet's pace.
 
-**Ownership.** One control per file: an exclusive ``flock`` on ``<file>.lock`` (held for
-as long as the store is open, released by the kernel when the process dies, whatever
-kills it) names the holder's pid, and SQLite's exclusive locking mode keeps any other
-program from writing behind the control's back.
-
-**Refusals.** Opening refuses, with :class:`StoreError`, a file that is not SQLite, an
-SQLite file that is no order store, one that fails ``PRAGMA quick_check``, one of another
-schema version, one locked by another process, and a write-ahead log without its
-database. A missing file is the only fresh start: it is made whole under a temporary
-name and renamed into place, so a file at the path is always a complete store.
+**Ownership and refusals** (:mod:`agv_app.tasks.store_file`): one control per file (a
+second one is told the holder's pid); a file that is not a whole order store of this
+schema version is refused with :class:`StoreError`, never started afresh: only a
+missing file is.
 
 **Times** are kept as wall-clock (Unix) seconds and converted to and from the fleet's
 clock (``use_clock``), which starts at zero in each run: a task restored from an earlier
@@ -43,7 +37,6 @@ run was created at a negative time, and its duration counts the time the control
 
 from __future__ import annotations
 
-import fcntl
 import json
 import os
 import sqlite3
@@ -57,6 +50,14 @@ from typing import Any, cast
 from agv_app.tasks.auction import TaskSpec
 from agv_app.tasks.book import FINAL_STATES, TASK_STATES, TaskRecord, TaskState
 from agv_app.tasks.journal import StoredTasks
+from agv_app.tasks.store_file import (
+    APPLICATION_ID,
+    SCHEMA_VERSION,
+    StoreError,
+    connect,
+    lock,
+    unlock,
+)
 
 __all__ = [
     "APPLICATION_ID",
@@ -67,12 +68,6 @@ __all__ = [
     "StoreError",
     "StoredEvent",
 ]
-
-SCHEMA_VERSION = 1
-"""The layout this module reads and writes."""
-
-APPLICATION_ID = 0x4F504F42
-"""SQLite header's application id of an order store ("OPOB")."""
 
 DEFAULT_KEEP_FINISHED = 10_000
 """Finished tasks a store keeps, newest; older ones are pruned."""
@@ -86,33 +81,6 @@ over should not grow its row without end)."""
 
 StoredEvent = tuple[int, float, str, str, str]
 """An event as kept: seq, time (on the store's clock), severity, source, text."""
-
-_SCHEMA = """
-CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL) WITHOUT ROWID;
-CREATE TABLE tasks (
-    n INTEGER PRIMARY KEY,
-    id TEXT NOT NULL UNIQUE,
-    pick TEXT NOT NULL,
-    drop_at TEXT NOT NULL,
-    creator TEXT NOT NULL,
-    state TEXT NOT NULL,
-    vehicle TEXT,
-    history TEXT NOT NULL,
-    closed INTEGER UNIQUE
-);
-CREATE TABLE events (
-    seq INTEGER PRIMARY KEY,
-    time REAL NOT NULL,
-    severity TEXT NOT NULL,
-    source TEXT NOT NULL,
-    text TEXT NOT NULL
-);
-"""
-
-
-class StoreError(RuntimeError):
-    """An order store cannot be opened or written; the message names the file and why,
-    fit for a command line."""
 
 
 class OrderStore:
@@ -185,11 +153,11 @@ class OrderStore:
                 f"got {keep_finished!r} and {keep_events!r}"
             )
         path = Path(path)
-        lock_fd = _lock(path)
+        lock_fd = lock(path)
         try:
-            db = _connect(path, busy_timeout)
+            db = connect(path, busy_timeout)
         except BaseException:
-            _unlock(lock_fd)
+            unlock(lock_fd)
             raise
         try:
             return cls(
@@ -202,7 +170,7 @@ class OrderStore:
             )
         except BaseException as exc:
             db.close()
-            _unlock(lock_fd)
+            unlock(lock_fd)
             if isinstance(exc, sqlite3.Error | ValueError):  # a row not as written
                 raise StoreError(f"order store {path} is damaged ({exc})") from None
             raise
@@ -219,7 +187,7 @@ class OrderStore:
             db.close()  # the last connection: SQLite checkpoints and removes the log
         fd, self._lock_fd = self._lock_fd, None
         if fd is not None:
-            _unlock(fd)
+            unlock(fd)
 
     def __enter__(self) -> OrderStore:
         return self
@@ -457,155 +425,3 @@ def _append(history: list[list[Any]], entry: list[Any]) -> None:
 def _number(task_id: str) -> int:
     _, _, digits = task_id.rpartition("-")
     return int(digits) if digits.isdigit() else 0
-
-
-# -- ownership and the checks on opening ---------------------------------------------------
-
-
-def _lock(path: Path) -> int:
-    """Take ``<path>.lock`` for this process and write its pid there; its descriptor.
-
-    Raises:
-        StoreError: another process holds it, or it cannot be opened.
-    """
-    if not path.parent.is_dir():
-        raise StoreError(f"order store {path}: no folder {path.parent}")
-    lock_path = path.with_name(path.name + ".lock")
-    try:
-        fd = os.open(lock_path, os.O_RDWR | os.O_CREAT, 0o644)
-    except OSError as exc:
-        raise StoreError(f"order store {path}: cannot open {lock_path}: {exc.strerror}") from None
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except OSError:
-        holder = os.pread(fd, 32, 0).decode(errors="replace").strip()
-        os.close(fd)
-        pid = f"pid {holder}" if holder.isdigit() else "pid unknown"
-        raise StoreError(
-            f"order store {path} is in use by another control ({pid}); "
-            "one control per store: stop that one, or give this one another file"
-        ) from None
-    os.ftruncate(fd, 0)
-    os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
-    return fd
-
-
-def _unlock(fd: int) -> None:
-    fcntl.flock(fd, fcntl.LOCK_UN)
-    os.close(fd)
-
-
-def _connect(path: Path, busy_timeout: float) -> sqlite3.Connection:
-    """Open (or make) the store's file and check it is a whole order store of ours.
-
-    Raises:
-        StoreError: it is not (the message says why).
-    """
-    wal = path.with_name(path.name + "-wal")
-    if not path.exists():
-        if wal.exists():
-            raise StoreError(
-                f"order store {path} is missing but its write-ahead log {wal} is there: "
-                "not starting afresh (put the store back, or remove the log)"
-            )
-        _create(path)
-    elif not path.is_file():
-        raise StoreError(f"order store {path} is not a file")
-    elif path.stat().st_size == 0:
-        raise StoreError(
-            f"order store {path} is an empty file, no order store (a new store is made "
-            "only where no file is)"
-        )
-    try:
-        # Not bound to the opening thread: the one thread of control that touches a store
-        # may be another than the one that opened it (a test client's, a server's).
-        db = sqlite3.connect(
-            path, timeout=busy_timeout, isolation_level=None, check_same_thread=False
-        )
-    except sqlite3.Error as exc:
-        raise StoreError(f"order store {path} cannot be opened: {exc}") from None
-    try:
-        _check(path, db)
-    except BaseException:
-        db.close()
-        raise
-    return db
-
-
-def _check(path: Path, db: sqlite3.Connection) -> None:
-    try:
-        db.execute("PRAGMA locking_mode = EXCLUSIVE")
-        (app,) = db.execute("PRAGMA application_id").fetchone()
-        if app != APPLICATION_ID:
-            raise StoreError(
-                f"order store {path} is an SQLite database but no order store "
-                f"(application id {app:#x}, an order store's is {APPLICATION_ID:#x})"
-            )
-        problems = [str(row[0]) for row in db.execute("PRAGMA quick_check(5)")]
-        if problems != ["ok"]:
-            raise StoreError(f"order store {path} is damaged: {'; '.join(problems)}")
-        (mode,) = db.execute("PRAGMA journal_mode = WAL").fetchone()
-        if mode != "wal":
-            raise StoreError(f"order store {path} cannot keep a write-ahead log (mode {mode})")
-        db.execute("PRAGMA synchronous = FULL")
-        db.execute("BEGIN IMMEDIATE")  # takes the exclusive lock, kept until closed
-        try:
-            meta = dict(db.execute("SELECT key, value FROM meta").fetchall())
-            version = meta.get("schema")
-            if version != str(SCHEMA_VERSION) or "created" not in meta:
-                raise StoreError(
-                    f"order store {path} has schema version {version}; this program reads "
-                    f"version {SCHEMA_VERSION} only"
-                )
-            db.execute(
-                "INSERT OR REPLACE INTO meta (key, value) VALUES ('holder', ?)", (str(os.getpid()),)
-            )
-        except BaseException:
-            db.execute("ROLLBACK")
-            raise
-        db.execute("COMMIT")
-    except sqlite3.Error as exc:
-        raise StoreError(_refusal(path, exc)) from None
-
-
-def _refusal(path: Path, exc: sqlite3.Error) -> str:
-    text = str(exc)
-    if "locked" in text or "busy" in text:
-        return f"order store {path} is locked by another process ({text})"
-    if "no such table" in text:
-        return f"order store {path} is damaged ({text})"
-    if "not a database" in text:
-        return f"order store {path} is not an SQLite database ({text})"
-    if isinstance(exc, sqlite3.DatabaseError) and not isinstance(exc, sqlite3.OperationalError):
-        return f"order store {path} is damaged ({text})"
-    return f"order store {path} cannot be opened: {text}"
-
-
-def _create(path: Path) -> None:
-    """Make an empty store at ``path``: whole under a temporary name, then renamed."""
-    new = path.with_name(path.name + ".new")
-    for leftover in (new, new.with_name(new.name + "-journal")):
-        leftover.unlink(missing_ok=True)  # a creation cut short, under our lock
-    try:
-        db = sqlite3.connect(new, isolation_level=None)
-        try:
-            db.executescript(
-                f"BEGIN; PRAGMA application_id = {APPLICATION_ID}; {_SCHEMA} "
-                f"INSERT INTO meta (key, value) VALUES ('schema', '{SCHEMA_VERSION}'), "
-                "('created', '0'); COMMIT;"
-            )
-        finally:
-            db.close()
-        fd = os.open(new, os.O_RDONLY)
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
-        os.replace(new, path)
-        fd = os.open(path.parent, os.O_RDONLY)
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
-    except (OSError, sqlite3.Error) as exc:
-        raise StoreError(f"order store {path} cannot be made: {exc}") from None
