@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from collections import deque
 from dataclasses import dataclass
-from typing import Literal, Protocol, cast
+from typing import Literal, Protocol
 
 __all__ = [
     "DEFAULT_HISTORY",
@@ -104,7 +104,7 @@ class EventLog:
         if store is not None:
             for seq, time, severity, source, text in store.recent_events(history):
                 if severity in SEVERITIES:
-                    self._events.append(Event(seq, time, cast(Severity, severity), source, text))
+                    self._events.append(Event(seq, time, severity, source, text))
             if self._events:
                 self._seq = self._events[-1].seq + 1
                 self.dropped = self._events[0].seq  # numbered from 0, none reused

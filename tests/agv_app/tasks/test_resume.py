@@ -5,9 +5,11 @@ it or hands it back."""
 from __future__ import annotations
 
 import contextlib
+import functools
 import random
 import shutil
 import tempfile
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -41,9 +43,9 @@ class Control:
 
     @classmethod
     def start(
-        cls, net: SimulatedNetwork, path: Path, *, wall: Callable[[], float] | None = None, **kw
+        cls, net: SimulatedNetwork, path: Path, *, wall: Callable[[], float] = time.time, **kw
     ) -> Control:
-        store = OrderStore.open(path, **({} if wall is None else {"wall": wall}))
+        store = OrderStore.open(path, wall=wall)
         desk = TaskDesk(
             LAYOUT,
             rng=random.Random(1),
@@ -250,7 +252,7 @@ def test_a_crash_after_any_commit_restores_the_same_open_orders(ops, crash_at, m
 
         for image, at, expected in images:
             fresh = SimulatedNetwork(seed=8)
-            restored = Control.start(fresh, image, wall=lambda at=at: 5000.0 + at)
+            restored = Control.start(fresh, image, wall=functools.partial(float, 5000.0 + at))
             assert _snapshot(restored.desk, 0.0) == expected
             rdesk = restored.desk
             records = [record(rdesk, i) for i in rdesk.book.open_ids()]
