@@ -55,6 +55,7 @@ from agv_app.protocol import AGV_KIND, OBSERVER_KIND
 from agv_app.tasks.admission import CROWDED, limit_for
 from agv_app.tasks.desk import BASE_ID, TaskDesk, require_task_stations
 from agv_app.tasks.free_flow import FreeFlowBound, FreeFlowTimer
+from agv_app.tasks.journal import TaskJournal
 from agv_app.tasks.load import TaskArrivals
 from agv_app.traffic.monitor import SafetyMonitor
 from agv_app.vda5050.link import VdaCredentials
@@ -163,6 +164,8 @@ class MeshFleet(FleetSourceBase):
             long waits; :data:`~agv_app.tasks.admission.CROWDED`, the default:
             ``"auto"`` for a fleet larger than its floor carries, else none, as the
             simulated fleet; :class:`~agv_app.tasks.desk.TaskDesk`).
+        store: the durable order book the task desk writes through to and resumes
+            from (:class:`~agv_app.tasks.store.OrderStore`; None: none).
 
     Raises:
         ValueError: ``agvs`` < 1, ``start_tasks`` < 0, more AGVs than parking spots,
@@ -195,6 +198,7 @@ class MeshFleet(FleetSourceBase):
         poll_interval: float = POLL_INTERVAL_S,
         max_open_tasks: int | str | None = CROWDED,
         joining: Joining | None = None,
+        store: TaskJournal | None = None,
     ) -> None:
         if agvs < 1:
             raise ValueError(f"agvs must be at least 1, got {agvs!r}")
@@ -247,6 +251,7 @@ class MeshFleet(FleetSourceBase):
         self.overlaps = LastingOverlaps(self.monitor, min_s=2 * t_update)
         # The desk is made below; the watch tells it of long waits once the fleet runs.
         self.stalls = StallWatch(on_long_wait=lambda _agv, now: self.desk.long_wait(now))
+        self._started_at: float | None = None  # before the desk, which reads the clock
         super().__init__(
             self.layout,
             TaskDesk(
@@ -257,6 +262,7 @@ class MeshFleet(FleetSourceBase):
                 tally=self.metrics_raw.tally,
                 on_created=self.free_flow.add,
                 max_open=limit_for(max_open_tasks, self.layout, agvs),
+                store=store,
             ),
         )
         self.processes = AgvProcesses(python=python, capture_output=capture_output)
@@ -279,7 +285,6 @@ class MeshFleet(FleetSourceBase):
         """What each AGV process shows, reported to the observer (its display session)."""
         self._base: MeshNode | None = None
         self._watcher: asyncio.Task[None] | None = None
-        self._started_at: float | None = None
         self._stopped = False
         self._advanced = 0.0
         self._next_task_at: float | None = None
