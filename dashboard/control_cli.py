@@ -9,8 +9,10 @@ objectplaces control --transport zenoh --pki fleet-pki \\
 ```
 
 It joins the fleet at ``--connect`` (nodes of the mesh, or Zenoh routers) as two nodes,
-``observer`` and ``base``, with their certificates in the PKI folder, and serves the
-dashboard (``dashboard.listen``: a token always, TLS off loopback, with the PKI's
+``observer`` and ``base``, with their certificates in the PKI folder, keeps the
+transport orders and the event log in an SQLite order book (``--db``: a control killed
+and started again takes up every open order, none twice; ``docs/fleet.md``), and serves
+the dashboard (``dashboard.listen``: a token always, TLS off loopback, with the PKI's
 ``control`` certificate). Registered as a plugin of the ``objectplaces`` command.
 """
 
@@ -19,6 +21,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from pathlib import Path
 
 from dashboard.cli import serve
 from dashboard.listen import add_listen_arguments, listening_from_args
@@ -80,6 +83,13 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
     parser.add_argument(
         "--t-update", type=number(above=0), default=1.0, help="property interval, s (as the AGVs')"
     )
+    parser.add_argument(
+        "--db",
+        type=Path,
+        default=Path("orders.sqlite"),
+        help="the order book: transport orders, their states and the event log (SQLite; "
+        "made if missing; one control at a time; default: orders.sqlite)",
+    )
     add_listen_arguments(parser)
     parser.set_defaults(func=run_control)
 
@@ -92,9 +102,11 @@ def run_control(args: argparse.Namespace) -> int:
     from agv_app.layout.choice import layout_from_argument
     from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M
     from agv_app.layout.elements import LayoutError
+    from agv_app.tasks import OrderStore, StoreError
     from agv_app.tasks.desk import BASE_ID
     from agv_app.tasks.load import task_interval_for_load
     from agv_app.vehicle.kinematics import VehicleSpec
+    from dashboard.eventlog import EventLog
 
     if args.pki is None:
         print(
@@ -121,6 +133,11 @@ def run_control(args: argparse.Namespace) -> int:
             layout, agvs=args.agvs, load=args.load, speed_m_s=speed, dwell_s=5.0
         )
     try:
+        store = OrderStore.open(args.db)
+    except StoreError as exc:
+        print(f"objectplaces control: {exc}", file=sys.stderr)
+        return 2
+    try:
         fleet = MeshFleet(
             agvs=args.agvs,
             seed=args.seed,
@@ -134,9 +151,15 @@ def run_control(args: argparse.Namespace) -> int:
                 pki=args.pki,
                 layout_argument=args.layout,
             ),
+            store=store,
         )
+        events = EventLog(store=store)  # after the desk: it gives the store the clock
     except (ValueError, LocalProtocolError) as exc:
+        store.close()
         print(f"objectplaces control: {exc}", file=sys.stderr)
         return 2
-    serve(fleet, listening=listening)
+    try:
+        serve(fleet, listening=listening, events=events)
+    finally:
+        store.close()
     return 0

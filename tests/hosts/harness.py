@@ -22,6 +22,7 @@ import contextlib
 import json
 import os
 import signal
+import sqlite3
 import ssl
 import subprocess
 import sys
@@ -37,6 +38,7 @@ from agv_app.fleet.parking import ParkingPlan
 from agv_app.fleet.trace import SafetyReport, check_traces
 from agv_app.layout.choice import layout_from_argument
 from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M
+from agv_app.tasks.desk import pick_stations
 from agv_app.vehicle.kinematics import VehicleSpec
 from objectplaces.security import TemporaryPki
 from tests.netns import Host, Network
@@ -136,6 +138,7 @@ class FleetOnHosts:
         self.traces = self.workdir / "traces"
         self.traces.mkdir(parents=True, exist_ok=True)
         layout = layout_from_argument(self.layout)
+        self.picks = pick_stations(layout)
         spec = VehicleSpec(DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M)
         self.homes = ParkingPlan(layout, spec, self.vehicles, rest_elsewhere=False).homes
         width = max(2, len(str(self.vehicles)))
@@ -180,6 +183,7 @@ class FleetOnHosts:
             "control", "--transport", "zenoh", *connect, "--pki", d, *self._layout_args(),
             "--agvs", str(self.vehicles), "--load", str(self.load),
             "--host", ctl.address, "--port", str(DASHBOARD_PORT), "--token-file", str(self.tokens),
+            "--db", str(self.workdir / "orders.sqlite"),
         ])  # fmt: skip
         for i, (agv, home) in enumerate(zip(self.vehicle_ids, self.homes, strict=True)):
             self._proc("agv", agv, self.hosts[agv.replace("agv-", "v")], [
@@ -232,17 +236,24 @@ class FleetOnHosts:
 
     # -- the control's view -------------------------------------------------------------
 
-    def api(self, path: str) -> Any:
-        """GET ``path`` of the control's REST API (as its operator); None if down."""
+    def api(self, path: str, body: dict[str, Any] | None = None) -> Any:
+        """GET ``path`` of the control's REST API, or POST ``body`` to it, as its
+        operator; None while it is down."""
         token = next(
             line.split()[1]
             for line in self.tokens.read_text().splitlines()
             if line.startswith("operator ")
         )
         context = ssl.create_default_context(cafile=str(self.pki.directory / "ca.pem"))
+        headers = {"Authorization": f"Bearer {token}"}
+        data = None
+        if body is not None:
+            data = json.dumps(body).encode()
+            headers["Content-Type"] = "application/json"
         request = urllib.request.Request(
             f"https://{self.hosts['ctl'].address}:{DASHBOARD_PORT}{path}",
-            headers={"Authorization": f"Bearer {token}"},
+            headers=headers,
+            data=data,
         )
         try:
             with urllib.request.urlopen(request, timeout=5, context=context) as answer:
@@ -256,6 +267,28 @@ class FleetOnHosts:
             return []
         vehicles = self.api("/api/vehicles") or []
         return sorted(v["id"] for v in vehicles if v.get("status") != "failed")
+
+    def order(self, station: str) -> str:
+        """Give the control a transport order at ``station``; its id."""
+        answer = self.api("/api/tasks", {"station": station})
+        assert answer is not None, "the control took no order"
+        return str(answer["task_id"])
+
+    def orders(self) -> dict[str, str]:
+        """Every order the control knows and its state, by id ({} while it is down)."""
+        return {t["id"]: t["state"] for t in self.api("/api/tasks") or []}
+
+    def deliveries(self) -> dict[str, int]:
+        """How often the order book recorded each order delivered (read after ``stop``)."""
+        db = sqlite3.connect(f"file:{self.workdir / 'orders.sqlite'}?mode=ro", uri=True)
+        try:
+            rows = db.execute("SELECT id, history FROM tasks").fetchall()
+        finally:
+            db.close()
+        return {
+            task: sum(1 for entry in json.loads(history) if entry[0] == "done")
+            for task, history in rows
+        }
 
     def metrics(self) -> dict[str, float]:
         """The control's figures ({} while it is down)."""

@@ -39,11 +39,16 @@ def test_a_fleet_across_hosts_survives_each_fault_once(tmp_path: Path) -> None:
         fleet.until(lambda: len(fleet.heard()) == 3, 120, "every vehicle heard through r2")
         fleet.restart("r1")
 
-        fleet.kill("control")
+        ordered = [fleet.order(fleet.picks[i % len(fleet.picks)]) for i in range(3)]
+        fleet.kill("control")  # with orders open: none may be lost, none done twice
         fleet.restart("control")
         fleet.until(lambda: len(fleet.heard()) == 3, 180, "every vehicle heard after control")
+        fleet.until(lambda: set(ordered) <= fleet.orders().keys(), 60, "every order back")
         fleet.until(lambda: _moving(fleet), 180, "a vehicle driving after every fault")
         report = fleet.stop()
+        delivered = fleet.deliveries()
+    assert set(ordered) <= delivered.keys(), "no order lost"
+    assert max(delivered.values(), default=0) <= 1, "none done twice"
     assert report.vehicles == 3
     assert report.safe, report.details[:20]
     assert report.collisions == report.lock_overlaps == 0
