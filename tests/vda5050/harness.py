@@ -106,4 +106,4 @@ class OneVehicle:
 
     def state(self) -> dict[str, Any]:
         """The state the endpoint would publish now."""
-        return self.endpoint._state().message
+        return self.endpoint.state_now()
