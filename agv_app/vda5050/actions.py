@@ -338,7 +338,7 @@ class ActionBook:
             True if any action changed its status.
         """
         changed = False
-        for record in self._queue:
+        for record in list(self._queue):
             if record.status == "RUNNING" and record.due is not None and now >= record.due:
                 self._complete(record, now)
                 changed = True
