@@ -219,6 +219,7 @@ class TaskRecordOut(_Out):
     """A transport order and where it stands."""
 
     id: str
+    origin: str = Field(description="who gave it: desk, or master (a VDA 5050 master control)")
     source: str = Field(description="pick station id")
     destination: str = Field(description="drop station id")
     state: str = Field(description="waiting, assigned, driving, done, failed or cancelled")
