@@ -319,8 +319,13 @@ class OrderAgv(AgvController):
         book = self.book_of_orders
         if book.reached(self.point, now):
             self._changed()
-        if not book.nodes or book.base_end() is None or book.actions.blocks_driving:
-            return  # no order, waiting for an update, or an action holds the vehicle here
+        if (
+            not book.nodes
+            or book.cancelled
+            or book.base_end() is None
+            or book.actions.blocks_driving
+        ):
+            return  # no order, cancelled, waiting for an update, or an action holds it here
         points = book.base_points()
         if len(points) < 2:
             return
