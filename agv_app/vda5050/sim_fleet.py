@@ -22,11 +22,13 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import dataclasses
 import functools
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from agv_app.fleet.sim import Fleet, FleetConfig
+from agv_app.fleet.view import VehicleState
 from agv_app.layout.graph import Layout
 from agv_app.tasks.auction import TaskSpec
 from agv_app.tasks.book import TaskBook
@@ -60,6 +62,10 @@ class MasterOrders:
         self.clock = clock
         self._open: dict[tuple[str, str], str] = {}
         """Each open order's task id, by vehicle and orderId."""
+
+    def carried_by(self, serial: str) -> str | None:
+        """The task id of the transport order ``serial`` carries out (None: none)."""
+        return next((t for (s, _), t in self._open.items() if s == serial), None)
 
     def seen(self, serial: str, event: str, orders: OrderBook) -> None:
         """An order of ``serial`` was accepted, finished or cancelled."""
@@ -185,6 +191,16 @@ class VdaSimFleet(Fleet):
         for task in tasks:
             with contextlib.suppress(asyncio.CancelledError):
                 await task
+
+    def vehicles(self) -> Sequence[VehicleState]:
+        """Every AGV, by id; one carrying out a master's transport order shows it as its
+        task."""
+        return [
+            v
+            if v.task_id is not None or (order := self.master_orders.carried_by(v.id)) is None
+            else dataclasses.replace(v, task_id=order)
+            for v in super().vehicles()
+        ]
 
     def metrics(self) -> Mapping[str, float]:
         """The fleet's figures and the broker's (``vda5050_*``)."""

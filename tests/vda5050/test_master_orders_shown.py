@@ -48,6 +48,8 @@ def test_a_transport_order_shows_as_an_order_of_the_master_until_done() -> None:
     assert shown["origin"] == "master"
     assert (shown["source"], shown["destination"]) == ("pick-A3-1", "drop-A4-3")
     assert (shown["state"], shown["vehicle"]) == ("driving", "agv-01")
+    tasks = {v["id"]: v["task"] for v in client.get("/api/vehicles").json()}
+    assert tasks == {"agv-01": "m-1", "agv-02": None}
     for _ in range(6000):
         f.step()
         if not f.agvs["agv-01"].book_of_orders.active:  # type: ignore[attr-defined]
