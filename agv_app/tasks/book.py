@@ -9,7 +9,13 @@ states, and the book notes when it last entered each one and which vehicle holds
 ``done``      delivered (final);
 ``failed``    its vehicle failed while holding it; the station returns it to its queue
               and awards it again (``assigned`` once more);
-``cancelled`` withdrawn before any award (final).
+``cancelled`` withdrawn before any award (final), or by the master control whose
+              order it is.
+
+Most tasks are the desk's. A transport order of a VDA 5050 master control comes with
+its vehicle: :meth:`TaskBook.add_held` enters it as ``driving`` at once, with its
+``creator``, and it ends ``done`` or, cancelled by its master, ``cancelled``
+(:meth:`TaskBook.withdraw`).
 
 Memory stays bounded on runs of any length: the counts of every state entered are
 kept for ever, the durations (creation to delivery) as :class:`~agv_app.samples.Samples`
@@ -72,7 +78,9 @@ class TaskRecord:
         state: where it stands.
         vehicle: the vehicle that holds or last held it (None before the first award).
         times: when it last entered each state it has passed, seconds.
-        creator: who asked for it (``api``, ``auto`` ...; empty when unknown).
+        creator: who asked for it: ``api`` (a client of the REST API, the page),
+            ``auto`` (the fleet's automatic tasks), ``master`` (a VDA 5050 master
+            control's transport order); empty when unknown.
     """
 
     task: TaskSpec
@@ -183,6 +191,30 @@ class TaskBook:
         self._open[task.id] = record
         self._enter(record, "created", now)
         return task
+
+    def add_held(self, task: TaskSpec, vehicle: str, *, now: float, creator: str) -> TaskRecord:
+        """A task that came with its vehicle (a master control's transport order): it is
+        ``driving`` at once, on ``vehicle``.
+
+        Raises:
+            ValueError: an open task has that id.
+        """
+        if task.id in self._open:
+            raise ValueError(f"task {task.id!r} is open already")
+        record = TaskRecord(task, "created", vehicle=vehicle, creator=creator)
+        self._open[task.id] = record
+        for state in ("created", "assigned", "driving"):
+            self._enter(record, state, now)
+        return record
+
+    def withdraw(self, task_id: str, *, now: float) -> bool:
+        """The one that gave a held task cancelled it; False unless it is open."""
+        record = self._open.get(task_id)
+        if record is None:
+            return False
+        self._enter(record, "cancelled", now)
+        self._close(record)
+        return True
 
     def assign(self, task_id: str, vehicle: str, *, now: float) -> bool:
         """``task_id`` was awarded to ``vehicle``; False if the book holds no open task so.
