@@ -12,7 +12,11 @@ Import from here; the submodules are the implementation:
 
 from __future__ import annotations
 
-from agv_app import geometry, layout
+from objectplaces.extras import require
+
+require("fleet", "the AGV fleet application (agv_app)")  # else: which extra to install
+
+from agv_app import geometry, layout  # noqa: E402 (after the check)
 from agv_app.geometry import *  # noqa: F403 (the package's face: every name of geometry)
 from agv_app.layout import *  # noqa: F403 (and of layout)
 from agv_app.vehicle import Vehicle, VehicleSpec
