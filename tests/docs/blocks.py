@@ -13,7 +13,7 @@ file NAME              written to NAME in that folder (a script a later block ru
 run                    a ``sh`` block run by bash there (or a ``python`` block run as a
                        script in a process of its own), bounded in time; must exit 0
 background             a ``sh`` block started there; it must exit 0 by the page's end
-```sh (no mark)        not run (installs, long commands): every ``objectplaces`` line
+```sh (no mark)        not run (installs, long commands): every ``objectplaces`` command
                        in it must parse with the command line's own parser
 ```json                must parse as JSON
 anything else          text: not run
@@ -57,9 +57,7 @@ def blocks_of(page: Path) -> list[Block]:
     found = []
     for match in _FENCE.finditer(text):
         indent = match.group("indent")
-        code = "\n".join(
-            line.removeprefix(indent) for line in match.group("code").splitlines()
-        )
+        code = "\n".join(line.removeprefix(indent) for line in match.group("code").splitlines())
         line = text.count("\n", 0, match.start("lang")) + 1
         found.append(Block(page, line, match.group("lang"), code + "\n", match.group("mark") or ""))
     return found

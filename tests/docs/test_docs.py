@@ -18,7 +18,7 @@ from objectplaces.cli import build_parser
 from tests.docs.blocks import Block, blocks_of
 
 ROOT = Path(__file__).resolve().parents[2]
-PAGES = sorted((ROOT / "docs").glob("*.md")) + [ROOT / "README.md"]
+PAGES = [*sorted((ROOT / "docs").glob("*.md")), ROOT / "README.md"]
 BIN = Path(sys.executable).parent
 BLOCK_TIMEOUT = 180.0
 
@@ -44,9 +44,24 @@ def _exec_python(block: Block, namespace: dict[str, object]) -> None:
         asyncio.run(bounded())
 
 
+def _command_lines(code: str) -> list[str]:
+    """The lines of a shell block, a line continued with a backslash joined to the next."""
+    lines: list[str] = []
+    pending = ""
+    for raw in code.splitlines():
+        if raw.rstrip().endswith("\\"):
+            pending += raw.rstrip()[:-1] + " "
+            continue
+        lines.append(pending + raw)
+        pending = ""
+    if pending:
+        lines.append(pending)
+    return lines
+
+
 def _check_command_lines(block: Block) -> None:
     parser = build_parser()
-    for raw in block.code.splitlines():
+    for raw in _command_lines(block.code):
         line = raw.split(" #", 1)[0].strip()
         if not line.startswith("objectplaces "):
             continue
@@ -80,7 +95,11 @@ def run_page(page: Path, folder: Path, monkeypatch: pytest.MonkeyPatch) -> int:
                 if lang == "python":
                     argv = [sys.executable, "-c", block.code]
                 done = subprocess.run(
-                    argv, cwd=folder, env=_env(), timeout=BLOCK_TIMEOUT, capture_output=True,
+                    argv,
+                    cwd=folder,
+                    env=_env(),
+                    timeout=BLOCK_TIMEOUT,
+                    capture_output=True,
                     text=True,
                 )
                 assert done.returncode == 0, f"{block.where} failed:\n{done.stdout}{done.stderr}"
