@@ -40,6 +40,8 @@ __all__ = [
 
 Props: TypeAlias = Mapping[str, Any]
 DefinitionLike: TypeAlias = Callable[[Props, Props], bool]
+"""What ``start_interaction`` and ``view_group`` take as a group definition: a
+``GroupDefinition``, or any callable ``(initiator_props, participant_props) -> bool``."""
 MaxOf: TypeAlias = Callable[[str], float]
 """Asks the index for the largest numeric value of a property over the known nodes."""
 

@@ -1,5 +1,5 @@
-"""The documentation: every code block runs, every command parses, the site builds with
-``mkdocs build --strict``, and every public name is in the reference."""
+"""The documentation: every code block of the docs and the README runs, every command
+parses, and every file of examples/ runs as a script (the site itself: test_site.py)."""
 
 from __future__ import annotations
 
