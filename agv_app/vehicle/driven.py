@@ -244,6 +244,7 @@ class DrivenVehicle:
     def step(self, dt: float, limit_s: float) -> float:
         """Let the vehicle drive ``dt`` seconds, not past ``limit_s`` (the end of its
         locks); return how far ``s`` moved."""
+        self._take(self.driver.events())  # what came in since the last tick
         s0 = self._s
         if limit_s + _SLACK_M < min(self._asked, self.stopping_s()):
             self.hard_stops += not self._short
