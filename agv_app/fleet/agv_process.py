@@ -8,7 +8,7 @@ python -m agv_app.fleet.agv_process --id agv-03 --listen 127.0.0.1:0 --join 127.
 ``--pki D`` joins with mutual TLS as the certificate ``D/ID.pem`` names; ``--insecure
 --secret-file F`` with plain links, on loopback only. ``--driver sim|standin`` picks the
 vehicle's driver; ``--state-dir DIR`` keeps its pose and the task it holds there, so a
-restarted process comes back where the vehicle stands (:mod:`agv_app.fleet.vehicle_state`,
+restarted process comes back where the vehicle stands (:mod:`agv_app.fleet.restart_state`,
 docs/drivers.md).
 
 The process starts a node, builds an :class:`~agv_app.vehicle.controller.AgvController` on the
@@ -59,7 +59,7 @@ from agv_app.fleet.liveness import (
 )
 from agv_app.fleet.parking import home_heading
 from agv_app.fleet.remote import roles_wire, sessions_wire, traffic_wire
-from agv_app.fleet.vehicle_state import TaskKeeper, add_driver_arguments, held_task, vehicle_driver
+from agv_app.fleet.restart_state import TaskKeeper, add_driver_arguments, held_task, vehicle_driver
 from agv_app.geometry import Area, Pose, polygon_to_coords
 from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
 from agv_app.layout.graph import Layout

@@ -315,7 +315,7 @@ class Fleet(FleetSourceBase):
         for agv_id, home, start, pose, driver in zip(
             ids, self.parking.homes, firsts, poses, built, strict=True
         ):
-            self.agvs[agv_id] = self._build(agv_id, home, start, pose, driver)
+            self._build(agv_id, home, start, pose, driver)
             self.parking.claim(agv_id, home)
         if cfg.station_nodes:
             for sid in pick_stations(self.layout):

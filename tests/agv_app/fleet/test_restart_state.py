@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from agv_app.fleet import agv_process
-from agv_app.fleet.vehicle_state import TaskKeeper, held_task, vehicle_driver
+from agv_app.fleet.restart_state import TaskKeeper, held_task, vehicle_driver
 from agv_app.geometry import Pose
 from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M
 from agv_app.tasks.auction import TaskSpec
