@@ -246,11 +246,10 @@ class DrivenVehicle:
         locks); return how far ``s`` moved."""
         self._take(self.driver.events())  # what came in since the last tick
         s0 = self._s
-        if limit_s + _SLACK_M < min(self._asked, self.stopping_s()):
-            self.hard_stops += not self._short
-            self._short = True
-        else:
-            self._short = False
+        pulled_back = limit_s + _SLACK_M < min(self._asked, self.stopping_s())
+        if pulled_back and not self._short:
+            self.hard_stops += 1
+        self._short = pulled_back
         self._asked = limit_s
         self.driver.drive(self._limit_for(limit_s, dt))
         self._tick(dt)

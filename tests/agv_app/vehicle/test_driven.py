@@ -203,3 +203,12 @@ def test_a_state_file_that_is_no_json_or_holds_no_pose_is_refused(tmp_path: Path
     state.write({"x": 1.0, "y": math.inf})
     with pytest.raises(StateFileError, match="finite"):
         SimDriver.recovered(SPEC, state, default=Pose(0.0, 0.0, 0.0))
+
+
+def test_a_limit_pulled_back_behind_where_the_vehicle_can_stop_counts_once() -> None:
+    vehicle, driver, _clock = driven(noisy(min_brake=0.5))
+    driver.report(10.0, t=0.0, speed=1.5)  # it stops 2.25 m on at the earliest
+    vehicle.step(0.1, 30.0)
+    vehicle.step(0.1, 11.0)
+    vehicle.step(0.1, 11.0)
+    assert vehicle.hard_stops == 1
