@@ -59,7 +59,10 @@ def add_driver_arguments(parser: argparse.ArgumentParser) -> None:
 
 def _state(args: argparse.Namespace, kind: str) -> StateFile | None:
     directory: Path | None = args.state_dir
-    return None if directory is None else StateFile(directory / f"{args.id}.{kind}.json")
+    if directory is None:
+        return None
+    directory.mkdir(parents=True, exist_ok=True)
+    return StateFile(directory / f"{args.id}.{kind}.json")
 
 
 def vehicle_driver(args: argparse.Namespace, spec: VehicleSpec, home: Pose) -> VehicleDriver | None:
