@@ -40,7 +40,7 @@ identity: the same floats as the kinematics, so seeded simulations keep their fi
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 from agv_app.geometry import Area, Polyline, Pose, hull
 from agv_app.vehicle.driver import (
@@ -120,6 +120,7 @@ class DrivenVehicle:
         "_error",
         "_heard",
         "_off_route_m",
+        "_pose",
         "_route",
         "_s",
         "_short",
@@ -161,6 +162,7 @@ class DrivenVehicle:
             raise ValueError(f"the vehicle moves ({first.speed_m_s!r} m/s): it must stand")
         self._route = Polyline([(first.x, first.y)], heading_rad=first.heading_rad)
         self._s = 0.0
+        self._pose: Pose | None = None
         self._speed = 0.0
         self._asked = 0.0
         now = clock()
@@ -200,7 +202,10 @@ class DrivenVehicle:
 
     def pose(self) -> Pose:
         """Where it stands on its route (on a vertex: facing the way it arrived)."""
-        return self._route.pose_at(self._s)
+        pose = self._pose
+        if pose is None:
+            pose = self._pose = self._route.pose_at(self._s)
+        return pose
 
     def hull(self) -> Area:
         """The hull the traffic control plans with, where the vehicle stands."""
@@ -224,6 +229,7 @@ class DrivenVehicle:
         self.driver.follow(route, s=s)
         self._route = route
         self._s = float(s)
+        self._pose = None
         self._asked = self._s
         self._since = self._clock()
 
@@ -240,6 +246,7 @@ class DrivenVehicle:
             )
         self.driver.shorten(length)
         self._route = self._route.slice(0.0, length)
+        self._pose = None
 
     def step(self, dt: float, limit_s: float) -> float:
         """Let the vehicle drive ``dt`` seconds, not past ``limit_s`` (the end of its
@@ -257,7 +264,9 @@ class DrivenVehicle:
 
     def stand(self, dt: float) -> None:
         """Let ``dt`` seconds pass with the vehicle standing where it is."""
-        self.step(dt, self._s)
+        self._asked = self._s
+        self.driver.drive(self._limit_for(self._s, dt))
+        self._tick(dt)
 
     def coast(self, dt: float) -> None:
         """Let ``dt`` seconds pass under the last command (a stop, once failed)."""
@@ -289,6 +298,7 @@ class DrivenVehicle:
         self._route = vehicle.route
         self._s = vehicle.s
         self._speed = vehicle.speed
+        self._pose = None
 
     # -- what the driver says --------------------------------------------------------
 
@@ -304,8 +314,11 @@ class DrivenVehicle:
 
     def _tick(self, dt: float) -> None:
         now = self._clock()
-        self.driver.tick(dt, now=now)
-        self._take(self.driver.events())
+        driver = self.driver
+        driver.tick(dt, now=now)
+        events = driver.events()
+        if events:
+            self._take(events)
         if self.fault is not None:
             return
         timeout = self.limits.report_timeout_s
@@ -320,8 +333,9 @@ class DrivenVehicle:
             and length - self._s <= self._tolerance
         ):
             self._s = length  # it stands as close to the end as it comes: arrived
+            self._pose = None
 
-    def _take(self, events: list[DriverEvent]) -> None:
+    def _take(self, events: Sequence[DriverEvent]) -> None:
         for event in events:
             if isinstance(event, PoseReported):
                 self._heard_report(event.report)
@@ -336,16 +350,25 @@ class DrivenVehicle:
             self.late_reports += 1
             return  # older than what we know, or of a route before this one
         self._heard = report.t
+        self._speed = report.speed_m_s
+        error = self._error
+        if error == 0.0:
+            # An exact driver's report is where the vehicle is (the simulated one's is
+            # its route's pose at ``s``): nothing to check it against.
+            if report.s > self._s:
+                self._s = report.s
+                self._pose = Pose(report.x, report.y, report.heading_rad)
+            return
         x, y = self._route.point_at(report.s)
         if math.hypot(report.x - x, report.y - y) > self._off_route_m:
             self._fail(
                 f"reported ({report.x:.3f}, {report.y:.3f}), off its route at s={report.s:.3f}"
             )
             return
-        s = report.s - self._error
+        s = report.s - error
         if s > self._s:
             self._s = min(s, self._route.length)
-        self._speed = report.speed_m_s
+            self._pose = None
 
     def _fail(self, reason: str) -> None:
         if self.fault is None:

@@ -30,6 +30,7 @@ error (:mod:`agv_app.vehicle.driven`).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -173,6 +174,6 @@ class VehicleDriver(Protocol):
         """``dt`` seconds have passed; it is ``now`` on the controller's clock."""
         ...
 
-    def events(self) -> list[DriverEvent]:
+    def events(self) -> Sequence[DriverEvent]:
         """What the vehicle reported since the last call, oldest first."""
         ...

@@ -16,6 +16,8 @@ restarted on the same host finds the simulated vehicle where it stood
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 from agv_app.geometry import Area, Polyline, Pose
 from agv_app.vehicle.driver import DriverEvent, DriverLimits, PoseReport, PoseReported, Stopped
 from agv_app.vehicle.kinematics import Vehicle, VehicleSpec
@@ -87,6 +89,8 @@ class SimDriver:
         self._now = now
         vehicle = self._vehicle
         was = vehicle.speed
+        if was == 0.0 and self._limit <= vehicle.s:
+            return  # standing, and told to stand: the kinematics would not move
         if vehicle.step(dt, self._limit) == 0.0 and vehicle.speed == was:
             return
         self._keep()
@@ -94,8 +98,10 @@ class SimDriver:
         if was > 0.0 and vehicle.speed == 0.0:
             self._events.append(Stopped(now))
 
-    def events(self) -> list[DriverEvent]:
+    def events(self) -> Sequence[DriverEvent]:
         """What happened since the last call."""
+        if not self._events:
+            return ()
         out, self._events = self._events, []
         return out
 

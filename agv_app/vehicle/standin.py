@@ -30,6 +30,7 @@ from __future__ import annotations
 import heapq
 import math
 import random
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from agv_app.geometry import Area, Polyline, Pose, hull
@@ -201,7 +202,7 @@ class StandInDriver:
         while self._mail and self._mail[0][0] <= now:
             self._events.append(heapq.heappop(self._mail)[2])
 
-    def events(self) -> list[DriverEvent]:
+    def events(self) -> Sequence[DriverEvent]:
         """What arrived since the last call."""
         out, self._events = self._events, []
         return out
