@@ -28,7 +28,8 @@ what the traffic control plans with (docs/drivers.md):
   so at its route's end the vehicle stops that short, and counts as arrived when
   ``s`` lies within the hull's growth of the end while it stands.
 * **Silence is a fault.** No report measured for ``report_timeout_s``, a report off
-  the route by more than three times the error, or a driver's fault event: the
+  the route by more than three times the error (a driver that declares none is taken
+  at its word), or a driver's fault event: the
   vehicle is told to stop and :attr:`DrivenVehicle.fault` says why; the controller
   then counts itself failed (its runner takes its node off the network, the others
   keep its last circle).
