@@ -26,6 +26,7 @@ from agv_app.layout.graph import Layout
 from agv_app.tasks.admission import CROWDED, limit_for
 from agv_app.tasks.desk import BASE_ID, TaskDesk, pick_stations, require_task_stations
 from agv_app.tasks.free_flow import FreeFlowBound, FreeFlowTimer
+from agv_app.tasks.journal import TaskJournal
 from agv_app.tasks.load import (
     DEFAULT_LOAD,
     TaskArrivals,
@@ -205,6 +206,8 @@ class Fleet(FleetSourceBase):
             failure takes the AGV's node off the network, as a goodbye (its peers keep
             its last circle); the safety monitor checks the hull a driver says the
             vehicle truly has (``true_hull()``), where it has one.
+        store: the durable order book the task desk writes through to and resumes from
+            (:class:`~agv_app.tasks.store.OrderStore`; None: none).
     """
 
     def __init__(
@@ -217,6 +220,7 @@ class Fleet(FleetSourceBase):
         starts: Sequence[str] | None = None,
         headings: Sequence[float] | None = None,
         vehicle: Callable[..., AgvController] = AgvController,
+        store: TaskJournal | None = None,
         drivers: DriverFactory | None = None,
     ) -> None:
         self.layout = layout or demo_warehouse()
@@ -297,6 +301,7 @@ class Fleet(FleetSourceBase):
                 max_open=limit_for(cfg.max_open_tasks, self.layout, cfg.agvs),
                 one_at_a_time=cfg.one_at_a_time,
                 wait_for_drop=cfg.wait_for_drop,
+                store=store,
             ),
         )
         self.agv_config = AgvConfig(

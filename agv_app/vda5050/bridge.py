@@ -5,10 +5,12 @@ on paho, with TCP_NODELAY) over its :class:`~agv_app.vda5050.link.MqttLink` (mut
 TLS with the vehicle's certificate, whose id is its serial number) with ``connection:
 CONNECTION_BROKEN`` as its last will, says ``ONLINE``, publishes its factsheet,
 subscribes to its ``order`` and ``instantActions``, and publishes what the endpoint
-says is due every ``tick_s``. When cancelled it says ``OFFLINE`` and disconnects. A
-lost broker is retried every ``retry_s`` for as long as the bridge runs; a connection
-that fails is diagnosed (:func:`~agv_app.vda5050.link.probe_broker`) and logged in
-words, once for each new reason.
+says is due every ``tick_s``. QoS is what VDA 5050 3.0 section 4.1 asks: 1 for
+``connection`` (retained, 6.5), 0 for every other topic, the subscriptions too. When
+cancelled it says ``OFFLINE`` and disconnects. A lost broker is retried every
+``retry_s`` for as long as the bridge runs; a connection that fails is diagnosed
+(:func:`~agv_app.vda5050.link.probe_broker`) and logged in words, once for each new
+reason.
 """
 
 from __future__ import annotations
@@ -101,7 +103,7 @@ async def _serve_connection(
         await _publish(client, endpoint, first)
         counters.published += 1
         honour_cancellation()
-    await client.subscribe([(topics.topic("order"), 1), (topics.topic("instantActions"), 1)])
+    await client.subscribe([(topics.topic("order"), 0), (topics.topic("instantActions"), 0)])
     loop = asyncio.get_running_loop()
 
     async def publish_due() -> None:
@@ -117,7 +119,7 @@ async def _serve_connection(
             counters.received += 1
             subtopic = str(message.topic).rsplit("/", 1)[-1]
             payload = message.payload if isinstance(message.payload, bytes) else b""
-            for out in endpoint.handle(subtopic, payload):
+            for out in endpoint.handle(subtopic, payload, now=loop.time()):
                 await _publish(client, endpoint, out)
                 counters.published += 1
                 honour_cancellation()

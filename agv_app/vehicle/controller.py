@@ -54,6 +54,7 @@ from agv_app.traffic.plausibility import PeerWatch
 from agv_app.vehicle.comeback import HandBack, come_back
 from agv_app.vehicle.driven import DrivenVehicle
 from agv_app.vehicle.driver import VehicleDriver
+from agv_app.vehicle.isolation import CutOff
 from agv_app.vehicle.kinematics import Vehicle, VehicleSpec
 from agv_app.vehicle.sim_driver import SimDriver
 from objectplaces import RoleActivator
@@ -222,6 +223,8 @@ class AgvController:
         """What this AGV refused to believe of its peers, and how often (positions,
         hull lengths, voters counted as failed: :mod:`agv_app.traffic.plausibility`)."""
         self._max_peer_hull: float | None = None
+        self.cut_off = CutOff()
+        """Whether the AGV hears nobody of a fleet it heard before (it asks for no floor)."""
         self._on_task_started = on_task_started
         self._on_task_done = on_task_done
         self._on_lock_wait = on_lock_wait
@@ -675,6 +678,13 @@ class AgvController:
             limit = vehicle.s if now < self._hold_until else self.book.lock_end(default=vehicle.s)
             moved = vehicle.step(dt, limit)
             self._stalled = moved == 0.0
+            requester = self._requester
+            if (
+                requester is not None
+                and not requester.done
+                and self.cut_off.isolated(len(self.node.view()))
+            ):
+                requester.withdraw()  # with nobody to vote, a request would lock alone
             self._request_ahead(now)
             if now >= self._next_release:
                 self._next_release = now + self.config.t_update
@@ -771,6 +781,8 @@ class AgvController:
     ) -> None:
         if self._requester is not None or self._plan is None or now < self._retry_at:
             return
+        if self.cut_off.isolated(len(self.node.view())):
+            return  # it hears nothing: it drives on inside its locks only, and stops
         vehicle, spec, book = self.vehicle, self.spec, self.book
         lock_end = book.lock_end(default=vehicle.s)
         if lock_end >= self._plan.length - 1e-9:
