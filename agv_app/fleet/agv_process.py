@@ -6,7 +6,10 @@ python -m agv_app.fleet.agv_process --id agv-03 --listen 127.0.0.1:0 --join 127.
 ```
 
 ``--pki D`` joins with mutual TLS as the certificate ``D/ID.pem`` names; ``--insecure
---secret-file F`` with plain links, on loopback only.
+--secret-file F`` with plain links, on loopback only. ``--driver sim|standin`` picks the
+vehicle's driver; ``--state-dir DIR`` keeps its pose and the task it holds there, so a
+restarted process comes back where the vehicle stands (:mod:`agv_app.fleet.restart_state`,
+docs/drivers.md).
 
 The process starts a node, builds an :class:`~agv_app.vehicle.controller.AgvController` on the
 demo warehouse and steps it in real time (fixed ``--dt``). Besides what the controller
@@ -20,11 +23,14 @@ and ``route`` (the vertices ahead); and what the dashboard shows of its node:
 ``sessions``, ``roles`` and ``traffic`` (:mod:`agv_app.fleet.remote`).
 
 It stops by itself, always through a graceful ``node.close()``: when ``--run-seconds``
-pass, when its stdin (a pipe from its parent) closes, when its parent process dies, or
-on SIGTERM or SIGINT. Output is one JSON object per line on stdout (``ready``,
-``driving``, ``lag`` every 5 s while driving and ``closed``, both with how late its
-control steps ran so far: ``steps``, ``late_steps`` late by more than ``--dt``,
-``max_lag_s``; ``stopping``); errors go to stderr.
+pass, when its stdin (a pipe from its parent) closes, when its parent process dies, on
+SIGTERM or SIGINT, or when its vehicle's driver fails (its pose reports stop: the
+vehicle is told to stop, the goodbye tells the others to keep its last circle; exit
+status 3, for a supervisor to restart it). Output is one JSON object per line on stdout
+(``ready`` with the ``position`` the vehicle stands at, ``driving``, ``lag`` every 5 s
+while driving and ``closed``, both with how late its control steps ran so far:
+``steps``, ``late_steps`` late by more than ``--dt``, ``max_lag_s``; ``fault`` with its
+``reason``; ``stopping``); errors go to stderr.
 """
 
 from __future__ import annotations
@@ -53,8 +59,9 @@ from agv_app.fleet.liveness import (
 )
 from agv_app.fleet.parking import home_heading
 from agv_app.fleet.remote import roles_wire, sessions_wire, traffic_wire
+from agv_app.fleet.restart_state import TaskKeeper, add_driver_arguments, held_task, vehicle_driver
 from agv_app.fleet.trace import VehicleTrace
-from agv_app.geometry import Area, polygon_to_coords
+from agv_app.geometry import Area, Pose, polygon_to_coords
 from agv_app.layout.choice import layout_digest, layout_from_argument
 from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M
 from agv_app.layout.elements import LayoutError
@@ -63,6 +70,7 @@ from agv_app.traffic.reach import interest_radius
 from agv_app.traffic.stale_relay import StaleListener, StaleRelay
 from agv_app.vda5050.link import BrokerError, MqttLink, check_broker
 from agv_app.vda5050.process import bridge_for, vehicle_class, vehicle_link
+from agv_app.vehicle.comeback import announce, hand_back
 from agv_app.vehicle.controller import AgvConfig, AgvController
 from agv_app.vehicle.kinematics import VehicleSpec
 from objectplaces.arguments import POSITIVE, number, whole
@@ -320,6 +328,7 @@ def add_agv_arguments(parser: argparse.ArgumentParser, *, joining: bool = False)
     )
     add_credential_arguments(parser)
     parser.add_argument("--home", required=True, help="layout point of the AGV's parking spot")
+    add_driver_arguments(parser)
     parser.add_argument("--seed", type=int, default=1, help="seeds the start-up stagger")
     parser.add_argument("--run-seconds", type=POSITIVE, default=86_400.0, help="stop after this")
     parser.add_argument("--dt", type=POSITIVE, default=0.1, help="control step, s")
@@ -531,8 +540,10 @@ async def _drive(
     args: argparse.Namespace,
     lag: StepLag,
     trace: VehicleTrace | None = None,
+    keeper: TaskKeeper | None = None,
 ) -> None:
-    """Step the AGV every ``dt`` of real time, for ever, noting how late each step ran."""
+    """Step the AGV every ``dt`` of real time, noting how late each step ran, until its
+    vehicle's driver fails."""
     loop = asyncio.get_running_loop()
     dt = args.dt
     # Processes started together would otherwise step (and publish) in lockstep.
@@ -545,6 +556,10 @@ async def _drive(
         agv.step(dt)
         if trace is not None:
             trace.step()
+        if keeper is not None:
+            keeper.note(agv)
+        if agv.failed:
+            return
         now = loop.time()
         if now >= next_lag_report:
             next_lag_report = now + _LAG_EVERY_S
@@ -622,15 +637,27 @@ async def run(args: argparse.Namespace, credentials: Credentials) -> int:
             secret=credentials.secret,
             **timing,
         )
+    status = 0
     try:
-        agv = vehicle_class(args.vda5050)(
-            node,
-            layout,
-            spec,
-            args.home,
-            heading_rad=home_heading(layout, args.home),
-            config=config,
-        )
+        home = layout.point(args.home)
+        heading = home_heading(layout, args.home)
+        try:
+            driver = vehicle_driver(args, spec, Pose(home.x, home.y, heading))
+            held = held_task(args)
+            agv = vehicle_class(args.vda5050)(
+                node,
+                layout,
+                spec,
+                args.home,
+                heading_rad=heading,
+                config=config,
+                **({} if driver is None else {"driver": driver}),
+            )
+        except (ValueError, OSError) as exc:  # a state file, or a vehicle off the layout
+            print(f"{_who(args)}: {exc}", file=sys.stderr)
+            return 2
+        if held is not None:
+            hand_back(agv, held[0], loaded=held[1])
         if timing["interest_radius"] is not None:
             # Scoped: who never heard a vehicle fail learns it from the vehicles that
             # did, whether or not the control process runs (traffic/stale_relay.py).
@@ -639,19 +666,32 @@ async def run(args: argparse.Namespace, credentials: Credentials) -> int:
         display = DisplayPublisher(agv, traffic_interval_s=args.introspection_interval)
         display.publish()
         trace = VehicleTrace(agv, args.trace) if args.trace is not None else None
-        _emit("ready", id=node.node_id, address=node.address, home=args.home)
+        stands = agv.vehicle.pose()
+        _emit(
+            "ready",
+            id=node.node_id,
+            address=node.address,
+            home=args.home,
+            position=[stands.x, stands.y],
+        )
 
         refused: list[str] = []
 
         async def drive() -> None:
+            nonlocal status
             try:
                 await _settle(node, args)
             except AnotherFleet as exc:
                 refused.append(str(exc))
                 stop.set()
                 return
+            if driver is not None:
+                announce(agv)  # heard by the peers it has now, before it asks for floor
             _emit("driving", peers=node.peers())
-            await _drive(agv, display, args, lag, trace)
+            await _drive(agv, display, args, lag, trace, TaskKeeper(args))
+            _emit("fault", reason=agv.vehicle.fault)
+            status = 3
+            stop.set()
 
         async def twin() -> None:
             await _watch_twin(node, args)
@@ -695,7 +735,7 @@ async def run(args: argparse.Namespace, credentials: Credentials) -> int:
             # Already on the way out: a late SIGTERM (the parent sends one after closing
             # our stdin) must not turn a clean exit into death by signal.
             signal.signal(signum, signal.SIG_IGN)
-    return 0
+    return status
 
 
 def _who(args: argparse.Namespace) -> str:
