@@ -71,3 +71,22 @@ def test_every_public_name_is_in_the_reference(site: Path, module: str) -> None:
     exported = importlib.import_module(module).__all__
     missing = [name for name in exported if f"{module}.{name}" not in entries]
     assert not missing, f"{module}: no entry in docs/api.md for {missing} (a docstring?)"
+
+
+WORDS_OUTSIDE_REFERENCE = 20_000
+"""The most words the pages outside the reference may hold together."""
+WORDS_PER_PAGE = 4_000
+"""The most words one page may hold."""
+
+
+def test_the_docs_stay_short_enough_to_read() -> None:
+    nav = load_config(str(ROOT / "mkdocs.yml"))["nav"]
+    reference = next(entry["Reference"] for entry in nav if "Reference" in entry)
+    words = {page.name: len(page.read_text().split()) for page in (ROOT / "docs").glob("*.md")}
+    long_pages = {name: n for name, n in words.items() if n > WORDS_PER_PAGE}
+    assert not long_pages, f"pages over {WORDS_PER_PAGE} words: {long_pages}"
+    outside = sum(n for name, n in words.items() if name not in _nav_pages(reference))
+    assert outside <= WORDS_OUTSIDE_REFERENCE, (
+        f"{outside} words outside the reference, more than {WORDS_OUTSIDE_REFERENCE}: "
+        f"condense a page or move what it looks up into the reference ({sorted(words.items())})"
+    )
