@@ -609,6 +609,8 @@ async def run(args: argparse.Namespace, credentials: Credentials) -> int:
     stop = asyncio.Event()
     for signum in (signal.SIGTERM, signal.SIGINT):
         loop.add_signal_handler(signum, stop.set)
+    # From the start: a process still waiting for a router stops by itself too.
+    loop.call_later(args.run_seconds, stop.set)
     spec = VehicleSpec(DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M)
     config = AgvConfig(t_update=args.t_update, dwell=args.dwell)
     liveness = process_liveness(args.t_update, args.republish_beats, args.rest_beat)
@@ -710,9 +712,7 @@ async def run(args: argparse.Namespace, credentials: Credentials) -> int:
             ]
             if vda5050 is not None:
                 tasks.append(tg.create_task(bridge_for(agv, vda5050)))
-            with contextlib.suppress(TimeoutError):
-                async with asyncio.timeout(args.run_seconds):
-                    await stop.wait()
+            await stop.wait()
             _emit("stopping")
             for task in tasks:
                 task.cancel()
