@@ -1,0 +1,116 @@
+"""An operator's stop in the simulated fleet: every vehicle brakes to a standstill within
+its braking time, stands with its locks, and drives on when resumed. Virtual time."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from agv_app.fleet import Fleet, FleetConfig
+from agv_app.fleet.holding import HoldOrders, held_in
+from agv_app.geometry import Area
+from agv_app.layout.demo import demo_warehouse
+
+
+def _fleet(**kw: object) -> Fleet:
+    cfg = FleetConfig(agvs=6, seed=3, fail_on_violation=True, task_interval=15.0, **kw)  # type: ignore[arg-type]
+    return Fleet(demo_warehouse(), cfg)
+
+
+def _run_until_fast(fleet: Fleet, within_s: float = 300.0) -> None:
+    """Run until at least two vehicles drive at more than half their top speed."""
+    top = fleet.spec.max_speed_m_s
+    for _ in range(round(within_s / fleet.config.dt)):
+        fleet.step()
+        if sum(a.vehicle.speed > top / 2 for a in fleet.agvs.values()) >= 2:
+            return
+    pytest.fail("no two vehicles ever drove fast")
+
+
+def test_a_fleet_stop_stands_every_vehicle_within_its_braking_time_and_keeps_its_locks() -> None:
+    fleet = _fleet(task_until=600.0)
+    _run_until_fast(fleet)
+    spec, dt = fleet.spec, fleet.config.dt
+    braking_s = max(a.vehicle.speed for a in fleet.agvs.values()) / spec.max_accel_m_s2
+    stops = {a: agv.vehicle.stopping_s() for a, agv in fleet.agvs.items()}
+
+    fleet.stop_vehicles()
+    assert fleet.fleet_stopped
+    steps = math.ceil(braking_s / dt) + 1  # the braking time and one control step
+    for _ in range(steps):
+        fleet.step()
+    assert {v.id: v.speed_m_s for v in fleet.vehicles()} == dict.fromkeys(fleet.agvs, 0.0)
+    assert all(v.held and v.status == "stopped" for v in fleet.vehicles())
+    for agv_id, agv in fleet.agvs.items():
+        assert agv.vehicle.s <= stops[agv_id] + 1e-9, f"{agv_id} stood within its braking distance"
+        assert agv.vehicle.hard_stops == 0
+    poses = {a: agv.vehicle.pose() for a, agv in fleet.agvs.items()}
+    for _ in range(round(2 * fleet.config.t_update / dt)):  # what it drove past goes
+        fleet.step()
+    locks = {a: agv.book.lock_areas() for a, agv in fleet.agvs.items()}
+
+    for _ in range(round(120.0 / dt)):  # two minutes stopped, tasks still arriving
+        fleet.step()
+        for agv in fleet.agvs.values():
+            assert agv.vehicle.speed == 0.0
+            held = Area.union_of([area for _, area in agv.book.lock_areas()])
+            assert held.geom.buffer(1e-6).covers(agv.vehicle.hull().geom), "stands in its locks"
+    for agv_id, agv in fleet.agvs.items():
+        assert agv.vehicle.pose() == poses[agv_id]
+        assert agv.book.lock_areas() == locks[agv_id], f"{agv_id} kept its locks"
+    assert fleet.monitor.collisions == 0
+    assert fleet.monitor.lock_overlaps == 0
+
+    fleet.resume_vehicles()
+    assert not fleet.fleet_stopped
+    fleet.run(900.0)
+    assert not any(v.held for v in fleet.vehicles())
+    figures = fleet.summary()
+    assert figures["collisions"] == 0
+    assert figures["lock_overlaps"] == 0
+    assert figures["tasks_created"] >= 10
+    assert fleet.open_tasks == [], "every order went on and was done"
+    assert figures["tasks_completed"] == figures["tasks_created"]
+
+
+def test_one_vehicle_stops_and_resumes_while_the_others_drive() -> None:
+    fleet = _fleet()
+    _run_until_fast(fleet)
+    agv_id, agv = max(fleet.agvs.items(), key=lambda item: item[1].vehicle.speed)
+    fleet.stop_vehicles([agv_id])
+    fleet.run(60.0)
+    assert agv.vehicle.speed == 0.0
+    assert agv.display_status() == "stopped"
+    moved = {a: o.vehicle.pose() for a, o in fleet.agvs.items() if a != agv_id}
+    fleet.run(60.0)
+    assert any(o.vehicle.pose() != moved[a] for a, o in fleet.agvs.items() if a != agv_id)
+    assert agv.vehicle.speed == 0.0
+    fleet.resume_vehicles([agv_id])
+    assert not agv.held
+    before = agv.vehicle.pose()
+    fleet.run(120.0)
+    assert agv.vehicle.pose() != before or agv.task is None, "it drives on with its order"
+
+
+def test_unknown_vehicles_are_named_and_a_vehicle_does_not_resume_a_stopped_fleet() -> None:
+    fleet = _fleet()
+    with pytest.raises(KeyError, match=r"unknown vehicle 'agv-99' \(known: agv-01, agv-02"):
+        fleet.stop_vehicles(["agv-99"])
+    assert not any(agv.held for agv in fleet.agvs.values()), "nothing half-applied"
+    fleet.stop_vehicles()
+    with pytest.raises(ValueError, match="resume the fleet first"):
+        fleet.resume_vehicles(["agv-01"])
+
+
+def test_the_wire_form_holds_the_fleet_or_the_vehicles_named() -> None:
+    orders = HoldOrders()
+    orders.stop(["agv-02"])
+    assert held_in(orders.wire(), "agv-02") is True
+    assert held_in(orders.wire(), "agv-01") is False
+    orders.stop()
+    assert held_in(orders.wire(), "agv-01") is True
+    orders.resume()
+    assert orders.wire() == [False, ["agv-02"]]
+    assert held_in("stop!", "agv-01") is None
+    assert held_in([1, []], "agv-01") is None
