@@ -44,6 +44,8 @@ DISPLAY_FIELDS = frozenset(
         "position",
         "heading",
         "state",
+        "speed",
+        "held",
         "task",
         "size",
         "locked",

@@ -8,9 +8,11 @@ import math
 import pytest
 
 from agv_app.fleet import Fleet, FleetConfig
-from agv_app.fleet.holding import HoldOrders, held_in
+from agv_app.fleet.holding import HOLD_PROPERTY, HoldListener, HoldOrders, held_in
+from agv_app.fleet.view import OBSERVER_ID
 from agv_app.geometry import Area
 from agv_app.layout.demo import demo_warehouse
+from objectplaces.sim import SimulatedNetwork
 
 
 def _fleet(**kw: object) -> Fleet:
@@ -114,3 +116,47 @@ def test_the_wire_form_holds_the_fleet_or_the_vehicles_named() -> None:
     assert orders.wire() == [False, ["agv-02"]]
     assert held_in("stop!", "agv-01") is None
     assert held_in([1, []], "agv-01") is None
+
+
+class _Agv:
+    """A stand-in for an AGV component: counts what it is told."""
+
+    node_id = "agv-01"
+
+    def __init__(self) -> None:
+        self.held = False
+
+    def hold(self) -> None:
+        self.held = True
+
+    def release(self) -> None:
+        self.held = False
+
+
+def test_only_the_control_identity_stops_a_vehicle() -> None:
+    net = SimulatedNetwork(1)
+    control, rogue, node = (net.add_node(n) for n in (OBSERVER_ID, "agv-66", "agv-01"))
+    agv = _Agv()
+    listener = HoldListener(node, agv)
+    rogue.update_node_property(HOLD_PROPERTY, [True, []])
+    net.run_for(2.0)
+    assert not agv.held, "a peer's word does not stop a vehicle"
+    assert listener.refused == 1
+    control.update_node_property(HOLD_PROPERTY, [False, ["agv-01"]])
+    net.run_for(2.0)
+    assert agv.held
+    control.update_node_property(HOLD_PROPERTY, "nonsense")
+    net.run_for(2.0)
+    assert agv.held, "a malformed stop changes nothing"
+    assert listener.refused == 2
+    control.update_node_property(HOLD_PROPERTY, [False, []])
+    net.run_for(2.0)
+    assert not agv.held
+    # A vehicle that joins later hears the stop in force at once.
+    control.update_node_property(HOLD_PROPERTY, [True, []])
+    net.run_for(2.0)
+    late = _Agv()
+    late.node_id = "agv-02"
+    HoldListener(net.add_node("agv-02"), late)
+    net.run_for(2.0)
+    assert late.held
