@@ -117,6 +117,10 @@ class FleetSourceBase:
         """True between a fleet stop and a fleet resume (what was asked, not done)."""
         return self.holds.fleet
 
+    def stop_asked(self, vehicle_id: str) -> bool:
+        """Whether ``vehicle_id`` was told to stand (the fleet's stop or its own)."""
+        return self.holds.held(vehicle_id)
+
     def vehicle_ids(self) -> Collection[str]:
         """The ids of the fleet's vehicles."""
         raise NotImplementedError
