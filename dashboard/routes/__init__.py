@@ -17,6 +17,7 @@ from dashboard.routes import (
     page,
     sessions,
     sim,
+    space,
     tasks,
     vehicle_detail,
     vehicles,
@@ -25,6 +26,7 @@ from dashboard.routes import (
 __all__ = ["ROUTERS"]
 
 ROUTERS: tuple[APIRouter, ...] = (
+    space.router,
     nodes.router,
     sessions.router,
     membership.router,
