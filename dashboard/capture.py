@@ -17,7 +17,13 @@ from typing import Any
 
 from agv_app.layout import Layout
 from dashboard.source import FleetSource, VehicleView
-from dashboard.stopping import StopState, fleet_stop_asked, motion_of, stop_state
+from dashboard.stopping import (
+    StopState,
+    fleet_stop_asked,
+    in_service_of,
+    motion_of,
+    stop_state,
+)
 
 __all__ = [
     "COORD_DIGITS",
@@ -153,7 +159,7 @@ def vehicle_json(vehicle: VehicleView, cache: PolygonCache | None = None) -> JSO
 
     Returns:
         A dict with ``x, y, heading, length, width, status, task, hull, hull_length,
-        locked, requested, speed, held``.
+        locked, requested, speed, held, in_service``.
     """
     poly = _polygon if cache is None else cache.polygon
     speed, held = motion_of(vehicle)
@@ -171,6 +177,7 @@ def vehicle_json(vehicle: VehicleView, cache: PolygonCache | None = None) -> JSO
         "requested": [poly(p) for p in vehicle.requested],
         "speed": None if math.isnan(speed) else round(speed, 2),
         "held": held,
+        "in_service": in_service_of(vehicle),
     }
 
 

@@ -1,7 +1,8 @@
 """Response bodies of the operating endpoints: stopping and resuming vehicles.
 
 ``/api/fleet/stop`` and ``/api/fleet/resume`` (``FleetStopOut``), and
-``/api/vehicles/{id}/stop`` and ``/resume`` (``VehicleMotionOut``). Every figure is
+``/api/vehicles/{id}/stop``, ``/resume``, ``/out-of-service`` and ``/in-service``
+(``VehicleMotionOut``). Every figure is
 what the vehicles report; ``asked`` alone is what the operator asked.
 """
 
@@ -26,6 +27,8 @@ class VehicleMotionOut(_Out):
     speed: float | None = Field(description="m/s as reported (None: not reported)")
     held: bool = Field(description="it reports holding for an operator's stop")
     asked: bool = Field(description="it was told to stand (the fleet or it alone)")
+    in_service: bool = Field(description="it reports taking tasks")
+    in_service_asked: bool = Field(description="it is to take tasks (what was asked)")
 
 
 class FleetStopOut(_Out):

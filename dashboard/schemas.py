@@ -204,6 +204,7 @@ class VehicleOut(_Out):
         default=None, description="m/s as the vehicle reports it (None: not reported)"
     )
     held: bool = Field(default=False, description="it reports holding for an operator's stop")
+    in_service: bool = Field(default=True, description="it reports taking tasks")
 
 
 class TaskIn(_In):

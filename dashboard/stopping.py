@@ -20,6 +20,7 @@ __all__ = [
     "StopState",
     "StoppableFleet",
     "fleet_stop_asked",
+    "in_service_of",
     "motion_of",
     "stands",
     "stop_state",
@@ -53,6 +54,15 @@ class StoppableFleet(Protocol):
         """Whether ``vehicle_id`` was told to stand (the fleet's stop or its own)."""
         ...
 
+    def set_service(self, vehicle_ids: Collection[str], *, in_service: bool) -> None:
+        """Take ``vehicle_ids`` out of service or bring them back; KeyError names an
+        unknown one."""
+        ...
+
+    def service_asked(self, vehicle_id: str) -> bool:
+        """Whether ``vehicle_id`` is to be in service (what was asked)."""
+        ...
+
 
 def fleet_stop_asked(source: object) -> bool:
     """Whether ``source`` is a fleet that was told to stop (False for any other)."""
@@ -67,6 +77,11 @@ def motion_of(vehicle: VehicleView) -> tuple[float, bool]:
     if not isinstance(speed, int | float) or isinstance(speed, bool):
         return (float("nan"), False)
     return (float(speed), held is True)
+
+
+def in_service_of(vehicle: VehicleView) -> bool:
+    """Whether the vehicle reports taking tasks (a view that does not say: True)."""
+    return getattr(vehicle, "in_service", True) is not False
 
 
 def stands(vehicle: VehicleView) -> bool:

@@ -17,11 +17,11 @@ publishes as properties (position and hull length at every request and release,
 status, task, last done), it shows the observer, over the observer's display session
 (:mod:`agv_app.fleet.display_feed`), what it needs to draw the vehicle, each only when
 it changes: ``position`` and ``heading`` (radians) as it moves, ``state`` (the
-dashboard's finer status), ``speed`` (m/s, 0 only standing) and ``held`` (it holds for
-the control's stop, :mod:`agv_app.fleet.holding`), ``size`` (``[length, width]``),
-``locked`` and ``requested`` (its projections in the compact form of
-:func:`~agv_app.geometry.polygon_to_coords`)
-and ``route`` (the vertices ahead); and what the dashboard shows of its node:
+dashboard's finer status), ``speed`` (m/s, 0 only standing), ``held`` (it holds for
+the control's stop, :mod:`agv_app.fleet.holding`), ``in_service``, ``size``
+(``[length, width]``), ``locked`` and ``requested`` (its projections in the compact form
+of :func:`~agv_app.geometry.polygon_to_coords`) and ``route`` (the vertices ahead); and
+what the dashboard shows of its node:
 ``sessions``, ``roles`` and ``traffic`` (:mod:`agv_app.fleet.remote`).
 
 It stops by itself, always through a graceful ``node.close()``: when ``--run-seconds``
@@ -252,6 +252,7 @@ class DisplayPublisher:
         # Standing is exactly 0; any motion shows as at least 0.1 m/s.
         feed.set("speed", 0.0 if speed == 0.0 else max(0.1, round(speed, 1)))
         feed.set("held", agv.held)
+        feed.set("in_service", agv.in_service)
         locks, request = agv.areas()
         feed.set("locked", self._locked(locks))
         feed.set("requested", self._requested([] if request is None else [request]))

@@ -112,6 +112,21 @@ class FleetSourceBase:
         self.holds.resume(vehicle_ids)
         self._apply_holds()
 
+    def set_service(self, vehicle_ids: Collection[str], *, in_service: bool) -> None:
+        """Take ``vehicle_ids`` out of service (each finishes the task it holds, parks at
+        home and takes no more), or bring them back.
+
+        Raises:
+            KeyError: a vehicle is not in the fleet.
+        """
+        self._check_known(vehicle_ids)
+        self.holds.set_service(vehicle_ids, in_service=in_service)
+        self._apply_holds()
+
+    def service_asked(self, vehicle_id: str) -> bool:
+        """Whether ``vehicle_id`` is to be in service (what was asked)."""
+        return self.holds.in_service(vehicle_id)
+
     @property
     def fleet_stopped(self) -> bool:
         """True between a fleet stop and a fleet resume (what was asked, not done)."""

@@ -46,6 +46,7 @@ DISPLAY_FIELDS = frozenset(
         "state",
         "speed",
         "held",
+        "in_service",
         "task",
         "size",
         "locked",

@@ -1,8 +1,9 @@
 """An operator's stop: which vehicles are told to stand, and how a vehicle hears it.
 
-What was asked is kept in :class:`HoldOrders`: the whole fleet stopped, and single
-vehicles stopped on their own. A vehicle is held while either says so
-(:meth:`HoldOrders.held`). The fleet acts on it:
+What was asked is kept in :class:`HoldOrders`: the whole fleet stopped, single
+vehicles stopped on their own, and vehicles out of service (they finish the task they
+hold, park at home and take no more). A vehicle is held while the fleet's stop or its
+own says so (:meth:`HoldOrders.held`). The fleet acts on it:
 
 * the simulated fleet holds its controllers directly
   (:meth:`~agv_app.vehicle.controller.AgvController.hold`);
@@ -32,10 +33,11 @@ from typing import Any, Protocol
 from agv_app.fleet.view import OBSERVER_ID
 from objectplaces import RoleActivator
 
-__all__ = ["HOLD_PROPERTY", "HoldListener", "HoldOrders", "Holdable", "held_in"]
+__all__ = ["HOLD_PROPERTY", "HoldListener", "HoldOrders", "Holdable", "held_in", "in_service_in"]
 
 HOLD_PROPERTY = "hold"
-"""The observer's property: ``[fleet stopped, [vehicle ids stopped on their own]]``."""
+"""The observer's property: ``[fleet stopped, [vehicle ids stopped on their own],
+[vehicle ids out of service]]``."""
 
 
 class Holdable(Protocol):
@@ -59,6 +61,19 @@ class Holdable(Protocol):
         """Drive on."""
         ...
 
+    @property
+    def in_service(self) -> bool:
+        """False while out of service."""
+        ...
+
+    def take_out_of_service(self) -> None:
+        """Finish the task held, park at home, take no more."""
+        ...
+
+    def return_to_service(self) -> None:
+        """Take tasks again."""
+        ...
+
 
 class HoldOrders:
     """What the operator asked: the fleet stopped, and vehicles stopped on their own."""
@@ -68,6 +83,8 @@ class HoldOrders:
         """True between a fleet stop and a fleet resume."""
         self.vehicles: set[str] = set()
         """Vehicles stopped on their own, by id."""
+        self.out_of_service: set[str] = set()
+        """Vehicles out of service, by id."""
 
     def stop(self, vehicle_ids: Collection[str] | None = None) -> None:
         """Stop ``vehicle_ids``, or the whole fleet (None)."""
@@ -94,19 +111,42 @@ class HoldOrders:
         """Whether ``vehicle_id`` is told to stand."""
         return self.fleet or vehicle_id in self.vehicles
 
+    def in_service(self, vehicle_id: str) -> bool:
+        """Whether ``vehicle_id`` takes tasks."""
+        return vehicle_id not in self.out_of_service
+
+    def set_service(self, vehicle_ids: Collection[str], *, in_service: bool) -> None:
+        """Take ``vehicle_ids`` out of service, or bring them back."""
+        if in_service:
+            self.out_of_service.difference_update(vehicle_ids)
+        else:
+            self.out_of_service.update(vehicle_ids)
+
     def wire(self) -> list[Any]:
         """The form the observer publishes as :data:`HOLD_PROPERTY`."""
-        return [self.fleet, sorted(self.vehicles)]
+        return [self.fleet, sorted(self.vehicles), sorted(self.out_of_service)]
+
+
+def _lists(value: Any) -> tuple[bool, Any, Any] | None:
+    if not (isinstance(value, list | tuple) and len(value) in (2, 3)):
+        return None
+    fleet, vehicles, *rest = value
+    out = rest[0] if rest else ()
+    if not isinstance(fleet, bool) or not all(isinstance(v, list | tuple) for v in (vehicles, out)):
+        return None
+    return fleet, vehicles, out
 
 
 def held_in(value: Any, vehicle_id: str) -> bool | None:
     """Whether the wire form ``value`` holds ``vehicle_id``; None if it is malformed."""
-    if not (isinstance(value, list | tuple) and len(value) == 2):
-        return None
-    fleet, vehicles = value
-    if not isinstance(fleet, bool) or not isinstance(vehicles, list | tuple):
-        return None
-    return fleet or vehicle_id in vehicles
+    lists = _lists(value)
+    return None if lists is None else lists[0] or vehicle_id in lists[1]
+
+
+def in_service_in(value: Any, vehicle_id: str) -> bool | None:
+    """Whether the wire form ``value`` keeps ``vehicle_id`` in service; None if malformed."""
+    lists = _lists(value)
+    return None if lists is None else vehicle_id not in lists[2]
 
 
 class HoldListener:
@@ -135,10 +175,17 @@ class HoldListener:
         if node_id != self.control_id:
             self.refused += 1
             return
-        held = held_in(value, self.agv.node_id)
-        if held is None:
+        agv = self.agv
+        held = held_in(value, agv.node_id)
+        in_service = in_service_in(value, agv.node_id)
+        if held is None or in_service is None:
             self.refused += 1
-        elif held:
-            self.agv.hold()
+            return
+        if held:
+            agv.hold()
         else:
-            self.agv.release()
+            agv.release()
+        if in_service:
+            agv.return_to_service()
+        else:
+            agv.take_out_of_service()

@@ -102,6 +102,7 @@ def vehicle_state(agv_id: str, props: Mapping[str, Any], seen: ObservedAgv) -> V
         seen.requested,
         _number(props.get("speed")),
         props.get("held") is True,
+        props.get("in_service") is not False,
     )
 
 

@@ -490,6 +490,7 @@ class Fleet(FleetSourceBase):
             )
         if self.holds.held(agv_id):
             agv.hold()
+        agv.in_service = self.holds.in_service(agv_id)
         return agv
 
     # -- holding (an operator's stop) -------------------------------------------------------
@@ -505,6 +506,7 @@ class Fleet(FleetSourceBase):
                 agv.hold()
             else:
                 agv.release()
+            agv.in_service = self.holds.in_service(agv_id)
 
     def _listen(self, agv_id: str, node: RoleActivator) -> None:
         """A scoped AGV takes the failed AGVs the observer relays into its lock book."""
@@ -617,6 +619,7 @@ class Fleet(FleetSourceBase):
                     area_rings(request),
                     agv.vehicle.speed,
                     agv.held,
+                    agv.in_service,
                 )
             )
         return out

@@ -36,6 +36,8 @@ class VehicleState:
     """Its speed as it last reported it."""
     held: bool = False
     """Whether it holds for an operator's stop (as it reports it)."""
+    in_service: bool = True
+    """Whether it takes tasks (as it reports it)."""
 
 
 def area_rings(area: Area | None) -> tuple[tuple[XY, ...], ...]:

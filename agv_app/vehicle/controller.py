@@ -281,6 +281,9 @@ class AgvController:
         self._circle: _Circle | None = None
         """The circle in force: the last position and hull length published, and when."""
         self._held = False
+        self.in_service = True
+        """False once taken out of service: it finishes the task it holds, goes home and
+        bids for no task until brought back (:meth:`take_out_of_service`)."""
         self._held_route: Polyline | None = None
         self._held_s = 0.0
         """While held: the route the vehicle rests on and the arc length it rests at."""
@@ -478,6 +481,15 @@ class AgvController:
         """True between :meth:`hold` and :meth:`release`."""
         return self._held
 
+    def take_out_of_service(self) -> None:
+        """Take no more tasks: the one it holds (and one awarded while it dwells) it
+        finishes, then it drives home and parks there."""
+        self.in_service = False
+
+    def return_to_service(self) -> None:
+        """Take tasks again."""
+        self.in_service = True
+
     def _held_limit(self) -> float:
         """The arc length the held vehicle rests at: where it stopped braking at the
         hold, or, on a route set since (only ever while standing), where it stands."""
@@ -506,6 +518,8 @@ class AgvController:
             return "failed"
         if self._held:
             return "stopped" if self.vehicle.speed == 0.0 else "stopping"
+        if not self.in_service and self._dest is None and self.task is None:
+            return "out-of-service"
         if self.phase in ("at_pick", "at_drop") or self.node.now() < self._hold_until:
             return "loading"
         if self._dest is not None and self.vehicle.speed == 0.0:
@@ -574,7 +588,7 @@ class AgvController:
         On the way home it is the distance by way of the point the AGV would stop at
         if awarded (:meth:`_turn_point`).
         """
-        if self.failed or self._held or self.status != "idle":
+        if self.failed or self._held or not self.in_service or self.status != "idle":
             return None
         pick = self.layout.station(task.pick).point
         if self._dest is None:

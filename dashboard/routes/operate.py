@@ -1,7 +1,9 @@
-"""Operating the vehicles: stop and resume the fleet, or one vehicle.
+"""Operating the vehicles: stop and resume the fleet, or one vehicle; out of service.
 
-``POST /api/fleet/stop`` and ``/api/fleet/resume``, ``GET /api/fleet/stop``, and
-``POST /api/vehicles/{id}/stop`` and ``/resume``. A stopped vehicle brakes to a
+``POST /api/fleet/stop`` and ``/api/fleet/resume``, ``GET /api/fleet/stop``,
+``POST /api/vehicles/{id}/stop`` and ``/resume``, and ``POST
+/api/vehicles/{id}/out-of-service`` and ``/in-service`` (it finishes the task it holds,
+parks at home and takes no more, until brought back). A stopped vehicle brakes to a
 standstill within its braking distance and stands with its locks; resumed, its order
 goes on (:mod:`agv_app.fleet.holding`). The answers show what the vehicles report, so a
 stop answers ``stopping`` until every vehicle stands. Only the operator may call the
@@ -23,7 +25,14 @@ from dashboard.operate_schemas import FleetStopOut, VehicleMotionOut
 from dashboard.schemas import SimActionIn
 from dashboard.source import VehicleView
 from dashboard.state import DashboardState
-from dashboard.stopping import StoppableFleet, motion_of, stands, stop_state, who_asked
+from dashboard.stopping import (
+    StoppableFleet,
+    in_service_of,
+    motion_of,
+    stands,
+    stop_state,
+    who_asked,
+)
 
 __all__ = ["fleet_stop_out", "router"]
 
@@ -47,6 +56,8 @@ def _motion(vehicle: VehicleView, fleet: StoppableFleet) -> dict[str, Any]:
         "speed": None if math.isnan(speed) else speed,
         "held": held,
         "asked": fleet.stop_asked(vehicle.id),
+        "in_service": in_service_of(vehicle),
+        "in_service_asked": fleet.service_asked(vehicle.id),
     }
 
 
@@ -138,4 +149,31 @@ async def resume_vehicle(
         f"{vehicle_id} resume asked by {who_asked(request)}: {body.reason}",
         warning=False,
     )
+    return _motion(_vehicle(state, vehicle_id), fleet)
+
+
+@router.post("/vehicles/{vehicle_id}/out-of-service", response_model=VehicleMotionOut)
+async def take_out_of_service(
+    vehicle_id: VehicleId, body: SimActionIn, state: State, request: Request
+) -> dict[str, Any]:
+    """Take one vehicle out of service: it finishes the task it holds, drives home and
+    parks there, taking no more (its status ``out-of-service`` once parked)."""
+    fleet = _fleet(state)
+    _vehicle(state, vehicle_id)
+    fleet.set_service([vehicle_id], in_service=False)
+    text = f"{vehicle_id} out of service, asked by {who_asked(request)}: {body.reason}"
+    _log(state, vehicle_id, text, warning=True)
+    return _motion(_vehicle(state, vehicle_id), fleet)
+
+
+@router.post("/vehicles/{vehicle_id}/in-service", response_model=VehicleMotionOut)
+async def bring_into_service(
+    vehicle_id: VehicleId, body: SimActionIn, state: State, request: Request
+) -> dict[str, Any]:
+    """Bring one vehicle back into service: it takes tasks again."""
+    fleet = _fleet(state)
+    _vehicle(state, vehicle_id)
+    fleet.set_service([vehicle_id], in_service=True)
+    text = f"{vehicle_id} back in service, asked by {who_asked(request)}: {body.reason}"
+    _log(state, vehicle_id, text, warning=False)
     return _motion(_vehicle(state, vehicle_id), fleet)

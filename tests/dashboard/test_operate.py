@@ -135,3 +135,34 @@ def test_a_fleet_that_cannot_stop_says_so() -> None:
     assert r.status_code == 409
     assert r.json()["detail"] == "this fleet cannot stop its vehicles"
     assert client.get("/api/metrics").json()["sim"]["stop"] == "running"
+
+
+def test_a_vehicle_goes_out_of_service_and_back_over_rest() -> None:
+    fleet = _fleet()
+    app = create_app(fleet)
+    client = logged_in(app)
+    assert (
+        logged_in(app, "viewer").post("/api/vehicles/agv-02/out-of-service", json={}).status_code
+        == 403
+    )
+    r = client.post("/api/vehicles/agv-02/out-of-service", json={"reason": "bumper check"})
+    assert r.status_code == 200, r.text
+    assert r.json()["in_service_asked"] is False
+    assert _events(client)[-1]["text"] == (
+        "agv-02 out of service, asked by operator at testclient: bumper check"
+    )
+    fleet.advance(1.0)
+    shown = client.get("/api/vehicles/agv-02").json()
+    assert (shown["in_service"], shown["status"]) == (False, "out-of-service")
+    for _ in range(3):  # every task goes to the others
+        assert client.post("/api/tasks", json={"station": "pick-A1-1"}).status_code == 201
+    fleet.advance(60.0)
+    holders = {v.task_id: v.id for v in fleet.vehicles() if v.task_id is not None}
+    assert holders
+    assert "agv-02" not in holders.values()
+    r = client.post("/api/vehicles/agv-02/in-service", json={})
+    assert r.json()["in_service_asked"] is True
+    fleet.advance(1.0)
+    assert client.get("/api/vehicles/agv-02").json()["in_service"] is True
+    assert _events(client)[-1]["text"].startswith("agv-02 back in service, asked by operator")
+    assert client.post("/api/vehicles/agv-99/out-of-service", json={}).status_code == 404

@@ -8,7 +8,13 @@ import math
 import pytest
 
 from agv_app.fleet import Fleet, FleetConfig
-from agv_app.fleet.holding import HOLD_PROPERTY, HoldListener, HoldOrders, held_in
+from agv_app.fleet.holding import (
+    HOLD_PROPERTY,
+    HoldListener,
+    HoldOrders,
+    held_in,
+    in_service_in,
+)
 from agv_app.fleet.view import OBSERVER_ID
 from agv_app.geometry import Area
 from agv_app.layout.demo import demo_warehouse
@@ -105,6 +111,43 @@ def test_unknown_vehicles_are_named_and_a_vehicle_does_not_resume_a_stopped_flee
         fleet.resume_vehicles(["agv-01"])
 
 
+def test_a_vehicle_out_of_service_finishes_its_task_parks_at_home_and_takes_no_more() -> None:
+    fleet = _fleet()
+    _run_until_fast(fleet)
+    agv_id, agv = next((a, o) for a, o in fleet.agvs.items() if o.task is not None)
+    task = agv.task
+    assert task is not None
+    fleet.set_service([agv_id], in_service=False)
+    assert not fleet.service_asked(agv_id)
+    for _ in range(round(600.0 / fleet.config.dt)):
+        fleet.step()
+        if agv.display_status() == "out-of-service" and agv.point == agv.home:
+            break
+    else:
+        pytest.fail(f"{agv_id} never parked out of service")
+    record = fleet.desk.book.get(task.id)
+    assert record is not None
+    assert record.state == "done", "it finished the order it held"
+    assert record.vehicle == agv_id
+    done_before = fleet.summary()["tasks_completed"]
+    parked = agv.vehicle.pose()
+    fleet.run(600.0)
+    assert agv.task is None
+    assert agv.pending_task is None, "it took no task while out of service"
+    assert agv.vehicle.pose() == parked
+    assert fleet.summary()["tasks_completed"] > done_before, "the others carried on"
+    view = next(v for v in fleet.vehicles() if v.id == agv_id)
+    assert view.in_service is False
+    assert view.status == "out-of-service"
+    fleet.set_service([agv_id], in_service=True)
+    for _ in range(round(900.0 / fleet.config.dt)):
+        fleet.step()
+        if agv.task is not None:
+            break
+    else:
+        pytest.fail(f"{agv_id} took no task back in service")
+
+
 def test_the_wire_form_holds_the_fleet_or_the_vehicles_named() -> None:
     orders = HoldOrders()
     orders.stop(["agv-02"])
@@ -113,7 +156,12 @@ def test_the_wire_form_holds_the_fleet_or_the_vehicles_named() -> None:
     orders.stop()
     assert held_in(orders.wire(), "agv-01") is True
     orders.resume()
-    assert orders.wire() == [False, ["agv-02"]]
+    orders.set_service(["agv-03"], in_service=False)
+    assert orders.wire() == [False, ["agv-02"], ["agv-03"]]
+    assert in_service_in(orders.wire(), "agv-03") is False
+    assert in_service_in(orders.wire(), "agv-02") is True
+    assert in_service_in([False, []], "agv-03") is True, "the two-list form: all in service"
+    assert in_service_in([False, [], "x"], "agv-03") is None
     assert held_in("stop!", "agv-01") is None
     assert held_in([1, []], "agv-01") is None
 
@@ -125,12 +173,19 @@ class _Agv:
 
     def __init__(self) -> None:
         self.held = False
+        self.in_service = True
 
     def hold(self) -> None:
         self.held = True
 
     def release(self) -> None:
         self.held = False
+
+    def take_out_of_service(self) -> None:
+        self.in_service = False
+
+    def return_to_service(self) -> None:
+        self.in_service = True
 
 
 def test_only_the_control_identity_stops_a_vehicle() -> None:
@@ -149,9 +204,13 @@ def test_only_the_control_identity_stops_a_vehicle() -> None:
     net.run_for(2.0)
     assert agv.held, "a malformed stop changes nothing"
     assert listener.refused == 2
-    control.update_node_property(HOLD_PROPERTY, [False, []])
+    control.update_node_property(HOLD_PROPERTY, [False, [], ["agv-01"]])
     net.run_for(2.0)
     assert not agv.held
+    assert not agv.in_service
+    control.update_node_property(HOLD_PROPERTY, [False, []])
+    net.run_for(2.0)
+    assert agv.in_service
     # A vehicle that joins later hears the stop in force at once.
     control.update_node_property(HOLD_PROPERTY, [True, []])
     net.run_for(2.0)

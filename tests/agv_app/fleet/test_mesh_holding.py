@@ -78,5 +78,11 @@ async def test_one_agv_process_stops_on_its_own() -> None:
             fleet.stop_vehicles(["agv-07"])
         fleet.resume_vehicles(["agv-02"])
         await until(lambda: not _by_id(fleet)["agv-02"].held, within=20)
+        fleet.set_service(["agv-01"], in_service=False)
+        await until(lambda: not _by_id(fleet)["agv-01"].in_service, within=20)
+        assert _by_id(fleet)["agv-01"].status == "out-of-service"
+        assert _by_id(fleet)["agv-02"].in_service
+        fleet.set_service(["agv-01"], in_service=True)
+        await until(lambda: _by_id(fleet)["agv-01"].in_service, within=20)
     finally:
         await fleet.stop()
