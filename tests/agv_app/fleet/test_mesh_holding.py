@@ -64,8 +64,9 @@ async def test_a_fleet_stop_stands_every_agv_process_and_resume_drives_them_on()
 
 
 @pytest.mark.timeout(120)
-async def test_one_agv_process_stops_on_its_own() -> None:
-    fleet = MeshFleet(agvs=2, seed=4, task_interval=None, run_seconds=100.0)
+@pytest.mark.parametrize("transport", ["websocket", "zenoh"])
+async def test_one_agv_process_stops_on_its_own_and_goes_out_of_service(transport: str) -> None:
+    fleet = MeshFleet(agvs=2, seed=4, task_interval=None, run_seconds=100.0, transport=transport)
     await fleet.start()
     try:
         async with asyncio.timeout(40):
