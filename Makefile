@@ -46,7 +46,7 @@ lint: $(STAMP)
 	$(BIN)/ruff format --check .
 	$(BIN)/mypy
 
-BENCHMARKS := tuplespace groups mesh fleet dashboard vda5050 tls
+BENCHMARKS := tuplespace groups mesh fleet dashboard vda5050 tls stop
 
 bench: $(STAMP) chromium mosquitto
 	for name in $(BENCHMARKS); do $(BIN)/python -m bench.$$name || exit 1; done
