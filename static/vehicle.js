@@ -1,9 +1,11 @@
 // The vehicle panel: click an AGV on the floor plan (app.js sends "vehicle-select") and
 // GET /api/vehicles/{id}/detail twice a second shows its status, task, route, locks,
 // wait, sessions and traffic; the rest of its route is drawn on the map while selected.
+// The buttons of #vehicle-actions (Stop, Resume, Out of service, In service) POST to
+// /api/vehicles/{id}/<action>; the facts show what the vehicle then reports.
 // Hooks: #vehicle-panel, #vehicle-id, #vehicle-facts dd[data-fact], #vehicle-initiated,
-// #vehicle-participating, #vehicle-traffic, #vehicle-close, #vehicle-status, and
-// window.__vehiclePanel.
+// #vehicle-participating, #vehicle-traffic, #vehicle-close, #vehicle-status,
+// #vehicle-actions button[data-action], and window.__vehiclePanel.
 
 const REFRESH_MS = 500;
 // One colour for the drawing and the legend's swatch: the page's --route.
@@ -85,6 +87,9 @@ function render(d) {
   );
   setFact("locks", "locks", `${d.locked.length} locked, ${d.requested.length} requested`);
   setFact("hull", "hull length", `${d.hull_length.toFixed(2)} m`);
+  const speed = d.speed == null ? "–" : `${d.speed.toFixed(2)} m/s`;
+  setFact("motion", "motion", d.held ? `${speed}, held (stopped by the operator)` : speed);
+  setFact("service", "service", d.in_service === false ? "out of service" : "in service");
   const w = d.wait;
   setFact("wait", "wait", w.waiting ? `${fmtSeconds(w.seconds)} (since ${fmtSeconds(w.since)})` : "not waiting");
   const t = d.traffic;
@@ -137,6 +142,38 @@ async function refresh() {
     selection.detail = null;
     say(data && data.detail ? `${id}: ${data.detail}` : `${id}: ${response.status}`, true);
   }
+}
+
+// Ask the fleet to stop, resume, take out of or bring into service the selected AGV.
+async function act(action) {
+  const id = selection.id;
+  if (!id) return;
+  let response;
+  try {
+    response = await fetch(`/api/vehicles/${encodeURIComponent(id)}/${action}`, {
+      method: "POST",
+      headers: { "Content-Type": "application/json" },
+      body: "{}",
+    });
+  } catch (err) {
+    say(`request failed: ${err.message}`, true);
+    return;
+  }
+  let data = null;
+  try {
+    data = await response.json();
+  } catch {
+    data = null;
+  }
+  if (!response.ok) {
+    say(`${action}: ${data && data.detail ? data.detail : response.status}`, true);
+    return;
+  }
+  say(`${id}: ${action.replaceAll("-", " ")} asked`); // the facts show what it reports
+}
+
+for (const button of document.querySelectorAll("#vehicle-actions button[data-action]")) {
+  button.addEventListener("click", () => act(button.dataset.action));
 }
 
 function select(id) {

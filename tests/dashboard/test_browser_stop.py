@@ -1,5 +1,7 @@
-"""The Pause button with ``--processes``, in real headless chromium: it stops the fleet,
-and the page says "stopped" only once every AGV process reports standing.
+"""Stopping in real headless chromium: the Pause button with ``--processes`` stops the
+fleet, and the page says "stopped" only once every AGV process reports standing; the
+vehicle panel's buttons stop, resume and take out of service one AGV of the simulated
+fleet.
 
 Real AGV processes on 127.0.0.1 behind a real server; every wait is bounded, and the
 processes are reaped when the server stops.
@@ -11,11 +13,11 @@ import time
 
 import pytest
 
-from agv_app.fleet import MeshFleet
+from agv_app.fleet import Fleet, FleetConfig, MeshFleet
 from tests.dashboard.browser import BROWSER_MARKS, chromium_page, load_dashboard
 from tests.dashboard.served import Served
 
-pytestmark = [*BROWSER_MARKS, pytest.mark.processes]
+pytestmark = BROWSER_MARKS
 
 _WATCH_STOP = """() => {
   window.__stops = [];
@@ -28,6 +30,7 @@ _WATCH_STOP = """() => {
 }"""
 
 
+@pytest.mark.processes
 def test_pause_stops_every_agv_process_and_the_page_says_so_only_once_they_stand() -> None:
     fleet = MeshFleet(agvs=2, seed=8, task_interval=None, run_seconds=120.0)
     with Served(fleet) as served, chromium_page() as (page, problems):
@@ -70,5 +73,40 @@ def test_pause_stops_every_agv_process_and_the_page_says_so_only_once_they_stand
         page.wait_for_function(
             "Object.values(window.__dashboard.motion()).every(([, held]) => held === false)",
             timeout=20_000,
+        )
+        assert problems == [], problems
+
+
+def test_the_vehicle_panel_stops_and_resumes_an_agv_and_shows_what_it_reports() -> None:
+    fleet = Fleet(config=FleetConfig(agvs=3, seed=3, task_until=0.0))
+    with Served(fleet) as served, chromium_page() as (page, problems):
+        load_dashboard(page, served)
+        page.wait_for_function("window.__vehiclePanel !== undefined", timeout=10_000)
+        page.evaluate("window.__vehiclePanel.select('agv-02')")
+        motion = page.locator("#vehicle-facts dd[data-fact=motion]")
+        motion.wait_for(timeout=10_000)
+        page.get_by_test_id("vehicle-stop").click()
+        page.wait_for_function(
+            "document.querySelector('#vehicle-facts dd[data-fact=motion]')"
+            ".textContent.includes('held')",
+            timeout=10_000,
+        )
+        assert motion.text_content() == "0.00 m/s, held (stopped by the operator)"
+        events = served.get("/api/events").json()["events"]
+        assert any(e["text"].startswith("agv-02 stop asked by operator") for e in events)
+        page.get_by_test_id("vehicle-out").click()
+        page.wait_for_function(
+            "document.querySelector('#vehicle-facts dd[data-fact=service]')"
+            ".textContent === 'out of service'",
+            timeout=10_000,
+        )
+        page.get_by_test_id("vehicle-resume").click()
+        page.get_by_test_id("vehicle-in").click()
+        page.wait_for_function(
+            "document.querySelector('#vehicle-facts dd[data-fact=motion]')"
+            ".textContent === '0.00 m/s'"
+            " && document.querySelector('#vehicle-facts dd[data-fact=service]')"
+            ".textContent === 'in service'",
+            timeout=10_000,
         )
         assert problems == [], problems
