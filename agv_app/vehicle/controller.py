@@ -513,7 +513,9 @@ class AgvController:
         return "idle" if self.task is None or self.phase == "at_drop" else "busy"
 
     def display_status(self) -> str:
-        """A finer state for the dashboard: idle, driving, waiting, loading or failed."""
+        """A finer state for the dashboard: idle, driving, waiting, loading, stopping or
+        stopped (held by the operator), out-of-service (parked, taking no task) or
+        failed."""
         if self.failed:
             return "failed"
         if self._held:
@@ -732,7 +734,7 @@ class AgvController:
             if self._held:
                 limit = min(limit, self._held_limit())
             moved = vehicle.step(dt, limit)
-            self._stalled = moved == 0.0
+            self._stalled = moved == 0.0 and not self._held  # held, it wants to stand
             requester = self._requester
             if (
                 requester is not None

@@ -58,8 +58,9 @@ def test_a_fleet_stop_stands_every_vehicle_within_its_braking_time_and_keeps_its
         fleet.step()
     locks = {a: agv.book.lock_areas() for a, agv in fleet.agvs.items()}
 
-    for _ in range(round(120.0 / dt)):  # two minutes stopped, tasks still arriving
+    for _ in range(round(300.0 / dt)):  # five minutes stopped, tasks still arriving
         fleet.step()
+        assert not any(agv.stalled for agv in fleet.agvs.values()), "held is no stall"
         for agv in fleet.agvs.values():
             assert agv.vehicle.speed == 0.0
             held = Area.union_of([area for _, area in agv.book.lock_areas()])
@@ -75,6 +76,7 @@ def test_a_fleet_stop_stands_every_vehicle_within_its_braking_time_and_keeps_its
     fleet.run(900.0)
     assert not any(v.held for v in fleet.vehicles())
     figures = fleet.summary()
+    assert figures["deadlocks"] == 0, "a long stop is no deadlock"
     assert figures["collisions"] == 0
     assert figures["lock_overlaps"] == 0
     assert figures["tasks_created"] >= 10
