@@ -109,4 +109,10 @@ def test_the_vehicle_panel_stops_and_resumes_an_agv_and_shows_what_it_reports() 
             ".textContent === 'in service'",
             timeout=10_000,
         )
+        # Its tuplespace, where its locks live, opened on the card.
+        page.locator("#vehicle-space-box summary").click()
+        page.locator("#vehicle-space li").first.wait_for(timeout=10_000)
+        total = served.get("/api/nodes/agv-02/space").json()["total"]
+        assert page.locator("#vehicle-space-note").text_content() == f"{total} tuples"
+        assert page.locator("#vehicle-space li").count() == min(total, 50)
         assert problems == [], problems
