@@ -7,7 +7,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test lint bench chromium mosquitto nftables compiled clean soak soak-floors
+.PHONY: demo test lint docs bench chromium mosquitto nftables compiled clean soak soak-floors
 
 $(STAMP): pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -46,6 +46,10 @@ lint: $(STAMP)
 	$(BIN)/ruff format --check .
 	$(BIN)/mypy
 
+# The documentation site (mkdocs.yml) into site/, offline; any warning fails the build.
+docs: $(STAMP)
+	$(BIN)/mkdocs build --strict
+
 BENCHMARKS := tuplespace groups mesh fleet dashboard vda5050 tls stop
 
 bench: $(STAMP) chromium mosquitto
@@ -63,4 +67,4 @@ soak-floors: $(STAMP)
 	$(BIN)/python -m tests.soak.floors --seeds 0-$$(($(FLOOR_SEEDS) - 1)) --jobs 2
 
 clean:
-	rm -rf $(VENV) .pytest_cache .mypy_cache .ruff_cache .hypothesis
+	rm -rf $(VENV) site .pytest_cache .mypy_cache .ruff_cache .hypothesis

@@ -107,6 +107,7 @@ def run(args: argparse.Namespace, *, faults: bool) -> dict[str, Any]:
                 fleet.net.cap(host, CAP_KBIT)
         plan = _fault_plan(fleet.vehicle_ids, seconds, args.kill_vehicle) if faults else []
         threads: list[threading.Thread] = []
+        open_at_kill: set[str] = set()
         for at, what, who in plan:
             time.sleep(max(0.0, started + at - time.monotonic()))
             if what == "outage":
@@ -120,6 +121,8 @@ def run(args: argparse.Namespace, *, faults: bool) -> dict[str, Any]:
                 thread.start()
                 threads.append(thread)
             elif what == "kill":
+                if who == "control":
+                    open_at_kill = set(fleet.orders())
                 fleet.kill(who)
             elif what == "start":
                 fleet.restart(who)
@@ -128,10 +131,15 @@ def run(args: argparse.Namespace, *, faults: bool) -> dict[str, Any]:
         for thread in threads:
             thread.join()
         metrics = fleet.metrics()
+        known_at_end = set(fleet.orders())
         report = fleet.stop()
+        delivered = fleet.deliveries()
         recoveries = recovery_times(fleet.traces, outages)
         return {
             "report": report,
+            "orders_at_kill": len(open_at_kill),
+            "orders_lost": len(open_at_kill - known_at_end),
+            "orders_twice": sum(1 for times in delivered.values() if times > 1),
             "tasks_per_hour": metrics.get("tasks_per_hour", math.nan),
             "tasks_completed": metrics.get("tasks_completed", math.nan),
             "recoveries": recoveries,
@@ -170,7 +178,10 @@ def main() -> None:
     rough = run(args, faults=True)
     ratio = rough["tasks_per_hour"] / calm["tasks_per_hour"] if calm["tasks_per_hour"] else math.nan
     rows = []
-    for label, result in (("without faults", calm), ("with faults", rough)):
+    for label, result, faults_run in (
+        ("without faults", calm, False),
+        ("with faults", rough, True),
+    ):
         report = result["report"]
         rows.append(
             [
@@ -182,6 +193,10 @@ def main() -> None:
                 f"{p99(result['recoveries']):.2f} ({len(result['recoveries'])})"
                 if result["recoveries"]
                 else "-",
+                f"{result['orders_lost']} / {result['orders_twice']} "
+                f"(of {result['orders_at_kill']})"
+                if faults_run
+                else f"- / {result['orders_twice']}",
             ]
         )
     table = markdown_table(
@@ -192,6 +207,7 @@ def main() -> None:
             "m outside locked floor (goal 0)",
             "tasks/h",
             "moves again after its link returns, p99 s (outages) (goal <= 3)",
+            "orders lost / done twice across the control restart (open then) (goal 0 / 0)",
         ],
         rows,
     )
@@ -209,6 +225,8 @@ def main() -> None:
     name = "netfaults" if args.layout is None else f"netfaults-{args.layout.replace(':', '-')}"
     command = (
         ".venv/bin/python bench/netfaults.py"
+        + (f" --vehicles {args.vehicles}" if args.vehicles != 20 else "")
+        + (f" --minutes {args.minutes:g}" if args.minutes != 30.0 else "")
         + (f" --layout {args.layout}" if args.layout else "")
         + (" --kill-vehicle" if args.kill_vehicle else "")
     )

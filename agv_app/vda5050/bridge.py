@@ -18,6 +18,8 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
+from collections.abc import Coroutine
+from typing import Any
 
 import aiomqtt
 
@@ -124,9 +126,25 @@ async def _serve_connection(
                 counters.published += 1
                 honour_cancellation()
 
-    async with asyncio.TaskGroup() as tg:
-        tg.create_task(publish_due())
-        tg.create_task(answer())
+    await _until_one_fails(publish_due(), answer())
+
+
+async def _until_one_fails(*jobs: Coroutine[Any, Any, None]) -> None:
+    """Run ``jobs`` until one of them ends, then cancel the rest; raise what it raised.
+
+    Not a TaskGroup with an empty body: in Python 3.11 a child's failure there leaves a
+    cancellation request on the awaiting task (``Task.cancelling()`` stays 1), and
+    :func:`honour_cancellation` would then stop the bridge on its next connection.
+    """
+    tasks = [asyncio.ensure_future(job) for job in jobs]
+    try:
+        done, _ = await asyncio.wait(tasks, return_when=asyncio.FIRST_COMPLETED)
+    finally:
+        for task in tasks:
+            task.cancel()
+        await asyncio.gather(*tasks, return_exceptions=True)
+    for task in done:
+        task.result()
 
 
 async def run_bridge(

@@ -27,10 +27,10 @@ from collections.abc import Callable
 from typing import Any, TypeVar
 
 import msgpack
-import zenoh
 
 from objectplaces.transport.routing import Cell
 from objectplaces.transport.zenoh_keys import FleetKeys
+from objectplaces.transport.zenoh_lib import zenoh
 
 __all__ = ["RING_CAPACITY", "Item", "ZenohInbox", "batched", "direct"]
 

@@ -22,12 +22,11 @@ import logging
 from collections.abc import Callable
 from typing import Any
 
-import zenoh
-
 from objectplaces.transport.base import NodeDriver
 from objectplaces.transport.zenoh_alive import TOKEN_GRACE, AliveTable, Change
 from objectplaces.transport.zenoh_inbox import ZenohInbox
 from objectplaces.transport.zenoh_keys import FleetKeys
+from objectplaces.transport.zenoh_lib import zenoh
 
 __all__ = ["QUERY_TIMEOUT", "RECONCILE_EVERY", "Membership"]
 

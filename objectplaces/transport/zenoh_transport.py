@@ -31,8 +31,6 @@ import contextlib
 import logging
 from typing import Protocol
 
-import zenoh
-
 from objectplaces.core.events import Broadcast, Output, Publish, Send, Subscribe
 from objectplaces.security.identity import Identity
 from objectplaces.transport.base import RawNodeDriver
@@ -48,6 +46,7 @@ from objectplaces.transport.zenoh_config import (
 from objectplaces.transport.zenoh_declared import Declared
 from objectplaces.transport.zenoh_inbox import Item, ZenohInbox
 from objectplaces.transport.zenoh_keys import FleetKeys
+from objectplaces.transport.zenoh_lib import zenoh
 from objectplaces.transport.zenoh_membership import Membership
 from objectplaces.transport.zenoh_publishers import PublisherCache
 from objectplaces.transport.zenoh_roster import ROSTER_CHECK, RosterWatch
