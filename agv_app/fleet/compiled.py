@@ -79,6 +79,7 @@ SIM_MODULES: Final = (
     "agv_app.traffic.central",
     "agv_app.traffic.collision",
     "agv_app.traffic.deadlock",
+    "agv_app.traffic.floor_features",
     "agv_app.traffic.lockbook",
     "agv_app.traffic.monitor",
     "agv_app.traffic.reach",
