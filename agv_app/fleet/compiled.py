@@ -70,6 +70,7 @@ SIM_MODULES: Final = (
     "agv_app.geometry.wire",
     "agv_app.layout.elements",
     "agv_app.layout.graph",
+    "agv_app.layout.plan",
     "agv_app.layout.search",
     "agv_app.protocol",
     "agv_app.tasks.auction",
