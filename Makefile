@@ -7,7 +7,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test lint bench chromium mosquitto compiled clean soak soak-floors
+.PHONY: demo test lint docs bench chromium mosquitto nftables compiled clean soak soak-floors
 
 $(STAMP): pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -31,7 +31,11 @@ mosquitto:
 compiled: $(STAMP)
 	$(BIN)/python -m agv_app.fleet.compiled
 
-test: $(STAMP) chromium mosquitto compiled
+# Packet loss on the test hosts (network namespaces) of tests/hosts and bench/netfaults.py.
+nftables:
+	@scripts/ensure-debian-package.sh /usr/sbin/nft nftables
+
+test: $(STAMP) chromium mosquitto nftables compiled
 	$(BIN)/ruff check .
 	$(BIN)/mypy
 	$(BIN)/python -m pytest -n 2
@@ -42,7 +46,11 @@ lint: $(STAMP)
 	$(BIN)/ruff format --check .
 	$(BIN)/mypy
 
-BENCHMARKS := tuplespace groups mesh fleet dashboard vda5050
+# The documentation site (mkdocs.yml) into site/, offline; any warning fails the build.
+docs: $(STAMP)
+	$(BIN)/mkdocs build --strict
+
+BENCHMARKS := tuplespace groups mesh fleet dashboard vda5050 tls
 
 bench: $(STAMP) chromium mosquitto
 	for name in $(BENCHMARKS); do $(BIN)/python -m bench.$$name || exit 1; done
@@ -59,4 +67,4 @@ soak-floors: $(STAMP)
 	$(BIN)/python -m tests.soak.floors --seeds 0-$$(($(FLOOR_SEEDS) - 1)) --jobs 2
 
 clean:
-	rm -rf $(VENV) .pytest_cache .mypy_cache .ruff_cache .hypothesis
+	rm -rf $(VENV) site .pytest_cache .mypy_cache .ruff_cache .hypothesis

@@ -12,10 +12,16 @@ Import from here; the submodules are the implementation:
 
 from __future__ import annotations
 
-from agv_app import geometry, layout
-from agv_app.geometry import *  # noqa: F403 (the package's face: every name of geometry)
-from agv_app.layout import *  # noqa: F403 (and of layout)
-from agv_app.vehicle import Vehicle, VehicleSpec
+from objectplaces.extras import require
+
+require("fleet", "the AGV fleet application (agv_app)")  # else: which extra to install
+
+# The imports come after the check, so a missing extra is named before shapely fails;
+# the package's face is every name of geometry and of layout.
+from agv_app import geometry, layout  # noqa: E402
+from agv_app.geometry import *  # noqa: E402, F403
+from agv_app.layout import *  # noqa: E402, F403
+from agv_app.vehicle import Vehicle, VehicleSpec  # noqa: E402
 
 __all__ = ["Vehicle", "VehicleSpec"]
 __all__ += geometry.__all__

@@ -29,6 +29,7 @@ from starlette.middleware.trustedhost import TrustedHostMiddleware
 from dashboard.auth import Logins, Tokens
 from dashboard.driver import FleetDriver
 from dashboard.errors import install_error_handlers
+from dashboard.eventlog import EventLog
 from dashboard.guard import LOOPBACK_HOSTS, AccessGuard
 from dashboard.history import HistorySampler, MetricsHistory
 from dashboard.limits import RequestLimits
@@ -51,6 +52,7 @@ def create_app(
     hosts: Iterable[str] = (),
     tick_s: float = 0.02,
     static_dir: Path = STATIC_DIR,
+    events: EventLog | None = None,
 ) -> FastAPI:
     """Build the dashboard app around a running fleet.
 
@@ -63,6 +65,8 @@ def create_app(
             loopback ones; a request naming any other ``Host`` is refused (400).
         tick_s: how often the fleet is advanced, in wall-clock seconds.
         static_dir: the page's files.
+        events: the operator's log (default: a new one in memory; the control gives one
+            on its order store, ``EventLog(store=...)``, so that the log outlives it).
 
     Returns:
         The FastAPI app (OpenAPI at ``/docs`` and ``/redoc``, served with no internet).
@@ -75,7 +79,7 @@ def create_app(
         raise ValueError(f"hosts are names, not patterns: got {hosts!r}")
     tokens = Tokens.generate() if tokens is None else tokens
     logins = Logins()
-    state = DashboardState(source)
+    state = DashboardState(source, events=events)
     state.ensure_responders()
     driver = FleetDriver(state, tick_s=tick_s)
     history = MetricsHistory()

@@ -27,6 +27,7 @@ from objectplaces.security import CredentialError
 from objectplaces.security.pki import write_private
 
 if TYPE_CHECKING:
+    from dashboard.eventlog import EventLog
     from dashboard.source import FleetSource
 
 __all__ = ["build_source", "register", "run_demo", "serve"]
@@ -147,8 +148,15 @@ def build_source(args: argparse.Namespace) -> FleetSource:
         raise SystemExit(2) from None
 
 
-def serve(source: FleetSource, *, listening: Listening, open_browser: bool = False) -> None:
-    """Serve the dashboard for ``source`` until interrupted.
+def serve(
+    source: FleetSource,
+    *,
+    listening: Listening,
+    open_browser: bool = False,
+    events: EventLog | None = None,
+) -> None:
+    """Serve the dashboard for ``source`` until interrupted (``events``: the operator's
+    log, kept on the control's order store).
 
     Prints the login URLs once, on standard output (never on a command line: a browser
     opened with ``open_browser`` is given a private file that leads there).
@@ -157,7 +165,7 @@ def serve(source: FleetSource, *, listening: Listening, open_browser: bool = Fal
 
     from dashboard.app import create_app
 
-    app = create_app(source, tokens=listening.tokens, hosts=listening.hosts)
+    app = create_app(source, tokens=listening.tokens, hosts=listening.hosts, events=events)
     if listening.token_file is not None:
         made = "made now, " if listening.created else ""
         print(f"tokens in {listening.token_file} ({made}mode 0600)", flush=True)

@@ -4,15 +4,28 @@ Pure bookkeeping: every input carries ``now`` (simulated seconds), nothing here 
 clock. Memory is bounded: the last ``history`` events are kept (older ones are dropped,
 and counted), and at most one active alarm per key (a key names what the alarm is about,
 e.g. ``waiting:agv-3``), so an alarm raised again while active is not repeated.
+
+Given a store (``EventStore``; the control's :class:`~agv_app.tasks.store.OrderStore`),
+every event is also written there, and a new log on the same store starts with the
+events it kept and numbers on from them. Alarms are not kept: they are conditions of the
+running fleet, raised again by whoever watches it.
 """
 
 from __future__ import annotations
 
 from collections import deque
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, Protocol
 
-__all__ = ["DEFAULT_HISTORY", "SEVERITIES", "Alarm", "Event", "EventLog", "Severity"]
+__all__ = [
+    "DEFAULT_HISTORY",
+    "SEVERITIES",
+    "Alarm",
+    "Event",
+    "EventLog",
+    "EventStore",
+    "Severity",
+]
 
 Severity = Literal["info", "warning", "alarm"]
 """How much an event asks of the operator: nothing, a look, an action."""
@@ -56,17 +69,30 @@ class Alarm:
     event: Event
 
 
+class EventStore(Protocol):
+    """Where a log's events outlive the process (times on the fleet's clock)."""
+
+    def add_event(self, seq: int, time: float, severity: str, source: str, text: str) -> None:
+        """Keep one event."""
+        ...
+
+    def recent_events(self, limit: int) -> list[tuple[int, float, str, str, str]]:
+        """The last ``limit`` events kept, oldest first: seq, time, severity, source, text."""
+        ...
+
+
 class EventLog:
     """Events, newest last, and the active alarms.
 
     Args:
         history: how many events to keep (at least 1).
+        store: where every event is written, and the events the log starts with.
 
     Raises:
         ValueError: ``history`` is less than 1.
     """
 
-    def __init__(self, *, history: int = DEFAULT_HISTORY) -> None:
+    def __init__(self, *, history: int = DEFAULT_HISTORY, store: EventStore | None = None) -> None:
         if history < 1:
             raise ValueError(f"history must be 1 or more, got {history!r}")
         self._events: deque[Event] = deque(maxlen=history)
@@ -74,6 +100,14 @@ class EventLog:
         self._seq = 0
         self.dropped = 0
         """Events no longer kept because the history was full."""
+        self.store = store
+        if store is not None:
+            for seq, time, severity, source, text in store.recent_events(history):
+                if severity in SEVERITIES:
+                    self._events.append(Event(seq, time, severity, source, text))
+            if self._events:
+                self._seq = self._events[-1].seq + 1
+                self.dropped = self._events[0].seq  # numbered from 0, none reused
 
     @property
     def events(self) -> list[Event]:
@@ -95,6 +129,8 @@ class EventLog:
         if len(self._events) == self._events.maxlen:
             self.dropped += 1
         self._events.append(event)
+        if self.store is not None:
+            self.store.add_event(event.seq, event.time, severity, source, text)
         return event
 
     def raise_alarm(

@@ -219,6 +219,10 @@ class TaskRecordOut(_Out):
     """A transport order and where it stands."""
 
     id: str
+    creator: str = Field(
+        description="who gave it: api (the REST API, the page), auto (automatic tasks), "
+        "master (a VDA 5050 master control); empty when unknown"
+    )
     source: str = Field(description="pick station id")
     destination: str = Field(description="drop station id")
     state: str = Field(description="waiting, assigned, driving, done, failed or cancelled")

@@ -330,6 +330,11 @@ class TaskRecordView(Protocol):
         ...
 
     @property
+    def creator(self) -> str:
+        """Who gave it: ``api``, ``auto`` or ``master`` (a VDA 5050 master control)."""
+        ...
+
+    @property
     def times(self) -> Mapping[Any, float]:
         """When it last entered each state it has passed (keyed by state name), seconds."""
         ...

@@ -123,9 +123,10 @@ class DashboardState:
 
     Args:
         source: the running fleet.
+        events: the operator's log (default: a new one, in memory only).
     """
 
-    def __init__(self, source: FleetSource) -> None:
+    def __init__(self, source: FleetSource, *, events: EventLog | None = None) -> None:
         self.source = source
         self.layout: JSON = layout_json(source.layout_view())
         self.api = ApiSessions()
@@ -134,7 +135,7 @@ class DashboardState:
         self._responders_on: set[str] = set()
         self._polygons = PolygonCache()
         self._last_counters: dict[str, dict[str, Any]] | None = None
-        self.events = EventLog()
+        self.events = EventLog() if events is None else events
         """The operator's log (``GET /api/events``)."""
         self.watch = FleetWatch(self.events)
         self.clock = RunClock()

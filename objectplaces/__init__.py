@@ -20,7 +20,15 @@ from objectplaces.core.errors import (
     RemoteProtocolError,
 )
 from objectplaces.mesh import start_node
-from objectplaces.roles import Initiator, InitiatorRef, Participant, ParticipantRef, TimerHandle
+from objectplaces.roles import (
+    Initiator,
+    InitiatorRef,
+    MemberSet,
+    OutReason,
+    Participant,
+    ParticipantRef,
+    TimerHandle,
+)
 
 __all__ = [
     "DecodeError",
@@ -28,11 +36,13 @@ __all__ = [
     "InitiatorRef",
     "InvalidValueError",
     "LocalProtocolError",
+    "MemberSet",
     "NodeConfig",
     "NodeStats",
     "NotPlainDataError",
     "ObjectPlacesError",
     "ObserverHandle",
+    "OutReason",
     "Participant",
     "ParticipantRef",
     "ParticipationInfo",

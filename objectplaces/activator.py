@@ -16,7 +16,7 @@ from mypy_extensions import mypyc_attr
 from objectplaces.core.config import ParticipationInfo, SessionInfo
 from objectplaces.core.errors import LocalProtocolError
 from objectplaces.core.events import TimerHandle
-from objectplaces.core.groups import DefinitionLike
+from objectplaces.core.groups import DefinitionLike, checked_definition
 from objectplaces.core.node import NodeMachine
 from objectplaces.core.roles import Initiator, Participant
 from tuplespace import TupleSpace
@@ -80,11 +80,13 @@ class NodeStats:
 class RoleActivator:
     """Start and stop sessions, publish properties, register participant roles.
 
+    Made by the runtime: ``SimulatedNetwork.add_node`` or ``start_node``.
+
     Args:
         machine: the node's machine.
         clock: the runtime's clock (virtual or real seconds).
         wake: asks the runtime to drain the machine soon (idempotent).
-        space: the node's tuplespace.
+        space: the node's tuplespace (``space``).
     """
 
     def __init__(
@@ -100,7 +102,15 @@ class RoleActivator:
         self._wake = wake
         machine.driver.clock = clock
         machine.driver.wake = wake
-        self.space = space
+        self._space = space
+
+    @property
+    def space(self) -> TupleSpace:
+        """The node's tuplespace (Linda: ``out``, ``rd``, ``in_``, ``rdp``, ``inp`` ...),
+        shared by the application's components on this node and every role it plays
+        (a role's ``space`` is this same object). Local to the node: nothing in it is
+        sent anywhere."""
+        return self._space
 
     @property
     def node_id(self) -> str:
@@ -113,7 +123,8 @@ class RoleActivator:
         return self._machine
 
     def now(self) -> float:
-        """The runtime's clock."""
+        """The runtime's clock, in seconds: virtual time in the simulation, the event
+        loop's monotonic clock on a real network (not the time of day)."""
         return self._clock()
 
     def update_node_property(self, name: str, value: Any) -> None:
@@ -161,8 +172,20 @@ class RoleActivator:
     ) -> Session:
         """Start a session: activate ``participant_role`` on every node matching ``definition``.
 
+        Args:
+            initiator: the initiator role (a fresh ``Initiator``, in no other session).
+            definition: who takes part: a callable ``(initiator_props,
+                participant_props) -> bool`` or a declarative one (``objectplaces.groups``).
+            participant_role: the name of the participant role, as registered on the
+                participants' nodes with ``set_participant_factory``.
+
+        Returns:
+            The session; ``stop_interaction(session)`` ends it.
+
         Raises:
-            LocalProtocolError: a bad argument, or ``initiator`` already in a session.
+            LocalProtocolError: a bad argument, ``initiator`` already in a session, or a
+                definition that cannot resolve a group. Nothing is left behind then: no
+                session, no activation, the role unbound.
         """
         sid = self._machine.start_session(initiator, definition, participant_role, self._clock())
         self._wake()
@@ -179,11 +202,23 @@ class RoleActivator:
         self._wake()
 
     def view_group(self, definition: DefinitionLike) -> frozenset[str]:
-        """The nodes that satisfy ``definition`` now, from the local view (no messages)."""
-        return self._machine.view_group(definition)
+        """The nodes that satisfy ``definition`` now, from the local view (no messages).
+
+        Raises:
+            LocalProtocolError: ``definition`` is not callable, or cannot resolve a group.
+        """
+        checked = checked_definition(definition, self._machine.properties)
+        return self._machine.view_group(checked)
 
     def call_later(self, delay: float, fn: Callable[[], Any]) -> TimerHandle:
-        """Run ``fn`` after ``delay`` seconds of the runtime's clock."""
+        """Run ``fn`` after ``delay`` seconds of the runtime's clock (``now()``).
+
+        Returns:
+            A handle whose ``cancel()`` stops ``fn`` from running.
+
+        Raises:
+            LocalProtocolError: ``delay`` is negative or not a number.
+        """
         handle = self._machine.call_later(delay, fn, self._clock())
         self._wake()
         return handle

@@ -31,6 +31,7 @@ from objectplaces.network_node import NetworkNode
 from objectplaces.runtime.aio import AsyncioRunner
 from objectplaces.security.identity import Identity
 from objectplaces.security.links import link_security
+from objectplaces.transport.mesh_frames import MAX_TAG
 from objectplaces.transport.options import MeshOptions, PeerStats
 from objectplaces.transport.websocket import WebSocketMesh
 from tuplespace import TupleSpace
@@ -74,6 +75,11 @@ class MeshNode(NetworkNode):
     def peer_stats(self) -> dict[str, PeerStats]:
         """Per-peer counters (messages, bytes in/out, drops, reconnects), by peer id."""
         return self._mesh.peer_stats()
+
+    def refusals(self) -> dict[str, str]:
+        """Why peers refused this node's links lately, by the address dialed (another
+        fleet tag, another certificate id, a revoked certificate ...)."""
+        return self._mesh.refusals()
 
     def transport_counters(self) -> dict[str, int]:
         """Node-wide transport counters (refused links by reason, dropped frames ...)."""
@@ -182,6 +188,7 @@ async def start_mesh_node(
     retransmit_timeout: float = 0.2,
     options: MeshOptions | None = None,
     space: TupleSpace | None = None,
+    tag: str = "",
 ) -> MeshNode:
     """Start a node on the WebSocket mesh and return its ``RoleActivator``.
 
@@ -209,6 +216,9 @@ async def start_mesh_node(
         retransmit_timeout: first retransmission delay of session channel frames.
         options: transport limits and timings (flood limit, frame size, backoff ...).
         space: the node's tuplespace (a new one by default).
+        tag: what every member of the fleet shares, e.g. the digest of the layout its
+            vehicles drive: a peer with another tag is refused when it links, and both
+            sides say why (``refusals``), naming both tags.
 
     Raises:
         LocalProtocolError: a bad argument; neither ``tls`` nor ``insecure``; a plain
@@ -220,6 +230,8 @@ async def start_mesh_node(
         raise LocalProtocolError(f"interest_radius must be > 0, got {interest_radius!r}")
     if isinstance(join, str):
         raise LocalProtocolError(f"join must be a list of addresses, got {join!r}")
+    if not isinstance(tag, str) or len(tag) > MAX_TAG:
+        raise LocalProtocolError(f"tag must be text of at most {MAX_TAG} characters, got {tag!r}")
     hosts = [address.rpartition(":")[0] for address in (listen, *join)]
     security = link_security(node_id, tls=tls, secret=secret, insecure=insecure, hosts=hosts)
     loop = asyncio.get_running_loop()
@@ -243,6 +255,7 @@ async def start_mesh_node(
         seeds=join,
         options=options,
         incarnation=time.time_ns(),
+        tag=tag,
     )
     runner = AsyncioRunner(machine, mesh.transmit)
     mesh.attach(runner)

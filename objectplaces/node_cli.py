@@ -36,7 +36,7 @@ import logging
 import signal
 import sys
 import time
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypeAlias
 
 from objectplaces.activator import Session
 from objectplaces.arguments import POSITIVE, group_argument, property_argument, whole
@@ -51,7 +51,6 @@ from objectplaces.security import (
     credentials_from_args,
 )
 from objectplaces.transport.options import MIN_FRAME
-from objectplaces.zenoh_node import ZenohNode
 
 __all__ = [
     "Collector",
@@ -64,7 +63,10 @@ __all__ = [
 
 _MAX_LINE = 1 << 16
 
-AnyNode = MeshNode | ZenohNode
+if TYPE_CHECKING:  # the Zenoh transport is an extra: imported when asked for
+    from objectplaces.zenoh_node import ZenohNode
+
+AnyNode: TypeAlias = "MeshNode | ZenohNode"
 
 
 def emit(event: str, **fields: Any) -> None:
@@ -207,7 +209,7 @@ def run_node(args: argparse.Namespace) -> int:
     EchoVoter.tick = args.tick
     try:
         return asyncio.run(_run(args, credentials))
-    except CredentialError as exc:
+    except (CredentialError, ImportError) as exc:  # ImportError: a missing extra, named
         print(f"objectplaces node: {exc}", file=sys.stderr)
         return 2
     except (LocalProtocolError, OSError) as exc:

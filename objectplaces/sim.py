@@ -2,6 +2,9 @@
 
 Seeded and deterministic: the same seed and the same calls give the same run, message
 for message. Every frame goes through the wire codec, so ``stats()`` counts real bytes.
+Its defaults are those of a node on a real network (``start_node``): properties are
+republished every second and a node not heard for three seconds leaves every group, so
+a protocol tested here meets crashes as it will on the mesh.
 """
 
 from __future__ import annotations
@@ -13,7 +16,7 @@ from typing import Any, Final, Literal
 
 from objectplaces.activator import RoleActivator
 from objectplaces.core.errors import LocalProtocolError
-from objectplaces.core.events import Output
+from objectplaces.core.events import Output, TimerHandle
 from objectplaces.core.messages import Message
 from objectplaces.core.node import NodeConfig, NodeMachine
 from objectplaces.runtime.pump import Pump
@@ -114,6 +117,11 @@ class _SimNode:
             self.pump.drain()
 
 
+def _run_unless_cancelled(handle: TimerHandle) -> None:
+    if not handle.cancelled:
+        handle.fn()
+
+
 class SimulatedNetwork:
     """An in-memory network of ObjectPlaces nodes driven by a virtual clock.
 
@@ -128,12 +136,15 @@ class SimulatedNetwork:
         duplicate: probability that a frame arrives twice.
         reorder: probability that a frame is held back by up to 4x (delay + jitter).
         cell_size: grid cell side for scoped dissemination and the spatial index.
-        property_interval: default republication interval of new nodes (None: off).
+        property_interval: default republication interval of new nodes, 1 s as on a
+            real network (``start_node``); None: never, and without ``beat_interval``
+            no failure detection either (a crashed node then stays in its groups).
         beat_interval: default liveness beat interval of new nodes (None: no beats;
             ``NodeConfig`` says what a beat is).
         rest_beat_interval: default beat interval of new nodes at rest (None: no rest;
             ``NodeConfig.rest_beat_interval``).
-        failure_timeout: default failure timeout of new nodes (None: 3 intervals).
+        failure_timeout: default failure timeout of new nodes (None: 3 liveness
+            intervals, 3 s with the defaults).
         retransmit_timeout: first retransmission delay of session channel frames.
         probe_interval: how often an initiator probes its idle members (None: never;
             ``NodeConfig.probe_interval``).
@@ -150,7 +161,7 @@ class SimulatedNetwork:
         duplicate: float = 0.0,
         reorder: float = 0.0,
         cell_size: float = 25.0,
-        property_interval: float | None = None,
+        property_interval: float | None = 1.0,
         beat_interval: float | None = None,
         rest_beat_interval: float | None = None,
         failure_timeout: float | None = None,
@@ -346,9 +357,21 @@ class SimulatedNetwork:
         """
         self._network.inject(source, target, data)
 
-    def call_later(self, delay: float, fn: Callable[[], Any]) -> None:
-        """Run ``fn`` after ``delay`` virtual seconds (for drivers of simulated applications)."""
-        self._loop.call_at(self._loop.now + delay, fn)
+    def call_later(self, delay: float, fn: Callable[[], Any]) -> TimerHandle:
+        """Run ``fn`` after ``delay`` virtual seconds (for drivers of simulated
+        applications): the contract of a node's ``call_later``, on no node.
+
+        Returns:
+            A handle whose ``cancel()`` stops ``fn`` from running.
+
+        Raises:
+            LocalProtocolError: ``delay`` is negative or not a number.
+        """
+        if not delay >= 0:
+            raise LocalProtocolError(f"delay must be >= 0 seconds, got {delay!r}")
+        handle = TimerHandle(self._loop.now + delay, fn)
+        self._loop.call_at(handle.deadline, _run_unless_cancelled, handle)
+        return handle
 
     def stats(self) -> NetworkStats:
         """Messages and bytes so far, in total, per node and per message kind."""

@@ -113,6 +113,15 @@ class ZenohNode(NetworkNode):
         """Per-peer link counters: none on Zenoh, which keeps the links (see counters)."""
         return {}
 
+    def twin_up_for(self) -> float | None:
+        """Seconds another run with this node's id has held its token (None: none does).
+        An earlier run of this process holds it at most the lease after it died."""
+        return self._transport.membership.twin_up_for()
+
+    def refusals(self) -> dict[str, str]:
+        """Why nodes of another fleet tag are not heard, by node."""
+        return dict(self._transport.membership.refusals)
+
     def transport_counters(self) -> dict[str, int]:
         """Node-wide transport counters (frames and bytes in and out, drops by reason)."""
         return dict(sorted(self._transport.counters.items()))
@@ -158,6 +167,7 @@ async def start_zenoh_node(
     max_frame: int | None = None,
     poll_interval: float | None = None,
     space: TupleSpace | None = None,
+    tag: str = "",
 ) -> ZenohNode:
     """Start a node on Zenoh and return its ``RoleActivator``.
 
@@ -198,6 +208,9 @@ async def start_zenoh_node(
             of each frame at once (None): fewer wake-ups for a busy process, frames
             delayed up to this long (docs/zenoh.md, "Threads").
         space: the node's tuplespace (a new one by default).
+        tag: what every member of the fleet shares, e.g. the digest of the layout its
+            vehicles drive (in the node's liveliness token): what a node of another tag
+            sends is dropped, and ``refusals`` says why, naming both tags.
 
     Raises:
         LocalProtocolError: a bad argument; neither ``tls`` nor ``insecure``; a plain
@@ -244,7 +257,7 @@ async def start_zenoh_node(
     space = space if space is not None else TupleSpace(clock=loop.time)
     machine = NodeMachine(node_id, now=loop.time(), config=config, space=space)
     transport = ZenohTransport(
-        node_id, options=options, incarnation=time.time_ns(), tls=tls, secret=secret
+        node_id, options=options, incarnation=time.time_ns(), tls=tls, secret=secret, tag=tag
     )
     runner = ZenohRunner(machine, transport.transmit)
     transport.attach(runner)

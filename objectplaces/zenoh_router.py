@@ -24,8 +24,6 @@ import contextlib
 import logging
 from collections.abc import Sequence
 
-import zenoh
-
 from objectplaces.security.identity import Identity
 from objectplaces.security.links import link_security
 from objectplaces.transport.zenoh_acl import fleet_access_control, secret_access_control
@@ -41,6 +39,7 @@ from objectplaces.transport.zenoh_config import (
     resolve_ports,
     zenoh_config,
 )
+from objectplaces.transport.zenoh_lib import zenoh
 from objectplaces.transport.zenoh_roster import ROSTER_CHECK, RosterWatch
 
 __all__ = ["ZenohRouter", "start_router"]

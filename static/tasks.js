@@ -1,6 +1,7 @@
 // The transport-orders panel: GET /api/tasks once a second, newest first; a waiting
-// order has a cancel button (DELETE /api/tasks/{id}). Hooks: #tasks-panel, rows
-// tr[data-task-id] with td[data-state], #tasks-state (filter), #tasks-status.
+// order has a cancel button (DELETE /api/tasks/{id}). Who gave it: the desk, or a
+// VDA 5050 master control. Hooks: #tasks-panel, rows tr[data-task-id] with
+// td[data-state] and td[data-creator], #tasks-state (filter), #tasks-status.
 
 import { loginEnded } from "./access.js";
 
@@ -39,7 +40,7 @@ function cell(row, i, text, attrs = {}) {
 }
 
 function cancelButton(row, task) {
-  const td = cell(row, 5, "");
+  const td = cell(row, 6, "");
   if (task.state !== "waiting") {
     td.replaceChildren();
     return;
@@ -71,10 +72,11 @@ function render(tasks) {
       `created ${fmtSeconds(task.created)}, started ${fmtSeconds(task.started)}, ` +
       `finished ${fmtSeconds(task.finished)}`;
     cell(row, 0, task.id);
-    cell(row, 1, task.source);
-    cell(row, 2, task.destination);
-    cell(row, 3, task.state, { "data-state": task.state, class: `state ${task.state}` });
-    cell(row, 4, task.vehicle ?? "–");
+    cell(row, 1, task.creator, { "data-creator": task.creator });
+    cell(row, 2, task.source);
+    cell(row, 3, task.destination);
+    cell(row, 4, task.state, { "data-state": task.state, class: `state ${task.state}` });
+    cell(row, 5, task.vehicle ?? "–");
     cancelButton(row, task);
     if (row === ref) ref = ref.nextElementSibling;
     else body.insertBefore(row, ref);

@@ -29,6 +29,8 @@ from objectplaces.security import CredentialError, credentials_from_args
 REQUIRED = {
     "node": ["--id", "n1"],
     "agv_process": ["--id", "agv-01", "--pki", "pki", "--home", "P0350n"],
+    "agv": ["--id", "agv-01", "--pki", "pki", "--home", "P0350n"],
+    "control": ["--connect", "127.0.0.1:9"],
 }
 # Options that take any whole number.
 ANY_NUMBER = {"--seed"}

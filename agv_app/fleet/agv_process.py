@@ -6,7 +6,10 @@ python -m agv_app.fleet.agv_process --id agv-03 --listen 127.0.0.1:0 --join 127.
 ```
 
 ``--pki D`` joins with mutual TLS as the certificate ``D/ID.pem`` names; ``--insecure
---secret-file F`` with plain links, on loopback only.
+--secret-file F`` with plain links, on loopback only. ``--driver sim|standin`` picks the
+vehicle's driver; ``--state-dir DIR`` keeps its pose and the task it holds there, so a
+restarted process comes back where the vehicle stands (:mod:`agv_app.fleet.restart_state`,
+docs/drivers.md).
 
 The process starts a node, builds an :class:`~agv_app.vehicle.controller.AgvController` on the
 demo warehouse and steps it in real time (fixed ``--dt``). Besides what the controller
@@ -20,11 +23,14 @@ and ``route`` (the vertices ahead); and what the dashboard shows of its node:
 ``sessions``, ``roles`` and ``traffic`` (:mod:`agv_app.fleet.remote`).
 
 It stops by itself, always through a graceful ``node.close()``: when ``--run-seconds``
-pass, when its stdin (a pipe from its parent) closes, when its parent process dies, or
-on SIGTERM or SIGINT. Output is one JSON object per line on stdout (``ready``,
-``driving``, ``lag`` every 5 s while driving and ``closed``, both with how late its
-control steps ran so far: ``steps``, ``late_steps`` late by more than ``--dt``,
-``max_lag_s``; ``stopping``); errors go to stderr.
+pass, when its stdin (a pipe from its parent) closes, when its parent process dies, on
+SIGTERM or SIGINT, or when its vehicle's driver fails (its pose reports stop: the
+vehicle is told to stop, the goodbye tells the others to keep its last circle; exit
+status 3, for a supervisor to restart it). Output is one JSON object per line on stdout
+(``ready`` with the ``position`` the vehicle stands at, ``driving``, ``lag`` every 5 s
+while driving and ``closed``, both with how late its control steps ran so far:
+``steps``, ``late_steps`` late by more than ``--dt``, ``max_lag_s``; ``fault`` with its
+``reason``; ``stopping``); errors go to stderr.
 """
 
 from __future__ import annotations
@@ -53,12 +59,18 @@ from agv_app.fleet.liveness import (
 )
 from agv_app.fleet.parking import home_heading
 from agv_app.fleet.remote import roles_wire, sessions_wire, traffic_wire
-from agv_app.geometry import Area, polygon_to_coords
-from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
+from agv_app.fleet.restart_state import TaskKeeper, add_driver_arguments, held_task, vehicle_driver
+from agv_app.fleet.trace import VehicleTrace
+from agv_app.geometry import Area, Pose, polygon_to_coords
+from agv_app.layout.choice import layout_digest, layout_from_argument
+from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M
+from agv_app.layout.elements import LayoutError
 from agv_app.layout.graph import Layout
 from agv_app.traffic.reach import interest_radius
+from agv_app.traffic.stale_relay import StaleListener, StaleRelay
 from agv_app.vda5050.link import BrokerError, MqttLink, check_broker
 from agv_app.vda5050.process import bridge_for, vehicle_class, vehicle_link
+from agv_app.vehicle.comeback import announce, hand_back
 from agv_app.vehicle.controller import AgvConfig, AgvController
 from agv_app.vehicle.kinematics import VehicleSpec
 from objectplaces.arguments import POSITIVE, number, whole
@@ -74,17 +86,26 @@ from objectplaces.security import (
 from objectplaces.zenoh_node import ZenohNode, start_zenoh_node
 
 __all__ = [
+    "AnotherFleet",
     "DisplayPublisher",
     "StepLag",
+    "add_agv_arguments",
     "build_parser",
     "dissemination_radius",
     "main",
     "parse_args",
     "process_liveness",
+    "register",
     "run",
 ]
 
 _PARENT_CHECK_S = 1.0
+_SETTLE_REPORT_S = 10.0
+_TWIN_AFTER_S = 15.0
+"""Seconds another run's token of our id may stay up: a crashed run's lasts the lease
+(10 s), and then some for a loaded machine."""
+_RETRY_FIRST_S = 0.5
+_RETRY_MAX_S = 10.0
 _MAX_LAG_S = 1.0
 _LAG_EVERY_S = 5.0
 POLL_INTERVAL_S = 0.05
@@ -253,9 +274,21 @@ def build_parser() -> argparse.ArgumentParser:
     """The command line's parser (``parse_args`` also checks ``--interest-radius``)."""
     parser = argparse.ArgumentParser(
         prog="python -m agv_app.fleet.agv_process",
-        description="Run one AGV of the demo warehouse as a node on the WebSocket mesh.",
+        description="Run one AGV as a node of its fleet (the process behind `objectplaces agv`).",
     )
+    add_agv_arguments(parser)
+    return parser
+
+
+def add_agv_arguments(parser: argparse.ArgumentParser, *, joining: bool = False) -> None:
+    """The options of one AGV process (``joining``: the defaults of ``objectplaces agv``,
+    which waits for the fleet before it drives)."""
     parser.add_argument("--id", required=True, help="node id of the AGV, unique in the mesh")
+    parser.add_argument(
+        "--layout",
+        help="the layout it drives: a .json or openTCS .xml file, generated:N, or demo "
+        "(default: the demo warehouse); every process of a fleet must run the same one",
+    )
     parser.add_argument("--listen", default="127.0.0.1:0", help="host:port to listen on")
     parser.add_argument(
         "--join", action="append", default=[], metavar="HOST:PORT", help="a node to join through"
@@ -268,7 +301,7 @@ def build_parser() -> argparse.ArgumentParser:
         action="append",
         default=[],
         metavar="ENDPOINT",
-        help="zenoh: a peer, or the router of a client",
+        help="a node to join through (the mesh), or a router or peer (zenoh); repeatable",
     )
     parser.add_argument(
         "--mode", choices=["peer", "client"], default="peer", help="zenoh: peer or client"
@@ -295,6 +328,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     add_credential_arguments(parser)
     parser.add_argument("--home", required=True, help="layout point of the AGV's parking spot")
+    add_driver_arguments(parser)
     parser.add_argument("--seed", type=int, default=1, help="seeds the start-up stagger")
     parser.add_argument("--run-seconds", type=POSITIVE, default=86_400.0, help="stop after this")
     parser.add_argument("--dt", type=POSITIVE, default=0.1, help="control step, s")
@@ -309,14 +343,15 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--expect-peers",
         type=whole(at_least=0),
-        default=0,
-        help="wait for this many linked peers first",
+        default=1 if joining else 0,
+        help="wait for this many linked peers before driving",
     )
     parser.add_argument(
         "--settle-timeout",
         type=number(at_least=0),
-        default=20.0,
-        help="longest wait for those peers, s",
+        default=None if joining else 20.0,
+        help="longest wait for those peers, s (then it drives; default: "
+        + ("for ever, saying so every 10 s)" if joining else "20)"),
     )
     parser.add_argument(
         "--dwell", type=number(at_least=0), default=5.0, help="seconds at a station"
@@ -329,13 +364,19 @@ def build_parser() -> argparse.ArgumentParser:
         "layout; 'none': hear every node",
     )
     parser.add_argument(
+        "--trace",
+        type=Path,
+        metavar="FILE",
+        help="write the vehicle's own safety trace here (JSON lines: poses, locks at each "
+        "change, metres outside its locked floor; agv_app.fleet.trace)",
+    )
+    parser.add_argument(
         "--vda5050",
         default=None,
         metavar="mqtts://HOST:PORT",
         help="speak VDA 5050 over MQTT with the certificate of --pki (mqtt:// only with "
         "--insecure, on loopback)",
     )
-    return parser
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -378,6 +419,19 @@ async def _watch_stdin(stop: asyncio.Event) -> None:
         transport.close()
 
 
+async def _watch_twin(node: MeshNode | ZenohNode, args: argparse.Namespace) -> None:
+    """Return when another process has run as this vehicle's id past a dead run's
+    lease (on Zenoh, where every run holds a token): this one must give way."""
+    if not isinstance(node, ZenohNode):
+        await asyncio.Event().wait()  # for ever: the mesh keeps the newer run's links
+        return
+    while True:
+        await asyncio.sleep(1.0)
+        twin = node.twin_up_for()
+        if twin is not None and twin > _TWIN_AFTER_S:
+            return
+
+
 async def _watch_parent(stop: asyncio.Event, parent: int) -> None:
     """Set ``stop`` when the parent process is gone (we were re-parented)."""
     while True:
@@ -387,17 +441,76 @@ async def _watch_parent(stop: asyncio.Event, parent: int) -> None:
             return
 
 
+class AnotherFleet(Exception):
+    """The peers this process reached run another layout: it may not join them."""
+
+
 async def _settle(node: MeshNode | ZenohNode, args: argparse.Namespace) -> None:
-    """Wait (bounded) until the expected peers are linked and have been heard.
+    """Wait (bounded by ``--settle-timeout``) until the expected peers are linked and
+    have been heard, saying every ``_SETTLE_REPORT_S`` what it waits for.
 
     Moving earlier is safe (the requester waits the safe time for late members), but
     an AGV that has not yet heard its neighbours would ask fewer of them than it should.
+
+    Raises:
+        AnotherFleet: a peer refused our link for running another layout.
     """
-    if args.expect_peers > 0:
+    loop = asyncio.get_running_loop()
+    deadline = loop.time() + (math.inf if args.settle_timeout is None else args.settle_timeout)
+    while len(node.peers()) < args.expect_peers and loop.time() < deadline:
+        refusals = node.refusals()
+        foreign = [f"{where}: {why}" for where, why in refusals.items() if "another fleet" in why]
+        if foreign:
+            raise AnotherFleet("; ".join(foreign))
+        _emit(
+            "waiting",
+            peers=node.peers(),
+            expected=args.expect_peers,
+            connect=[*args.join, *args.connect],
+            refusals=refusals,
+        )
         with contextlib.suppress(TimeoutError):
-            async with asyncio.timeout(args.settle_timeout):
+            async with asyncio.timeout(min(_SETTLE_REPORT_S, max(0.0, deadline - loop.time()))):
                 await node.wait_for_peers(args.expect_peers)
     await asyncio.sleep(args.t_update)
+
+
+async def _open_zenoh(
+    args: argparse.Namespace,
+    credentials: Credentials,
+    tag: str,
+    timing: dict[str, Any],
+    stop: asyncio.Event,
+) -> ZenohNode | None:
+    """Open the node's Zenoh session; while no router or peer of ``--connect`` can be
+    reached, say so and try again, backing off up to ``_RETRY_MAX_S`` (None: told to
+    stop meanwhile)."""
+    delay = _RETRY_FIRST_S
+    while True:
+        try:
+            return await start_zenoh_node(
+                args.id,
+                tls=credentials.tls,
+                insecure=credentials.insecure,
+                secret=credentials.secret,
+                connect=args.connect,
+                mode=args.mode,
+                poll_interval=args.poll_interval or None,
+                tag=tag,
+                **timing,
+            )
+        except OSError as exc:
+            _emit("unreachable", connect=args.connect, error=str(exc), retry_in_s=delay)
+            print(
+                f"{_who(args)}: cannot reach {', '.join(args.connect)} yet ({exc}); "
+                f"trying again in {delay:g} s",
+                file=sys.stderr,
+            )
+        with contextlib.suppress(TimeoutError):
+            async with asyncio.timeout(delay):
+                await stop.wait()
+                return None
+        delay = min(_RETRY_MAX_S, delay * 2)
 
 
 class StepLag:
@@ -422,9 +535,15 @@ class StepLag:
 
 
 async def _drive(
-    agv: AgvController, display: DisplayPublisher, args: argparse.Namespace, lag: StepLag
+    agv: AgvController,
+    display: DisplayPublisher,
+    args: argparse.Namespace,
+    lag: StepLag,
+    trace: VehicleTrace | None = None,
+    keeper: TaskKeeper | None = None,
 ) -> None:
-    """Step the AGV every ``dt`` of real time, for ever, noting how late each step ran."""
+    """Step the AGV every ``dt`` of real time, noting how late each step ran, until its
+    vehicle's driver fails."""
     loop = asyncio.get_running_loop()
     dt = args.dt
     # Processes started together would otherwise step (and publish) in lockstep.
@@ -435,6 +554,12 @@ async def _drive(
     while True:
         lag.note(loop.time() - next_step, dt)
         agv.step(dt)
+        if trace is not None:
+            trace.step()
+        if keeper is not None:
+            keeper.note(agv)
+        if agv.failed:
+            return
         now = loop.time()
         if now >= next_lag_report:
             next_lag_report = now + _LAG_EVERY_S
@@ -459,17 +584,25 @@ async def run(args: argparse.Namespace, credentials: Credentials) -> int:
     Returns:
         The exit status (0 after a graceful stop).
     """
-    layout = demo_warehouse()
-    if args.home not in layout.points:
-        print(f"agv_process: unknown home point {args.home!r}", file=sys.stderr)
+    try:
+        layout = layout_from_argument(args.layout)
+    except (LayoutError, ValueError, OSError) as exc:
+        print(f"{_who(args)}: --layout: {exc}", file=sys.stderr)
         return 2
+    if args.home not in layout.points:
+        print(
+            f"{_who(args)}: --home {args.home!r} is no point of layout {layout.name!r}",
+            file=sys.stderr,
+        )
+        return 2
+    tag = f"layout:{layout_digest(layout)}"
     vda5050: MqttLink | None = None
     if args.vda5050 is not None:
         try:
             vda5050 = vehicle_link(args.vda5050, credentials, args.id)
             await check_broker(vda5050)
         except (ValueError, LocalProtocolError, BrokerError) as exc:
-            print(f"agv_process {args.id}: --vda5050: {exc}", file=sys.stderr)
+            print(f"{_who(args)}: --vda5050: {exc}", file=sys.stderr)
             return 2
     parent = os.getppid()
     loop = asyncio.get_running_loop()
@@ -486,51 +619,94 @@ async def run(args: argparse.Namespace, credentials: Credentials) -> int:
         ),
     }
     lag = StepLag()
+    trace: VehicleTrace | None = None
     node: MeshNode | ZenohNode
     if args.transport == "zenoh":
-        node = await start_zenoh_node(
-            args.id,
-            tls=credentials.tls,
-            insecure=credentials.insecure,
-            secret=credentials.secret,
-            connect=args.connect,
-            mode=args.mode,
-            poll_interval=args.poll_interval or None,
-            **timing,
-        )
+        opened = await _open_zenoh(args, credentials, tag, timing, stop)
+        if opened is None:
+            return 0  # told to stop while it waited for a router
+        node = opened
     else:
         node = await start_node(
             args.id,
             listen=args.listen,
-            join=args.join,
+            join=[*args.join, *args.connect],
+            tag=tag,
             tls=credentials.tls,
             insecure=credentials.insecure,
             secret=credentials.secret,
             **timing,
         )
+    status = 0
     try:
-        agv = vehicle_class(args.vda5050)(
-            node,
-            layout,
-            spec,
-            args.home,
-            heading_rad=home_heading(layout, args.home),
-            config=config,
-        )
+        home = layout.point(args.home)
+        heading = home_heading(layout, args.home)
+        try:
+            driver = vehicle_driver(args, spec, Pose(home.x, home.y, heading))
+            held = held_task(args)
+            agv = vehicle_class(args.vda5050)(
+                node,
+                layout,
+                spec,
+                args.home,
+                heading_rad=heading,
+                config=config,
+                **({} if driver is None else {"driver": driver}),
+            )
+        except (ValueError, OSError) as exc:  # a state file, or a vehicle off the layout
+            print(f"{_who(args)}: {exc}", file=sys.stderr)
+            return 2
+        if held is not None:
+            hand_back(agv, held[0], loaded=held[1])
+        if timing["interest_radius"] is not None:
+            # Scoped: who never heard a vehicle fail learns it from the vehicles that
+            # did, whether or not the control process runs (traffic/stale_relay.py).
+            StaleRelay(node)
+            StaleListener(node, lambda: agv.book)
         display = DisplayPublisher(agv, traffic_interval_s=args.introspection_interval)
         display.publish()
-        _emit("ready", id=node.node_id, address=node.address, home=args.home)
+        trace = VehicleTrace(agv, args.trace) if args.trace is not None else None
+        stands = agv.vehicle.pose()
+        _emit(
+            "ready",
+            id=node.node_id,
+            address=node.address,
+            home=args.home,
+            position=[stands.x, stands.y],
+        )
+
+        refused: list[str] = []
 
         async def drive() -> None:
-            await _settle(node, args)
+            nonlocal status
+            try:
+                await _settle(node, args)
+            except AnotherFleet as exc:
+                refused.append(str(exc))
+                stop.set()
+                return
+            if driver is not None:
+                announce(agv)  # heard by the peers it has now, before it asks for floor
             _emit("driving", peers=node.peers())
-            await _drive(agv, display, args, lag)
+            await _drive(agv, display, args, lag, trace, TaskKeeper(args))
+            _emit("fault", reason=agv.vehicle.fault)
+            status = 3
+            stop.set()
+
+        async def twin() -> None:
+            await _watch_twin(node, args)
+            refused.append(
+                f"another process runs as {args.id} (its token has been up past the lease "
+                "of a run that died): give each vehicle its own id"
+            )
+            stop.set()
 
         async with asyncio.TaskGroup() as tg:
             tasks = [
                 tg.create_task(drive()),
                 tg.create_task(_watch_stdin(stop)),
                 tg.create_task(_watch_parent(stop, parent)),
+                tg.create_task(twin()),
             ]
             if vda5050 is not None:
                 tasks.append(tg.create_task(bridge_for(agv, vda5050)))
@@ -540,15 +716,51 @@ async def run(args: argparse.Namespace, credentials: Credentials) -> int:
             _emit("stopping")
             for task in tasks:
                 task.cancel()
+        if refused:
+            print(
+                f"{_who(args)}: refused by its fleet: this process runs {tag!r} "
+                f"({layout.name}); {refused[0]}",
+                file=sys.stderr,
+            )
+            return 2
     finally:
+        outside: dict[str, float] = {}
+        if trace is not None:
+            trace.close()
+            outside = {"outside_m": trace.outside_m}
         await node.close()
-        _emit("closed", **lag.fields())
+        _emit("closed", **lag.fields(), **outside)
         for signum in (signal.SIGTERM, signal.SIGINT):
             loop.remove_signal_handler(signum)
             # Already on the way out: a late SIGTERM (the parent sends one after closing
             # our stdin) must not turn a clean exit into death by signal.
             signal.signal(signum, signal.SIG_IGN)
-    return 0
+    return status
+
+
+def _who(args: argparse.Namespace) -> str:
+    return f"objectplaces agv {args.id}"
+
+
+def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """Add the ``agv`` subcommand to the ``objectplaces`` command line."""
+    parser = subcommands.add_parser(
+        "agv",
+        help="run one vehicle of a fleet, on its own host",
+        description="Run one AGV as a node of its fleet: it joins the fleet at --connect, "
+        "waits until it hears a peer, then drives the layout's routes and takes tasks.",
+    )
+    add_agv_arguments(parser, joining=True)
+    parser.set_defaults(func=lambda args: _run_checked(args, parser))
+
+
+def _run_checked(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    if args.interest_radius not in ("auto", "none"):
+        try:
+            args.interest_radius = POSITIVE(args.interest_radius)
+        except argparse.ArgumentTypeError:
+            parser.error("--interest-radius must be 'auto', 'none' or a number > 0")
+    return _main(args)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -560,7 +772,10 @@ def main(argv: list[str] | None = None) -> int:
     Returns:
         The exit status.
     """
-    args = parse_args(argv)
+    return _main(parse_args(argv))
+
+
+def _main(args: argparse.Namespace) -> int:
     profile_dir = os.environ.get(PROFILE_ENV)
     profiler = None
     if profile_dir:
@@ -571,10 +786,10 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return asyncio.run(run(args, credentials_from_args(args, args.id)))
     except CredentialError as exc:
-        print(f"agv_process {args.id}: {exc}", file=sys.stderr)
+        print(f"{_who(args)}: {exc}", file=sys.stderr)
         return 2
     except (LocalProtocolError, OSError) as exc:
-        print(f"agv_process {args.id}: {exc}", file=sys.stderr)
+        print(f"{_who(args)}: {exc}", file=sys.stderr)
         return 1
     finally:
         if profiler is not None and profile_dir:

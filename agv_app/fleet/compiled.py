@@ -84,7 +84,10 @@ SIM_MODULES: Final = (
     "agv_app.traffic.reach",
     "agv_app.traffic.stale_relay",
     "agv_app.vehicle.controller",
+    "agv_app.vehicle.driven",
+    "agv_app.vehicle.driver",
     "agv_app.vehicle.kinematics",
+    "agv_app.vehicle.sim_driver",
 )
 """The modules compiled, by dotted name."""
 

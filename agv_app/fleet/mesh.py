@@ -31,6 +31,8 @@ import random
 import sys
 import time
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from agv_app.fleet.agv_process import POLL_INTERVAL_S, process_liveness
@@ -46,12 +48,14 @@ from agv_app.fleet.roster import AgvRoster
 from agv_app.fleet.stalls import StallWatch
 from agv_app.fleet.view import OBSERVER_ID, VehicleState
 from agv_app.geometry import XY
+from agv_app.layout.choice import layout_digest
 from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
 from agv_app.layout.graph import Layout
 from agv_app.protocol import AGV_KIND, OBSERVER_KIND
 from agv_app.tasks.admission import CROWDED, limit_for
 from agv_app.tasks.desk import BASE_ID, TaskDesk, require_task_stations
 from agv_app.tasks.free_flow import FreeFlowBound, FreeFlowTimer
+from agv_app.tasks.journal import TaskJournal
 from agv_app.tasks.load import TaskArrivals
 from agv_app.traffic.monitor import SafetyMonitor
 from agv_app.vda5050.link import VdaCredentials
@@ -59,10 +63,10 @@ from agv_app.vda5050.monitor import MONITOR_ID, MONITOR_ROLES, BrokerMonitor
 from agv_app.vehicle.kinematics import VehicleSpec
 from objectplaces import RoleActivator
 from objectplaces.mesh import MeshNode, start_node
-from objectplaces.security import TemporaryPki
+from objectplaces.security import Identity, TemporaryPki
 from objectplaces.zenoh_router import ZenohRouter, start_router
 
-__all__ = ["POSES_PER_SECOND", "MeshFleet", "pose_interval_for"]
+__all__ = ["POSES_PER_SECOND", "Joining", "MeshFleet", "pose_interval_for"]
 
 _HOST = "127.0.0.1"
 _CHECK_INTERVAL_S = 0.25
@@ -87,6 +91,24 @@ def pose_interval_for(agvs: int) -> float:
 def _is_agv(props: Mapping[str, Any]) -> bool:
     """Whether properties the observer holds are an AGV's, with a position to draw."""
     return props.get("kind") == AGV_KIND and isinstance(props.get("position"), tuple)
+
+
+@dataclass(frozen=True)
+class Joining:
+    """How a control process joins a fleet whose vehicles run elsewhere
+    (``objectplaces control``): it spawns nothing, and learns the AGVs as it hears them.
+
+    Attributes:
+        connect: where the fleet is: nodes to join (the mesh) or routers (Zenoh).
+        listen: where the observer listens (the mesh: AGVs may join through it).
+        pki: the fleet PKI folder with the certificates of ``observer`` and ``base``.
+        layout_argument: the ``--layout`` the fleet runs (for the record and messages).
+    """
+
+    connect: tuple[str, ...]
+    listen: str = f"{_HOST}:0"
+    pki: Path | None = None
+    layout_argument: str | None = None
 
 
 class MeshFleet(FleetSourceBase):
@@ -121,6 +143,9 @@ class MeshFleet(FleetSourceBase):
             certificate from it (the mesh's too, one CA), and the broker monitor
             connects as ``vda5050-monitor``.
         transport: ``websocket`` (the mesh) or ``zenoh``.
+        joining: join a fleet whose AGVs run elsewhere instead of spawning them
+            (``agvs``: how many AGVs to hear before the first automatic task); its
+            nodes' certificates come from ``joining.pki``.
         zenoh_mode: on Zenoh, ``client`` (default: a router in this process, every node
             its client) or ``peer`` (every node a peer, found through the observer).
         publish_interval: seconds between two pose reports of a moving AGV to the
@@ -139,6 +164,8 @@ class MeshFleet(FleetSourceBase):
             long waits; :data:`~agv_app.tasks.admission.CROWDED`, the default:
             ``"auto"`` for a fleet larger than its floor carries, else none, as the
             simulated fleet; :class:`~agv_app.tasks.desk.TaskDesk`).
+        store: the durable order book the task desk writes through to and resumes
+            from (:class:`~agv_app.tasks.store.OrderStore`; None: none).
 
     Raises:
         ValueError: ``agvs`` < 1, ``start_tasks`` < 0, more AGVs than parking spots,
@@ -170,12 +197,16 @@ class MeshFleet(FleetSourceBase):
         rest_beat: float | None = REST_BEAT_S,
         poll_interval: float = POLL_INTERVAL_S,
         max_open_tasks: int | str | None = CROWDED,
+        joining: Joining | None = None,
+        store: TaskJournal | None = None,
     ) -> None:
         if agvs < 1:
             raise ValueError(f"agvs must be at least 1, got {agvs!r}")
         if start_tasks < 0:
             raise ValueError(f"start_tasks must be 0 or more, got {start_tasks!r}")
         self.layout = layout or demo_warehouse()
+        self.joining = joining
+        self.tag = f"layout:{layout_digest(self.layout)}"
         self.agv_count = agvs
         self.seed = seed
         self.task_interval = task_interval
@@ -211,7 +242,8 @@ class MeshFleet(FleetSourceBase):
             FreeFlowTimer(self.layout, spec.max_speed_m_s, dwell), self.homes
         )
         width = max(2, len(str(agvs)))
-        self.agv_ids = [f"agv-{i + 1:0{width}d}" for i in range(agvs)]
+        # Joining a fleet, the AGVs are learned as the observer hears them (the roster).
+        self.agv_ids = [] if joining else [f"agv-{i + 1:0{width}d}" for i in range(agvs)]
         self.rng = random.Random(seed)
         self.arrivals = None if task_interval is None else TaskArrivals(task_interval, self.rng)
         self.metrics_raw = FleetMetrics()
@@ -219,6 +251,7 @@ class MeshFleet(FleetSourceBase):
         self.overlaps = LastingOverlaps(self.monitor, min_s=2 * t_update)
         # The desk is made below; the watch tells it of long waits once the fleet runs.
         self.stalls = StallWatch(on_long_wait=lambda _agv, now: self.desk.long_wait(now))
+        self._started_at: float | None = None  # before the desk, which reads the clock
         super().__init__(
             self.layout,
             TaskDesk(
@@ -229,6 +262,7 @@ class MeshFleet(FleetSourceBase):
                 tally=self.metrics_raw.tally,
                 on_created=self.free_flow.add,
                 max_open=limit_for(max_open_tasks, self.layout, agvs),
+                store=store,
             ),
         )
         self.processes = AgvProcesses(python=python, capture_output=capture_output)
@@ -251,7 +285,6 @@ class MeshFleet(FleetSourceBase):
         """What each AGV process shows, reported to the observer (its display session)."""
         self._base: MeshNode | None = None
         self._watcher: asyncio.Task[None] | None = None
-        self._started_at: float | None = None
         self._stopped = False
         self._advanced = 0.0
         self._next_task_at: float | None = None
@@ -299,15 +332,19 @@ class MeshFleet(FleetSourceBase):
             raise
 
     async def _start(self, loop: asyncio.AbstractEventLoop) -> None:
+        liveness = process_liveness(self.t_update, self.republish_beats, self.rest_beat)
+        node_args: dict[str, Any] = {**liveness_arguments(liveness), "tag": self.tag}
+        zenoh = self.transport == "zenoh"
+        if zenoh:
+            node_args["poll_interval"] = self.poll_interval or None
+        if self.joining is not None:
+            await self._join(self.joining, node_args, zenoh)
+            self._watcher = loop.create_task(self._watch(), name="mesh-fleet-watch")
+            return
         self.processes.open_run_dir()
         self._pki = pki = self._shared_pki or TemporaryPki(fleet="demo")
         for agv_id in self.agv_ids:
             pki.identity(agv_id, role="agv")
-        liveness = process_liveness(self.t_update, self.republish_beats, self.rest_beat)
-        node_args: dict[str, Any] = liveness_arguments(liveness)
-        zenoh = self.transport == "zenoh"
-        if zenoh:
-            node_args["poll_interval"] = self.poll_interval or None
         link: dict[str, Any]
         if zenoh and self.zenoh_mode == "client":
             # One router and every node its client: a link per node, where peers would
@@ -325,15 +362,7 @@ class MeshFleet(FleetSourceBase):
             node_args.update(transport="zenoh", listen=[f"tls/{_HOST}:0"])
         else:
             node_args["listen"] = f"{_HOST}:0"
-        observer = await start_node(
-            OBSERVER_ID, tls=pki.identity(OBSERVER_ID, role="control"), **node_args
-        )
-        observer.update_node_property("kind", OBSERVER_KIND)
-        observer.set_at_rest(True)  # it listens, and says nothing more
-        self.observer = observer
-        observer.register_node_property_observer(self._on_property, names=("last_done",))
-        observer.start_interaction(self.display, display_group(), DISPLAY_ROLE)
-        observer.register_node_departure_observer(lambda node_id, _: self._departed(node_id))
+        observer = await self._start_observer(pki.identity(OBSERVER_ID, role="control"), node_args)
         if not (zenoh and self.zenoh_mode == "client"):
             link = {"connect": [observer.address]} if zenoh else {"join": [observer.address]}
             link_args = ["--transport", "zenoh", "--connect"] if zenoh else ["--join"]
@@ -368,6 +397,39 @@ class MeshFleet(FleetSourceBase):
         self._watcher = loop.create_task(self._watch(), name="mesh-fleet-watch")
         if self.broker_monitor is not None:
             self._monitor_task = loop.create_task(self.broker_monitor.run(), name="vda5050-monitor")
+
+    async def _start_observer(self, tls: Identity, node_args: dict[str, Any]) -> MeshNode:
+        observer: MeshNode = await start_node(OBSERVER_ID, tls=tls, **node_args)
+        observer.update_node_property("kind", OBSERVER_KIND)
+        observer.set_at_rest(True)  # it listens, and says nothing more
+        self.observer = observer
+        observer.register_node_property_observer(self._on_property, names=("last_done",))
+        observer.start_interaction(self.display, display_group(), DISPLAY_ROLE)
+        observer.register_node_departure_observer(lambda node_id, _: self._departed(node_id))
+        return observer
+
+    async def _join(self, joining: Joining, node_args: dict[str, Any], zenoh: bool) -> None:
+        """Start the observer and the base as members of a fleet that runs elsewhere."""
+        if joining.pki is None:
+            raise ValueError("joining a fleet needs the fleet PKI folder (pki=...)")
+        observer_id = Identity.from_pki(joining.pki, OBSERVER_ID)
+        base_id = Identity.from_pki(joining.pki, BASE_ID)
+        if zenoh:
+            node_args.update(transport="zenoh", mode="client", connect=list(joining.connect))
+            base_link: dict[str, Any] = {}
+        else:
+            base_link = {"join": [*joining.connect]}
+        observer = await self._start_observer(
+            observer_id,
+            {
+                **node_args,
+                **({} if zenoh else {"listen": joining.listen, "join": [*joining.connect]}),
+            },
+        )
+        if not zenoh:
+            base_link["join"].append(observer.address)
+        self._base = await start_node(BASE_ID, tls=base_id, **base_link, **node_args)
+        self.desk.open_base(self._base)
 
     async def wait_ready(self) -> None:
         """Wait until the observer has heard every AGV's position and has its display
@@ -572,7 +634,7 @@ class MeshFleet(FleetSourceBase):
         failed = self.roster.failed()
         hours = self.now / 3600.0
         return {
-            "agvs": float(self.agv_count - len(failed) - len(self.roster.left())),
+            "agvs": float(self._fleet_size() - len(failed) - len(self.roster.left())),
             "agvs_failed": float(len(failed)),
             "agvs_seen": float(len(self._agv_ids_heard())),
             "processes_running": float(self.processes.running()),
@@ -593,6 +655,10 @@ class MeshFleet(FleetSourceBase):
             "max_wait": self.stalls.max_wait,
             **({} if self.broker_monitor is None else self.broker_monitor.status()),
         }
+
+    def _fleet_size(self) -> int:
+        """The AGVs spawned, or, joining a fleet, every AGV heard so far."""
+        return len(self.roster.agv_ids) if self.joining else self.agv_count
 
     def set_speed(self, factor: float) -> None:
         """Only real time is possible: the AGVs are processes with their own clocks.

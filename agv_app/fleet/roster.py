@@ -34,7 +34,8 @@ class AgvRoster:
     """The AGVs of a mesh fleet as the observer hears them.
 
     Args:
-        agv_ids: every AGV the fleet spawned.
+        agv_ids: every AGV the fleet spawned; none when it joined a fleet that runs
+            elsewhere: then every AGV heard is added as it is first heard.
         heard: the observer's view now: ``[(agv id, properties)]`` of the AGVs it hears.
         heard_one: one AGV's properties as ``heard`` gives them (None: not heard), read
             without the others: each node stand-in reads its own this way, so a look at
@@ -51,6 +52,7 @@ class AgvRoster:
         clock_offset: Callable[[], float],
     ) -> None:
         self.agv_ids = list(agv_ids)
+        self._known = set(self.agv_ids)
         self._heard = heard
         self._heard_one = heard_one
         self._clock_offset = clock_offset
@@ -133,6 +135,10 @@ class AgvRoster:
 
     def _refresh(self, views: list[tuple[str, Mapping[str, Any]]]) -> None:
         heard = {agv_id for agv_id, _ in views}
+        known = self._known
+        for agv_id in sorted(heard - known):
+            known.add(agv_id)
+            self.agv_ids.append(agv_id)
         self._departed -= heard  # heard again: the departure was only lateness
         gone = self._gone = (self._exited | self._departed) - self._left
         for agv_id in gone - set(self._failed):

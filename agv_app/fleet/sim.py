@@ -20,13 +20,14 @@ from agv_app.fleet.metrics import FleetMetrics
 from agv_app.fleet.parking import ParkingPlan, home_heading
 from agv_app.fleet.stalls import STALL_LIMIT_S, StallWatch
 from agv_app.fleet.view import OBSERVER_ID, VehicleState, area_rings
-from agv_app.geometry import XY
+from agv_app.geometry import XY, Area, Pose
 from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
 from agv_app.layout.graph import Layout
 from agv_app.samples import percentile
 from agv_app.tasks.admission import CROWDED, limit_for
 from agv_app.tasks.desk import BASE_ID, TaskDesk, pick_stations, require_task_stations
 from agv_app.tasks.free_flow import FreeFlowBound, FreeFlowTimer
+from agv_app.tasks.journal import TaskJournal
 from agv_app.tasks.load import (
     DEFAULT_LOAD,
     TaskArrivals,
@@ -39,7 +40,10 @@ from agv_app.traffic.monitor import SafetyMonitor, SafetyViolation
 from agv_app.traffic.reach import dissemination_margin, interest_radius
 from agv_app.traffic.stale_relay import StaleListener, StaleRelay
 from agv_app.traffic.wait_bound import WaitBound, wait_bound
+from agv_app.vehicle.comeback import hand_back
 from agv_app.vehicle.controller import DEFAULT_ADVANCE_M, AgvConfig, AgvController
+from agv_app.vehicle.driven import planning_spec
+from agv_app.vehicle.driver import VehicleDriver
 from agv_app.vehicle.kinematics import VehicleSpec
 from objectplaces import RoleActivator
 from objectplaces.core.config import NodeConfig
@@ -47,7 +51,12 @@ from objectplaces.core.spatial import MAX_SCOPE_CELLS, footprint_cells
 from objectplaces.runtime.sim import collections_spaced
 from objectplaces.sim import SimulatedNetwork
 
-__all__ = ["TRAFFIC_MODES", "Fleet", "FleetConfig", "SafetyError"]
+__all__ = ["TRAFFIC_MODES", "DriverFactory", "Fleet", "FleetConfig", "SafetyError"]
+
+DriverFactory = Callable[[str, Pose], VehicleDriver]
+"""Builds an AGV's driver: ``(agv id, where it stands at first)``; asked again when the
+AGV's process restarts (:meth:`Fleet.reboot`), when a driver that keeps its pose
+(``SimDriver.recovered``) finds it where it stood."""
 
 TRAFFIC_MODES = ("protocol", "central")
 """How locks are granted: by the AGVs' collision groups, or by one central scheduler."""
@@ -201,6 +210,12 @@ class Fleet(FleetSourceBase):
         vehicle: builds each AGV component, with the arguments of
             :class:`~agv_app.vehicle.controller.AgvController` (e.g. one that also
             follows VDA 5050 orders).
+        drivers: builds each AGV's driver (None: the simulated kinematics). A driver
+            failure takes the AGV's node off the network, as a goodbye (its peers keep
+            its last circle); the safety monitor checks the hull a driver says the
+            vehicle truly has (``true_hull()``), where it has one.
+        store: the durable order book the task desk writes through to and resumes from
+            (:class:`~agv_app.tasks.store.OrderStore`; None: none).
     """
 
     def __init__(
@@ -213,10 +228,14 @@ class Fleet(FleetSourceBase):
         starts: Sequence[str] | None = None,
         headings: Sequence[float] | None = None,
         vehicle: Callable[..., AgvController] = AgvController,
+        store: TaskJournal | None = None,
+        drivers: DriverFactory | None = None,
     ) -> None:
         self.layout = layout or demo_warehouse()
         self.config = cfg = config or FleetConfig()
         self.spec = spec or VehicleSpec(DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M)
+        self._vehicle = vehicle
+        self._drivers = drivers
         self._node_liveness = liveness = self._liveness()
         self.net = SimulatedNetwork(
             cfg.seed,
@@ -245,6 +264,26 @@ class Fleet(FleetSourceBase):
         if pick_stations(self.layout):
             require_task_stations(self.layout)  # tasks can be asked for: can they be made?
         self.parking = ParkingPlan(self.layout, self.spec, cfg.agvs, homes=homes)
+        width = max(2, len(str(cfg.agvs)))
+        ids = [f"agv-{i + 1:0{width}d}" for i in range(len(self.parking.homes))]
+        firsts = [
+            home if starts is None else starts[i] for i, home in enumerate(self.parking.homes)
+        ]
+        poses = [
+            self._pose_at(point, None if headings is None else headings[i])
+            for i, point in enumerate(firsts)
+        ]
+        built = [
+            None if drivers is None else drivers(a, pose)
+            for a, pose in zip(ids, poses, strict=True)
+        ]
+        self.plan_spec = self.spec
+        """The widest of the AGVs' planning specs (their drivers' declarations): what the
+        interest radius allows for."""
+        for driver in built:
+            if driver is not None:
+                self.plan_spec = _widest(self.plan_spec, planning_spec(self.spec, driver.limits))
+        self._truths: dict[str, Callable[[], Area]] = {}
         self.free_flow = FreeFlowBound(
             FreeFlowTimer(self.layout, self.spec.max_speed_m_s, cfg.dwell), self.parking.homes
         )
@@ -270,6 +309,7 @@ class Fleet(FleetSourceBase):
                 max_open=limit_for(cfg.max_open_tasks, self.layout, cfg.agvs),
                 one_at_a_time=cfg.one_at_a_time,
                 wait_for_drop=cfg.wait_for_drop,
+                store=store,
             ),
         )
         self.agv_config = AgvConfig(
@@ -284,32 +324,11 @@ class Fleet(FleetSourceBase):
         """The AGV nodes' footprint margin (None: they publish in their own cell)."""
         self.central = CentralScheduler() if cfg.traffic == "central" else None
         self.agvs: dict[str, AgvController] = {}
-        width = max(2, len(str(cfg.agvs)))
-        for i, home in enumerate(self.parking.homes):
-            agv_id = f"agv-{i + 1:0{width}d}"
-            node = self.net.add_node(
-                agv_id, interest_radius=self.interest_radius, footprint_margin=self.footprint_margin
-            )
-            start = home if starts is None else starts[i]
-            self.agvs[agv_id] = vehicle(
-                node,
-                self.layout,
-                self.spec,
-                home,
-                start=start,
-                heading_rad=(
-                    headings[i] if headings is not None else home_heading(self.layout, start)
-                ),
-                config=self.agv_config,
-                tally=self.metrics_raw.tally,
-                on_task_started=functools.partial(self._task_started, agv_id),
-                on_task_done=self._task_done,
-                on_lock_wait=self.metrics_raw.lock_waits.append,
-                on_last_resort=self.metrics_raw.last_resort,
-                relocate=self._relocate,
-                central=self.central,
-            )
-            self._listen(agv_id, node)
+        self._left: set[str] = set()
+        for agv_id, home, start, pose, driver in zip(
+            ids, self.parking.homes, firsts, poses, built, strict=True
+        ):
+            self._build(agv_id, home, start, pose, driver)
             self.parking.claim(agv_id, home)
         if cfg.station_nodes:
             for sid in pick_stations(self.layout):
@@ -331,6 +350,43 @@ class Fleet(FleetSourceBase):
         )
         self._next_task_at = self._draw_interval()
 
+    def _pose_at(self, point: str, heading: float | None) -> Pose:
+        p = self.layout.point(point)
+        return Pose(p.x, p.y, home_heading(self.layout, point) if heading is None else heading)
+
+    def _build(
+        self, agv_id: str, home: str, start: str, pose: Pose, driver: VehicleDriver | None
+    ) -> AgvController:
+        """An AGV component on a new node (with ``driver``, standing where it says)."""
+        node = self.net.add_node(
+            agv_id, interest_radius=self.interest_radius, footprint_margin=self.footprint_margin
+        )
+        extra: dict[str, VehicleDriver] = {} if driver is None else {"driver": driver}
+        agv = self._vehicle(
+            node,
+            self.layout,
+            self.spec,
+            home,
+            start=start,
+            heading_rad=pose.heading_rad,
+            config=self.agv_config,
+            tally=self.metrics_raw.tally,
+            on_task_started=functools.partial(self._task_started, agv_id),
+            on_task_done=self._task_done,
+            on_lock_wait=self.metrics_raw.lock_waits.append,
+            on_last_resort=self.metrics_raw.last_resort,
+            relocate=self._relocate,
+            central=self.central,
+            **extra,
+        )
+        truth = getattr(driver, "true_hull", None)
+        self._truths.pop(agv_id, None)
+        if callable(truth):
+            self._truths[agv_id] = truth
+        self.agvs[agv_id] = agv
+        self._listen(agv_id, node)
+        return agv
+
     def _interest_radius(self) -> float | None:
         cfg = self.config
         if cfg.broadcast or not cfg.scoped:
@@ -338,7 +394,11 @@ class Fleet(FleetSourceBase):
         if cfg.interest_radius is not None:
             return cfg.interest_radius
         radius = interest_radius(
-            self.layout, self.spec, self.agv_config, footprints=cfg.footprints, **self._timing()
+            self.layout,
+            self.plan_spec,
+            self.agv_config,
+            footprints=cfg.footprints,
+            **self._timing(),
         )
         # A floor whose runs are so long that the square of cells about the radius is more
         # than a node may subscribe to: every node hears every node, which is always safe.
@@ -350,7 +410,7 @@ class Fleet(FleetSourceBase):
         if self.interest_radius is None or not self.config.footprints:
             return None
         # Half the margin on each side: the interest radius carries the other half.
-        return dissemination_margin(self.spec, self.agv_config, **self._timing()) / 2
+        return dissemination_margin(self.plan_spec, self.agv_config, **self._timing()) / 2
 
     def _liveness(self) -> NodeConfig:
         """The nodes' liveness settings: heartbeat, republication, rest, timeout."""
@@ -426,8 +486,31 @@ class Fleet(FleetSourceBase):
         node = self.net.add_node(
             agv_id, interest_radius=self.interest_radius, footprint_margin=self.footprint_margin
         )
+        self._left.discard(agv_id)
         self.agvs[agv_id].restart(node)
         self._listen(agv_id, node)
+
+    def reboot(self, agv_id: str) -> AgvController:
+        """Restart a crashed AGV's process: a new component on a fresh node, its vehicle
+        where the driver (asked anew, ``drivers``) says it stands, the task it held
+        handed back (:mod:`agv_app.vehicle.comeback`).
+
+        Raises:
+            ValueError: the fleet has no ``drivers``, or the AGV has not crashed.
+        """
+        old = self.agvs[agv_id]
+        if self._drivers is None or not old.failed:
+            raise ValueError(f"{agv_id} cannot reboot: no drivers, or it has not crashed")
+        self._left.discard(agv_id)
+        home = old.home
+        driver = self._drivers(agv_id, self._pose_at(home, None))
+        agv = self._build(agv_id, home, home, self._pose_at(home, None), driver)
+        held = old.task or old.pending_task
+        if held is not None:
+            hand_back(
+                agv, held, loaded=old.task is not None and old.phase in ("to_drop", "at_drop")
+            )
+        return agv
 
     def _listen(self, agv_id: str, node: RoleActivator) -> None:
         """A scoped AGV takes the failed AGVs the observer relays into its lock book."""
@@ -454,6 +537,9 @@ class Fleet(FleetSourceBase):
             agv.step(dt)
             m.agv_seconds += dt
             if agv.failed:
+                if agv.vehicle.fault is not None and agv_id not in self._left:
+                    self._left.add(agv_id)
+                    self.net.leave(agv_id)  # it says goodbye: the others keep its circle
                 continue
             shown = agv.display_status()
             if shown == "idle":
@@ -461,7 +547,10 @@ class Fleet(FleetSourceBase):
             elif shown == "waiting":
                 m.waiting_seconds += dt
             self.stalls.observe(agv_id, stalled=agv.stalled, now=now)
-        hulls = [(a, agv.vehicle.hull()) for a, agv in self.agvs.items()]
+        truths = self._truths
+        hulls = [
+            (a, truths[a]() if a in truths else agv.vehicle.hull()) for a, agv in self.agvs.items()
+        ]
         # The areas alone: the monitor needs no direction claims, a lookup per lock.
         locks = [(a, area) for a, agv in self.agvs.items() for _, area in agv.book.lock_areas()]
         found = self.monitor.check(self.step_count, now, hulls, locks)
@@ -604,3 +693,15 @@ class Fleet(FleetSourceBase):
         while self._carry >= dt - 1e-9:
             self._carry -= dt
             self.step()
+
+
+def _widest(a: VehicleSpec, b: VehicleSpec) -> VehicleSpec:
+    """A spec at least as large, fast and slow to brake as both."""
+    if a == b:
+        return a
+    return VehicleSpec(
+        max(a.length_m, b.length_m),
+        max(a.width_m, b.width_m),
+        max(a.max_speed_m_s, b.max_speed_m_s),
+        min(a.max_accel_m_s2, b.max_accel_m_s2),
+    )

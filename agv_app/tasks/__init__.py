@@ -1,5 +1,6 @@
 """Transport tasks: the auction among idle AGVs, the stations that run it, the task
-book that follows every task, and the desk that creates them.
+book that follows every task, the desk that creates them, who holds which (custody),
+and the durable order book they are written to (store).
 """
 
 from __future__ import annotations
@@ -18,10 +19,20 @@ from agv_app.tasks.auction import (
 )
 from agv_app.tasks.book import (
     DEFAULT_HISTORY,
+    FINAL_STATES,
+    HELD_STATES,
     TASK_STATES,
     TaskBook,
     TaskRecord,
     TaskState,
+)
+from agv_app.tasks.custody import (
+    DEFAULT_HAND_BACK_AFTER,
+    CustodyMachine,
+    Delivered,
+    HandBackReason,
+    HandedBack,
+    Verdict,
 )
 from agv_app.tasks.desk import (
     BASE_ID,
@@ -35,6 +46,10 @@ from agv_app.tasks.free_flow import (
     FreeFlowTimer,
     mean_task_seconds,
 )
+from agv_app.tasks.journal import (
+    StoredTasks,
+    TaskJournal,
+)
 from agv_app.tasks.load import (
     DEFAULT_LOAD,
     TaskArrivals,
@@ -45,26 +60,42 @@ from agv_app.tasks.load import (
 from agv_app.tasks.station import (
     Station,
 )
+from agv_app.tasks.store import (
+    OrderStore,
+    StoreError,
+)
 
 __all__ = [
     "BASE_ID",
+    "DEFAULT_HAND_BACK_AFTER",
     "DEFAULT_HISTORY",
     "DEFAULT_LOAD",
+    "FINAL_STATES",
+    "HELD_STATES",
     "LANE_M_PER_OPEN_TASK",
     "TASK_STATES",
     "AdaptiveLimit",
     "Bidder",
+    "CustodyMachine",
+    "Delivered",
     "FreeFlowBound",
     "FreeFlowTimer",
+    "HandBackReason",
+    "HandedBack",
+    "OrderStore",
     "Station",
+    "StoreError",
+    "StoredTasks",
     "TaskAgent",
     "TaskAnnouncer",
     "TaskArrivals",
     "TaskBook",
     "TaskDesk",
+    "TaskJournal",
     "TaskRecord",
     "TaskSpec",
     "TaskState",
+    "Verdict",
     "bidder_group",
     "carried_tasks",
     "check_load",

@@ -15,6 +15,19 @@ lanes and each AGV waits longer than it drives (docs/fleet.md, "More AGVs than t
 floor carries"); held at the desk, they wait without taking a lane. ``max_open="auto"``
 lets the limit follow the floor (:class:`~agv_app.tasks.admission.AdaptiveLimit`): the
 fleet tells the desk of every long wait (:meth:`TaskDesk.long_wait`).
+
+The desk follows who holds each task it handed out (:mod:`agv_app.tasks.custody`): from
+what its base node hears of the vehicles it closes a task a vehicle reports done
+(``last_done``) and has the station give back one its vehicle no longer holds (the
+vehicle says ``returned``, or has not named it as its ``task`` for ``hand_back_after``
+seconds). A task is auctioned again only then, or when its vehicle's node fails (the
+station's rule).
+
+With a durable store (``store``, :class:`~agv_app.tasks.store.OrderStore`) every state a
+task enters is written through, and a new desk on the same store resumes every open task:
+those no vehicle held wait at the desk again, oldest first, and go to their stations as
+these open; those a vehicle held stay with it (never auctioned twice) until it reports
+them done or hands them back (docs/fleet.md, "The order book").
 """
 
 from __future__ import annotations
@@ -29,7 +42,14 @@ from agv_app.layout.graph import Layout
 from agv_app.protocol import BASE_KIND, MessageTally
 from agv_app.tasks.admission import CROWDED, AdaptiveLimit, carried_tasks
 from agv_app.tasks.auction import TaskSpec
-from agv_app.tasks.book import DEFAULT_HISTORY, TaskBook
+from agv_app.tasks.book import DEFAULT_HISTORY, HELD_STATES, TaskBook, TaskRecord
+from agv_app.tasks.custody import (
+    DEFAULT_HAND_BACK_AFTER,
+    CustodyMachine,
+    Delivered,
+    Verdict,
+)
+from agv_app.tasks.journal import TaskJournal
 from agv_app.tasks.station import Station
 from objectplaces import RoleActivator
 
@@ -161,10 +181,15 @@ class TaskDesk:
         wait_for_drop: with ``one_at_a_time``, a station holds a task whose drop
             station an AGV is bound for already (``Station``).
         backlog: open tasks held at most (``BACKLOG_LIMIT``); ``create`` refuses more.
+        store: where every change is written through, and what the desk resumes from
+            (None: nothing outlives the desk).
+        hand_back_after: seconds a vehicle may hold a task without naming it as its
+            ``task`` before it counts as handed back (``agv_app.tasks.custody``).
 
     Raises:
         ValueError: ``max_open`` is set and neither a positive whole number nor
-            ``"auto"``; ``backlog`` is below 1.
+            ``"auto"``; ``backlog`` is below 1; ``hand_back_after`` is not positive.
+        StoreError: the store cannot be read.
     """
 
     def __init__(
@@ -181,6 +206,8 @@ class TaskDesk:
         one_at_a_time: bool = True,
         wait_for_drop: bool = True,
         backlog: int = BACKLOG_LIMIT,
+        store: TaskJournal | None = None,
+        hand_back_after: float = DEFAULT_HAND_BACK_AFTER,
     ) -> None:
         check_max_open(max_open)
         if backlog < 1:
@@ -209,6 +236,35 @@ class TaskDesk:
         """Tasks handed to their stations and not yet done or cancelled."""
         self._waiting: deque[TaskSpec] = deque()
         """Tasks created while ``max_open`` were open, oldest first."""
+        self.custody = CustodyMachine(grace=hand_back_after)
+        """Who holds each task handed out, and when one comes back."""
+        self._adopt: dict[str, list[TaskRecord]] = {}
+        """Tasks restored as held by a vehicle, by pick station, until it opens."""
+        self._heard_on: set[str] = set()
+        """The nodes whose views the desk follows."""
+        self._node: RoleActivator | None = None
+        self._timer_at: float | None = None
+        self.store = store
+        if store is not None:
+            self._restore(store)
+            self.book.on_change = store.task_changed
+
+    def _restore(self, store: TaskJournal) -> None:
+        """Take back the open tasks ``store`` kept (see the module docstring)."""
+        stored = store.restore_tasks(self.clock, finished=self.book.history)
+        self.book.restore(stored.open, stored.finished, created=stored.created)
+        held = [r for r in stored.open if r.state in HELD_STATES and r.vehicle is not None]
+        held.sort(key=lambda r: r.times.get("assigned", r.times["created"]))
+        now = self.clock()
+        for record in held:  # in the order they were awarded (``custody``)
+            vehicle = record.vehicle
+            assert vehicle is not None
+            self.custody.hold(record.id, vehicle, now=now, restored=True)
+            self._adopt.setdefault(record.task.pick, []).append(record)
+            self._open.add(record.id)
+        for record in stored.open:
+            if record.id not in self._open:
+                self._waiting.append(record.task)
 
     def open_base(self, node: RoleActivator, stations: Iterable[str] | None = None) -> None:
         """Make ``node`` a transport base: it runs the components of ``stations`` (every
@@ -245,6 +301,13 @@ class TaskDesk:
             wait_for_drop=self.wait_for_drop,
         )
         self.stations[station_id] = station
+        self._follow(node)
+        for record in self._adopt.pop(station_id, []):
+            vehicle = self.custody.holder(record.id)
+            if vehicle is not None:  # still held
+                station.adopt(record.task, vehicle)
+        self._arm()
+        self._hand_out()  # tasks restored for this station wait no longer for it
         return station
 
     @property
@@ -257,12 +320,14 @@ class TaskDesk:
         """Tasks the stations put back in line because their AGV failed."""
         return sum(s.returned for s in self.stations.values())
 
-    def create(self, station_id: str, drop: str | None = None) -> str:
-        """Create a task at pick station ``station_id``; its station auctions it.
+    def create(self, station_id: str, drop: str | None = None, *, creator: str = "api") -> str:
+        """Create a task at pick station ``station_id``; its station auctions it. With a
+        store, the task is on disk when this returns.
 
         Args:
             station_id: where the load is picked up.
             drop: where it goes (default: a drop station drawn at random).
+            creator: who asks for it (kept with the task).
 
         Returns:
             The new task's id.
@@ -271,6 +336,8 @@ class TaskDesk:
             KeyError: the layout has no station ``station_id``.
             ValueError: the station hands out no loads (or is not open on a base).
             BacklogFull: ``backlog`` tasks are open.
+            StoreError: the store cannot write: the task is not on disk (a control
+                should stop).
         """
         if station_id not in self.layout.stations:
             raise KeyError(f"unknown station {station_id!r}")
@@ -286,8 +353,14 @@ class TaskDesk:
         if drop is None:
             choices = [d for d in self._drops if d != station_id]
             drop = choices[self.rng.randrange(len(choices))]
+        if self.store is None:
+            return self._create(station_id, drop, creator)
+        with self.store.transaction():
+            return self._create(station_id, drop, creator)
+
+    def _create(self, station_id: str, drop: str, creator: str) -> str:
         now = self.clock()
-        task = self.book.create(station_id, drop, now=now)
+        task = self.book.create(station_id, drop, now=now, creator=creator)
         if self.on_created is not None:
             self.on_created(task, now)
         self._waiting.append(task)
@@ -297,8 +370,15 @@ class TaskDesk:
     def finish(self, task_id: str, *, now: float) -> bool:
         """A vehicle delivered ``task_id``: close it in the book, and hand out the next
         task waiting at the desk. False if the book holds no such open task."""
+        if self.store is None:
+            return self._finish(task_id, now)
+        with self.store.transaction():
+            return self._finish(task_id, now)
+
+    def _finish(self, task_id: str, now: float) -> bool:
         finished = self.book.finish(task_id, now=now)
         if finished:
+            self.custody.release(task_id)
             if self.admission is not None:
                 self.admission.delivered(held_back=bool(self._waiting), now=now)
             self._open.discard(task_id)
@@ -320,12 +400,23 @@ class TaskDesk:
         return self.max_open if self.admission is None else self.admission.limit
 
     def _hand_out(self) -> None:
-        """Give waiting tasks to their stations while fewer than ``limit`` are open."""
+        """Give waiting tasks to their stations while fewer than ``limit`` are open
+        (oldest first; one whose station is not open yet, restored, keeps its place)."""
         limit = self.limit
+        kept: deque[TaskSpec] = deque()
         while self._waiting and (limit is None or len(self._open) < limit):
             task = self._waiting.popleft()
+            station = self.stations.get(task.pick)
+            if station is None:
+                kept.append(task)
+                continue
             self._open.add(task.id)
-            self.stations[task.pick].add_task(task)
+            if self.store is not None:
+                self.store.task_queued(task.id, self.clock())
+            station.add_task(task)
+        if kept:
+            kept.extend(self._waiting)
+            self._waiting = kept
 
     def create_random(self) -> str | None:
         """Create a task at a pick station drawn at random; None without stations, or
@@ -334,7 +425,7 @@ class TaskDesk:
             return None
         ids = sorted(self.stations)
         try:
-            return self.create(ids[self.rng.randrange(len(ids))])
+            return self.create(ids[self.rng.randrange(len(ids))], creator="auto")
         except BacklogFull:
             return None
 
@@ -348,12 +439,21 @@ class TaskDesk:
         record = self.book.get(task_id)
         if record is None or record.state in ("done", "cancelled"):
             raise KeyError(f"no open task {task_id!r}")
+        if self.store is None:
+            self._cancel(record)
+        else:
+            with self.store.transaction():
+                self._cancel(record)
+
+    def _cancel(self, record: TaskRecord) -> None:
+        task_id = record.id
         held = next((t for t in self._waiting if t.id == task_id), None)
         if held is not None:
             self._waiting.remove(held)
             self.book.cancel(task_id, now=self.clock())
             return
-        if not self.stations[record.task.pick].cancel(task_id):
+        station = self.stations.get(record.task.pick)
+        if station is None or not station.cancel(task_id):
             raise ValueError(
                 f"task {task_id!r} is {record.state} to {record.vehicle!r}: only a task no "
                 "vehicle holds can be cancelled"
@@ -363,7 +463,76 @@ class TaskDesk:
         self._hand_out()
 
     def _assigned(self, task: TaskSpec, agv: str) -> None:
-        self.book.assign(task.id, agv, now=self.clock())
+        now = self.clock()
+        self.book.assign(task.id, agv, now=now)
+        self.custody.hold(task.id, agv, now=now)
+        self._arm()
 
     def _returned(self, task: TaskSpec, agv: str) -> None:
+        self.custody.release(task.id)
         self.book.fail(task.id, now=self.clock())
+
+    # -- custody: what the base hears of the vehicles that hold tasks ---------------------
+
+    def _follow(self, node: RoleActivator) -> None:
+        """Hear the vehicles through ``node`` (once per node)."""
+        if self._node is None:
+            self._node = node
+        if node.node_id in self._heard_on:
+            return
+        self._heard_on.add(node.node_id)
+        node.register_node_property_observer(
+            lambda vehicle, name, value: self._heard(node, vehicle, name, value),
+            names=("task", "last_done", "returned"),
+        )
+        node.register_node_departure_observer(lambda vehicle, _: self.custody.departed(vehicle))
+
+    def _heard(self, node: RoleActivator, vehicle: str, name: str, value: object) -> None:
+        now = self.clock()
+        verdicts: list[Verdict] = []
+        if name == "task":
+            self.custody.named(vehicle, value, now=now)
+        elif name == "last_done":
+            verdicts.extend(self.custody.done(vehicle, value))
+        elif name == "returned":
+            # The task it names now, not the one an older update named.
+            self.custody.named(vehicle, node.view().get(vehicle, {}).get("task"), now=now)
+            verdicts.extend(self.custody.returned(vehicle, value))
+        self._arm()
+        if verdicts:
+            # Not from inside the view's update: the vehicle's other properties may follow.
+            node.call_later(0.0, lambda: self._settle(verdicts))
+
+    def _settle(self, verdicts: list[Verdict]) -> None:
+        """Act on what the custody rule concluded."""
+        for verdict in verdicts:
+            record = self.book.get(verdict.task_id)
+            if record is None:
+                continue
+            station = self.stations.get(record.task.pick)
+            if isinstance(verdict, Delivered):
+                self.finish(verdict.task_id, now=self.clock())
+                if station is not None:
+                    station.release(verdict.task_id)
+            elif station is not None:
+                station.give_back(verdict.task_id)
+            else:  # restored for a station not open: back at the desk, first in line
+                self._open.discard(verdict.task_id)
+                self.book.fail(verdict.task_id, now=self.clock())
+                self._waiting.appendleft(record.task)
+        self._arm()
+
+    def _arm(self) -> None:
+        """Have the base's clock wake the desk when a held task may be due back."""
+        node, deadline = self._node, self.custody.next_deadline()
+        if node is None or deadline is None:
+            return
+        if self._timer_at is not None and self._timer_at <= deadline:
+            return
+        self._timer_at = deadline
+        node.call_later(max(0.0, deadline - self.clock()), self._expire)
+
+    def _expire(self) -> None:
+        self._timer_at = None
+        verdicts: list[Verdict] = list(self.custody.tick(now=self.clock()))
+        self._settle(verdicts)

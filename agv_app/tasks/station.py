@@ -140,6 +140,37 @@ class Station:
             self._next()
         return True
 
+    def adopt(self, task: TaskSpec, agv: str) -> None:
+        """Follow ``task`` as awarded to ``agv`` without an auction here: a restarted
+        control's desk restores what vehicles held (no ``on_assigned``)."""
+        self.queue = deque(t for t in self.queue if t.id != task.id)
+        self.assigned[task.id] = (task, agv)
+        self.node.call_later(0.0, self._next)
+
+    def release(self, task_id: str) -> bool:
+        """Stop following ``task_id``, delivered as far as the desk knows; False if it was
+        not awarded here."""
+        if self.assigned.pop(task_id, None) is None:
+            return False
+        self.node.call_later(0.0, self._next)
+        return True
+
+    def give_back(self, task_id: str) -> bool:
+        """Put ``task_id`` back at the front of the queue: its winner handed it back
+        (``on_returned`` is told). False if it was not awarded here."""
+        if task_id not in self.assigned:
+            return False
+        self._put_back(task_id)
+        self._next()
+        return True
+
+    def _put_back(self, task_id: str) -> None:
+        task, agv = self.assigned.pop(task_id)
+        self.returned += 1
+        self.queue.appendleft(task)
+        if self._on_returned is not None:
+            self._on_returned(task, agv)
+
     @property
     def approaching(self) -> tuple[str, ...]:
         """The AGVs on their way here, as this node's view has them: the winners of
@@ -235,17 +266,13 @@ class Station:
         props = self.node.view().get(node_id)
         carrying = None if props is None else props.get("task")
         wait = False
-        for task_id, (task, agv) in sorted(self.assigned.items()):
+        for task_id, (_, agv) in sorted(self.assigned.items()):
             if agv != node_id or task_id == carrying:
                 continue
             if patient and carrying is not None:
                 wait = True
                 continue
-            del self.assigned[task_id]
-            self.returned += 1
-            self.queue.appendleft(task)
-            if self._on_returned is not None:
-                self._on_returned(task, agv)
+            self._put_back(task_id)
         if wait:
             self.node.call_later(
                 self.return_after, lambda: self._return_if_gone(node_id, patient=False)

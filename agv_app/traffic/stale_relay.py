@@ -12,6 +12,12 @@ node, writes them into the AGV's lock book, and drops one when the relay drops i
 node was heard again). The interest radius adds the ground an AGV covers while the
 relay detects a failure (:func:`agv_app.traffic.reach.interest_radius`), so no AGV gets
 close enough to conflict with a failed one before the relay's record reaches it.
+
+Where no process hears every node (vehicles on their own hosts, the control process
+perhaps down), every AGV relays the failures it saw itself to the nodes around it
+(``agv_app.fleet.agv_process``), and every AGV listens to every relay it hears: a
+failure stays recorded while any relay lists it, so no vehicle's safety depends on the
+control process.
 """
 
 from __future__ import annotations
@@ -69,7 +75,7 @@ class StaleRelay:
 
 
 class StaleListener:
-    """Writes the failed AGVs a relay publishes into this AGV's lock book.
+    """Writes the failed AGVs the relays it hears publish into this AGV's lock book.
 
     Args:
         node: the AGV's node.
@@ -79,7 +85,7 @@ class StaleListener:
     def __init__(self, node: RoleActivator, book: Callable[[], LockBook]) -> None:
         self.node_id = node.node_id
         self._book = book
-        self._learned: dict[str, Circle] = {}
+        self._by_relay: dict[str, dict[str, Circle]] = {}
         node.register_node_property_observer(self._property, names=(FAILED_AGVS,))
 
     def _property(self, node_id: str, name: str, value: Any) -> None:
@@ -91,10 +97,22 @@ class StaleListener:
                 failed, *rest = item
                 if failed != self.node_id and all(isinstance(v, int | float) for v in rest):
                     listed[failed] = (float(rest[0]), float(rest[1]), float(rest[2]))
+        before = self._known()
+        if listed:
+            self._by_relay[node_id] = listed
+        else:
+            self._by_relay.pop(node_id, None)
+        after = self._known()
         book = self._book()
-        for failed in self._learned.keys() - listed.keys():
+        for failed in before.keys() - after.keys():
             book.drop_stale(failed)
-        for failed, (x, y, r) in listed.items():
-            if self._learned.get(failed) != (x, y, r):
+        for failed, (x, y, r) in sorted(after.items()):
+            if before.get(failed) != (x, y, r):
                 book.add_stale(StaleRecord(failed, x, y, r))
-        self._learned = listed
+
+    def _known(self) -> dict[str, Circle]:
+        """Every failure some relay lists (the latest relay's circle where two differ)."""
+        known: dict[str, Circle] = {}
+        for relay in sorted(self._by_relay):
+            known.update(self._by_relay[relay])
+        return known

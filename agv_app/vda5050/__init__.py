@@ -14,7 +14,8 @@ from agv_app.vda5050.link import (
     mqtt_link,
     probe_broker,
 )
-from agv_app.vda5050.order import OrderBook, OrderRejected, VdaError
+from agv_app.vda5050.order import OrderBook, OrderRejected
+from agv_app.vda5050.reports import VdaError
 from agv_app.vda5050.topics import BrokerAddress, VehicleTopics, parse_broker_url
 from agv_app.vda5050.vehicle import OrderAgv
 

@@ -5,10 +5,12 @@ on paho, with TCP_NODELAY) over its :class:`~agv_app.vda5050.link.MqttLink` (mut
 TLS with the vehicle's certificate, whose id is its serial number) with ``connection:
 CONNECTION_BROKEN`` as its last will, says ``ONLINE``, publishes its factsheet,
 subscribes to its ``order`` and ``instantActions``, and publishes what the endpoint
-says is due every ``tick_s``. When cancelled it says ``OFFLINE`` and disconnects. A
-lost broker is retried every ``retry_s`` for as long as the bridge runs; a connection
-that fails is diagnosed (:func:`~agv_app.vda5050.link.probe_broker`) and logged in
-words, once for each new reason.
+says is due every ``tick_s``. QoS is what VDA 5050 3.0 section 4.1 asks: 1 for
+``connection`` (retained, 6.5), 0 for every other topic, the subscriptions too. When
+cancelled it says ``OFFLINE`` and disconnects. A lost broker is retried every
+``retry_s`` for as long as the bridge runs; a connection that fails is diagnosed
+(:func:`~agv_app.vda5050.link.probe_broker`) and logged in words, once for each new
+reason.
 """
 
 from __future__ import annotations
@@ -16,6 +18,8 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
+from collections.abc import Coroutine
+from typing import Any
 
 import aiomqtt
 
@@ -101,7 +105,7 @@ async def _serve_connection(
         await _publish(client, endpoint, first)
         counters.published += 1
         honour_cancellation()
-    await client.subscribe([(topics.topic("order"), 1), (topics.topic("instantActions"), 1)])
+    await client.subscribe([(topics.topic("order"), 0), (topics.topic("instantActions"), 0)])
     loop = asyncio.get_running_loop()
 
     async def publish_due() -> None:
@@ -117,14 +121,30 @@ async def _serve_connection(
             counters.received += 1
             subtopic = str(message.topic).rsplit("/", 1)[-1]
             payload = message.payload if isinstance(message.payload, bytes) else b""
-            for out in endpoint.handle(subtopic, payload):
+            for out in endpoint.handle(subtopic, payload, now=loop.time()):
                 await _publish(client, endpoint, out)
                 counters.published += 1
                 honour_cancellation()
 
-    async with asyncio.TaskGroup() as tg:
-        tg.create_task(publish_due())
-        tg.create_task(answer())
+    await _until_one_fails(publish_due(), answer())
+
+
+async def _until_one_fails(*jobs: Coroutine[Any, Any, None]) -> None:
+    """Run ``jobs`` until one of them ends, then cancel the rest; raise what it raised.
+
+    Not a TaskGroup with an empty body: in Python 3.11 a child's failure there leaves a
+    cancellation request on the awaiting task (``Task.cancelling()`` stays 1), and
+    :func:`honour_cancellation` would then stop the bridge on its next connection.
+    """
+    tasks = [asyncio.ensure_future(job) for job in jobs]
+    try:
+        done, _ = await asyncio.wait(tasks, return_when=asyncio.FIRST_COMPLETED)
+    finally:
+        for task in tasks:
+            task.cancel()
+        await asyncio.gather(*tasks, return_exceptions=True)
+    for task in done:
+        task.result()
 
 
 async def run_bridge(

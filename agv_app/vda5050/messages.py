@@ -11,12 +11,16 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from agv_app.vda5050.order import VdaError
+from agv_app.vda5050.actions import CATALOGUE
+from agv_app.vda5050.charging import power_supply
+from agv_app.vda5050.handling import LOAD_POSITION
+from agv_app.vda5050.order import OPTIONAL_PARAMETERS
+from agv_app.vda5050.reports import VdaError
 from agv_app.vda5050.topics import PROTOCOL_VERSION, VehicleTopics
 from agv_app.vda5050.vehicle import OrderAgv
 
 __all__ = [
-    "INSTANT_ACTIONS",
+    "MAX_ERRORS_LISTED",
     "SERIES_NAME",
     "ActionState",
     "Headers",
@@ -30,8 +34,8 @@ __all__ = [
 SERIES_NAME = "ObjectPlaces demo AGV"
 """The vehicles' ``seriesName`` in the factsheet."""
 
-INSTANT_ACTIONS = ("cancelOrder", "startPause", "stopPause", "factsheetRequest", "stateRequest")
-"""The instant actions the vehicle carries out."""
+MAX_ERRORS_LISTED = 10
+"""The most errors a state lists."""
 
 
 def timestamp(now: dt.datetime | None = None) -> str:
@@ -66,7 +70,7 @@ class Headers:
 
 @dataclass(frozen=True, slots=True)
 class ActionState:
-    """An instant action as the state reports it."""
+    """An instant action as the state reports it (``instantActionStates``)."""
 
     action_id: str
     action_type: str
@@ -111,6 +115,7 @@ def state_message(
     """The vehicle's ``state`` now (takes the next ``state`` headerId)."""
     book = agv.book_of_orders
     operating = "INTERVENED" if agv.failed else "AUTOMATIC"
+    now = agv.node.now()
     return {
         **headers.make("state"),
         "orderId": book.order_id,
@@ -124,9 +129,10 @@ def state_message(
         "driving": agv.driving,
         "paused": agv.paused,
         "newBaseRequest": book.waiting_for_update(),
-        "actionStates": [],
+        "loads": [load.to_json() for load in agv.handling.loads],
+        "actionStates": book.actions.to_json(),
         "instantActionStates": [a.to_json() for a in instant_actions],
-        "powerSupply": {"stateOfCharge": 80.0, "charging": False},
+        "powerSupply": power_supply(agv.battery, now),
         "operatingMode": operating,
         "errors": [e.to_json() for e in errors],
         "safetyState": {"activeEmergencyStop": "NONE", "fieldViolation": False},
@@ -149,9 +155,15 @@ def connection_message(headers: Headers, connection_state: str) -> dict[str, Any
 
 
 def factsheet_message(
-    agv: OrderAgv, headers: Headers, *, state_interval_s: float
+    agv: OrderAgv,
+    headers: Headers,
+    *,
+    state_interval_s: float,
+    min_state_interval_s: float,
+    visualization_interval_s: float,
+    max_instant_action_states: int,
 ) -> dict[str, Any]:
-    """The vehicle's ``factsheet``: type, size, limits, supported actions."""
+    """The vehicle's ``factsheet``: type, size, limits, supported features and actions."""
     spec = agv.spec
     return {
         **headers.make("factsheet"),
@@ -176,24 +188,26 @@ def factsheet_message(
         },
         "protocolLimits": {
             "maximumStringLengths": {},
-            "maximumArrayLengths": {"node.actions": 0, "edge.actions": 0},
+            # Only the limits there are: orders of any length are taken.
+            "maximumArrayLengths": {
+                "state.loads": 1,
+                "state.instantActionStates": max_instant_action_states,
+                "state.errors": MAX_ERRORS_LISTED,
+            },
             "timing": {
                 "minimumOrderInterval": 0.0,
-                "minimumStateInterval": state_interval_s,
+                "minimumStateInterval": min_state_interval_s,
+                "defaultStateInterval": state_interval_s,
+                "visualizationInterval": visualization_interval_s,
             },
         },
         "protocolFeatures": {
-            "optionalParameters": [],
-            "mobileRobotActions": [
-                {
-                    "actionType": name,
-                    "actionScopes": ["INSTANT"],
-                    "pauseAllowed": False,
-                    "cancelAllowed": False,
-                }
-                for name in INSTANT_ACTIONS
+            "optionalParameters": [
+                {"parameter": name, "support": "SUPPORTED", "description": text}
+                for name, text in OPTIONAL_PARAMETERS.items()
             ],
+            "mobileRobotActions": [a.to_json() for a in CATALOGUE.values()],
         },
         "mobileRobotGeometry": {},
-        "loadSpecification": {},
+        "loadSpecification": {"loadPositions": [LOAD_POSITION]},
     }

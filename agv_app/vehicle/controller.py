@@ -1,9 +1,10 @@
 """The AGV application component: drives one vehicle, locking area ahead of it.
 
-The component owns a :class:`~agv_app.vehicle.Vehicle` and the AGV's node. Every
-simulation step it reads how far its locks reach *from the tuplespace* (the requester
-role writes them there), lets the vehicle drive up to that point, requests the next
-stretch before it runs out of locked area, and releases what it has driven over. It
+The component owns the AGV's node and drives its vehicle through its driver
+(:class:`~agv_app.vehicle.driven.DrivenVehicle`, docs/drivers.md). Every simulation
+step it reads how far its locks reach *from the tuplespace* (the requester role writes
+them there), lets the vehicle drive up to that point, requests the next stretch before
+it runs out of locked area, and releases what it has driven over. It
 publishes its circle, ``position`` and ``hull_length`` (distance to the furthest point
 of its locked and requested projections and claims, plus a small margin for rounding),
 when a request reaches beyond the circle in force or the circle would be much smaller,
@@ -51,7 +52,12 @@ from agv_app.traffic.deadlock import (
 from agv_app.traffic.fifo import allows_to_revoke, priority_at, ranks_higher, wait_age
 from agv_app.traffic.lockbook import LockBook, LockEntry, RequestEntry, StaleRecord
 from agv_app.traffic.plausibility import PeerWatch
+from agv_app.vehicle.comeback import HandBack, come_back
+from agv_app.vehicle.driven import DrivenVehicle
+from agv_app.vehicle.driver import VehicleDriver
+from agv_app.vehicle.isolation import CutOff
 from agv_app.vehicle.kinematics import Vehicle, VehicleSpec
+from agv_app.vehicle.sim_driver import SimDriver
 from objectplaces import RoleActivator
 from objectplaces.groups import GroupDefinition
 from tuplespace import ANY
@@ -162,6 +168,10 @@ class AgvController:
         home: point id of its parking spot (where it rests).
         start: point id where it stands at first (default: ``home``); it drives home.
         heading_rad: its heading where it starts.
+        driver: the vehicle's driver; it stands where the driver says, and the AGV
+            comes back there (:func:`~agv_app.vehicle.comeback.come_back`; ``start``
+            and ``heading_rad`` go unused). None: the simulated kinematics at
+            ``start``.
         config: tunables.
         tally: counts protocol messages.
         on_task_started: called with the task id when the AGV sets off with a task.
@@ -193,9 +203,20 @@ class AgvController:
         on_last_resort: Callable[[str], None] | None = None,
         relocate: Callable[[AgvController], str | None] | None = None,
         central: CentralScheduler | None = None,
+        driver: VehicleDriver | None = None,
     ) -> None:
         self.layout = layout
-        self.spec = spec
+        self.node = node
+        self.point = home if start is None else start
+        p = layout.point(self.point)
+        self._vehicle = DrivenVehicle(
+            driver or SimDriver(spec, Pose(p.x, p.y, heading_rad)),
+            spec,
+            clock=lambda: self.node.now(),
+        )
+        self.spec = spec = self._vehicle.spec
+        """The size and limits the traffic control plans with: the vehicle's, as its
+        driver declares them (:func:`~agv_app.vehicle.driven.planning_spec`)."""
         self.home = home
         self.config = config or AgvConfig()
         self.tally = tally
@@ -203,6 +224,8 @@ class AgvController:
         """What this AGV refused to believe of its peers, and how often (positions,
         hull lengths, voters counted as failed: :mod:`agv_app.traffic.plausibility`)."""
         self._max_peer_hull: float | None = None
+        self.cut_off = CutOff()
+        """Whether the AGV hears nobody of a fleet it heard before (it asks for no floor)."""
         self._on_task_started = on_task_started
         self._on_task_done = on_task_done
         self._on_lock_wait = on_lock_wait
@@ -216,10 +239,10 @@ class AgvController:
         self._turns = turn_offs(layout) if self.config.clear_turn_offs else frozenset()
         # The hull clear of the lane a branch joins: half its length plus half a width.
         self._merge_box_m = (spec.length_m + spec.width_m) / 2
-        self.point = home if start is None else start
-        p = layout.point(self.point)
-        self.vehicle = Vehicle.parked(spec, Pose(p.x, p.y, heading_rad))
         self.failed = False
+        self.handed_back: HandBack | None = None
+        """The task the AGV held before its process restarted, handed back to the
+        transport base (:mod:`agv_app.vehicle.comeback`)."""
         self.task: TaskSpec | None = None
         self.pending_task: TaskSpec | None = None
         self.phase = "home"
@@ -258,10 +281,24 @@ class AgvController:
         """Since when a published circle covers the pending request, its area, claims."""
         self._circle: _Circle | None = None
         """The circle in force: the last position and hull length published, and when."""
-        self.node = node
         self.attach(node)
         if central is not None:
             central.register(self.node_id, lambda: self.book)
+        if driver is not None:
+            come_back(self)
+
+    @property
+    def vehicle(self) -> DrivenVehicle:
+        """The vehicle, through its driver."""
+        return self._vehicle
+
+    @vehicle.setter
+    def vehicle(self, value: DrivenVehicle | Vehicle) -> None:
+        # A simulation may set the simulated kinematics itself (``DrivenVehicle.adopt``).
+        if isinstance(value, DrivenVehicle):
+            self._vehicle = value
+        else:
+            self._vehicle.adopt(value)
 
     # -- node -------------------------------------------------------------------------
 
@@ -405,9 +442,10 @@ class AgvController:
             self.book.drop_stale(node_id)
 
     def fail(self) -> None:
-        """The node crashed: the vehicle stops where it stands and does nothing more."""
+        """The node crashed, or the vehicle's driver failed (``vehicle.fault``): the
+        vehicle is told to stop where it stands, and the AGV does nothing more."""
         self.failed = True
-        self.vehicle = Vehicle(self.spec, self.vehicle.route, s=self.vehicle.s)
+        self.vehicle.stop()
         self._requester = None
 
     def restart(self, node: RoleActivator) -> None:
@@ -421,6 +459,7 @@ class AgvController:
         self.phase = "to_home" if self._dest is not None else "lost"
         self._requester = None
         self._retry_at = 0.0
+        self.vehicle.clear_fault()
         self.attach(node)
         self._released_at_s = self.vehicle.s
 
@@ -642,6 +681,7 @@ class AgvController:
     def step(self, dt: float) -> None:
         """Advance the AGV by ``dt`` seconds of simulated time."""
         if self.failed:
+            self.vehicle.coast(dt)  # told to stop, it brakes on
             return
         now = self.node.now()
         vehicle = self.vehicle
@@ -651,6 +691,13 @@ class AgvController:
             limit = vehicle.s if now < self._hold_until else self.book.lock_end(default=vehicle.s)
             moved = vehicle.step(dt, limit)
             self._stalled = moved == 0.0
+            requester = self._requester
+            if (
+                requester is not None
+                and not requester.done
+                and self.cut_off.isolated(len(self.node.view()))
+            ):
+                requester.withdraw()  # with nobody to vote, a request would lock alone
             self._request_ahead(now)
             if now >= self._next_release:
                 self._next_release = now + self.config.t_update
@@ -664,8 +711,11 @@ class AgvController:
                 self._arrived(now)
         else:
             self._stalled = False
+            vehicle.stand(dt)
             self._idle(now)
         self._rest_when_parked()
+        if vehicle.fault is not None:
+            self.fail()  # its runner takes the node off the network
 
     def _rest_when_parked(self) -> None:
         """Tell the node when the AGV parks at its home with no task, and when it stops:
@@ -756,6 +806,8 @@ class AgvController:
     ) -> None:
         if self._requester is not None or self._plan is None or now < self._retry_at:
             return
+        if self.cut_off.isolated(len(self.node.view())):
+            return  # it hears nothing: it drives on inside its locks only, and stops
         vehicle, spec, book = self.vehicle, self.spec, self.book
         lock_end = book.lock_end(default=vehicle.s)
         if lock_end >= self._plan.length - 1e-9:
@@ -1127,10 +1179,13 @@ class AgvController:
     def _start_pending(self) -> None:
         assert self.pending_task is not None
         self.task, self.pending_task = self.pending_task, None
-        self.phase = "to_pick"
+        back, self.handed_back = self.handed_back, None
+        loaded = back is not None and back.resumed(self.node, self.task)
+        self.phase = "to_drop" if loaded else "to_pick"
         if self._on_task_started is not None:
             self._on_task_started(self.task.id)
-        self._route_to(self.layout.station(self.task.pick).point)
+        station = self.task.drop if loaded else self.task.pick
+        self._route_to(self.layout.station(station).point)
 
     def _go_home(self) -> None:
         self.phase = "to_home"

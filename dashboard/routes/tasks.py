@@ -41,6 +41,7 @@ def task_out(record: TaskRecordView) -> dict[str, Any]:
     )
     return {
         "id": record.task.id,
+        "creator": record.creator,
         "source": record.task.pick,
         "destination": record.task.drop,
         "state": "waiting" if record.state == "created" else record.state,

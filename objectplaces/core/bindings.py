@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 from objectplaces.core.events import TimerHandle
 from objectplaces.core.ids import InitiatorRef, ParticipantRef, SessionId
+from objectplaces.core.members import MemberSet
 from objectplaces.core.timers import ParticipationOwner, RoleOwner, SessionOwner
 
 if TYPE_CHECKING:  # the tables bind roles to these contexts: import them for types only
@@ -105,9 +106,16 @@ class InitiatorContext:
         driver.wake()
         return sent
 
-    def members(self) -> frozenset[ParticipantRef]:
-        """The joined members."""
+    def members(self) -> MemberSet:
+        """The joined members, in node-id order."""
         return self._sessions.members_of(self.session_id)
+
+    def release(self, participant: ParticipantRef) -> bool:
+        """Deactivate one member (False when it is none)."""
+        driver = self._host.driver
+        released = self._sessions.release(self.session_id, participant, driver.clock())
+        driver.wake()
+        return released
 
     def stop(self) -> None:
         """Stop the session."""

@@ -6,15 +6,13 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
+from objectplaces.core.comparisons import PropertyAbove, PropertyBelow, PropertyEquals, PropertyIn
 from objectplaces.core.errors import LocalProtocolError
-from objectplaces.core.groups import (
-    AllOf,
-    AnyOf,
+from objectplaces.core.groups import AllOf, AnyOf, GroupDefinition
+from objectplaces.core.proximity import (
     CircleMeetsBox,
     CirclesOverlap,
-    GroupDefinition,
     Near,
-    PropertyEquals,
     Within,
     checked_distance,
 )
@@ -66,6 +64,16 @@ def definition_from_json(obj: Any) -> GroupDefinition:
             if "value" not in obj:
                 raise LocalProtocolError("group definition 'property_equals' needs a 'value'")
             return PropertyEquals(_string(obj, "name", ""), obj["value"])
+        case "property_above" | "property_below":
+            if "value" not in obj:
+                raise LocalProtocolError(f"group definition {kind!r} needs a 'value'")
+            cls = PropertyAbove if kind == "property_above" else PropertyBelow
+            return cls(_string(obj, "name", ""), obj["value"])
+        case "property_in":
+            values = obj.get("values")
+            if not isinstance(values, list):
+                raise LocalProtocolError("group definition 'property_in' needs a list 'values'")
+            return PropertyIn(_string(obj, "name", ""), values)
         case "and" | "or":
             parts = obj.get("of")
             if not isinstance(parts, list) or not parts:
@@ -73,5 +81,8 @@ def definition_from_json(obj: Any) -> GroupDefinition:
             built = [definition_from_json(part) for part in parts]
             return AllOf(*built) if kind == "and" else AnyOf(*built)
         case _:
-            known = "circles_overlap, circle_meets_box, within, near, property_equals, and, or"
+            known = (
+                "circles_overlap, circle_meets_box, within, near, property_equals, "
+                "property_above, property_below, property_in, and, or"
+            )
             raise LocalProtocolError(f"unknown group definition type {kind!r} (known: {known})")

@@ -7,44 +7,41 @@ serialise to JSON (so the REST API and the dashboard can carry them) and they st
 The node engine uses the reach to ask its spatial index for candidates instead of
 testing every node it knows, which is what makes a session among N nodes cost about
 O(neighbours) per update rather than O(N).
+
+``&`` and ``|`` combine declarative definitions with each other and with plain
+callables. A callable part is wrapped in ``Predicate``: it has no reach and no JSON
+form, so a conjunction keeps the reach of its declarative parts (``within(40) & f``
+tries ``f`` only on the nodes within 40 m) but no longer serialises.
 """
 
 from __future__ import annotations
 
-import math
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Mapping
 from typing import Any, TypeAlias
 
 from mypy_extensions import mypyc_attr
 
 from objectplaces.core.errors import LocalProtocolError
-from objectplaces.core.values import MAX_COORDINATE
 
 __all__ = [
     "AllOf",
     "AnyOf",
-    "CircleMeetsBox",
-    "CirclesOverlap",
     "DefinitionLike",
     "GroupDefinition",
     "MaxOf",
-    "Near",
-    "PropertyEquals",
+    "Predicate",
+    "Props",
     "Reach",
-    "Within",
-    "checked_distance",
-    "circle_meets_box",
-    "circles_overlap",
+    "as_definition",
+    "checked_definition",
     "describe",
-    "distance",
-    "near",
-    "property_equals",
-    "within",
 ]
 
 Props: TypeAlias = Mapping[str, Any]
 DefinitionLike: TypeAlias = Callable[[Props, Props], bool]
+"""What ``start_interaction`` and ``view_group`` take as a group definition: a
+``GroupDefinition``, or any callable ``(initiator_props, participant_props) -> bool``."""
 MaxOf: TypeAlias = Callable[[str], float]
 """Asks the index for the largest numeric value of a property over the known nodes."""
 
@@ -66,29 +63,6 @@ class Reach:
         return f"Reach({self.position!r}, {self.radius!r}, {self.centre!r})"
 
 
-def _point(props: Props, name: str) -> tuple[float, float] | None:
-    value = props.get(name)
-    if isinstance(value, tuple | list) and len(value) == 2:
-        x, y = value
-        if isinstance(x, int | float) and isinstance(y, int | float):
-            return float(x), float(y)
-    return None
-
-
-def _radius(props: Props, name: str) -> float:
-    """A node's radius property; 0 when it lacks one or it is not a number."""
-    value = props.get(name, 0.0)
-    return float(value) if isinstance(value, int | float) else 0.0
-
-
-def distance(a: Props, b: Props, position: str = "position") -> float | None:
-    """Euclidean distance between two nodes' positions, or None if either lacks one."""
-    pa, pb = _point(a, position), _point(b, position)
-    if pa is None or pb is None:
-        return None
-    return math.hypot(pa[0] - pb[0], pa[1] - pb[1])
-
-
 @mypyc_attr(allow_interpreted_subclasses=True)
 class GroupDefinition(ABC):
     """A declarative, serialisable, spatially indexable group definition."""
@@ -105,191 +79,76 @@ class GroupDefinition(ABC):
         """The bound on candidates' distance, or None when any node may match."""
         return None
 
-    def __and__(self, other: GroupDefinition) -> GroupDefinition:
-        return AllOf(self, other)
+    def key(self) -> Any:
+        """What equality and hashing compare: the JSON form, as a string."""
+        return repr(self.to_json())
 
-    def __or__(self, other: GroupDefinition) -> GroupDefinition:
-        return AnyOf(self, other)
+    def __and__(self, other: DefinitionLike) -> GroupDefinition:
+        return AllOf(self, as_definition(other, "&"))
+
+    def __rand__(self, other: DefinitionLike) -> GroupDefinition:
+        return AllOf(as_definition(other, "&"), self)
+
+    def __or__(self, other: DefinitionLike) -> GroupDefinition:
+        return AnyOf(self, as_definition(other, "|"))
+
+    def __ror__(self, other: DefinitionLike) -> GroupDefinition:
+        return AnyOf(as_definition(other, "|"), self)
 
     def __eq__(self, other: object) -> bool:
-        return isinstance(other, GroupDefinition) and self.to_json() == other.to_json()
+        return isinstance(other, GroupDefinition) and self.key() == other.key()
 
     def __hash__(self) -> int:
-        return hash(repr(self.to_json()))
+        return hash(self.key())
 
     def __repr__(self) -> str:
         return f"definition_from_json({self.to_json()!r})"
 
 
-class CirclesOverlap(GroupDefinition):
-    """Members: nodes whose circle overlaps the initiator's, ``|p_i - p_j| <= r_i + r_j``.
-
-    A node without a position never matches; a missing radius counts as 0.
-    """
-
-    def __init__(self, position: str = "position", radius: str = "hull_length") -> None:
-        self.position = position
-        self.radius = radius
-
-    def __call__(self, initiator: Props, participant: Props) -> bool:
-        a, b = _point(initiator, self.position), _point(participant, self.position)
-        if a is None or b is None:
-            return False
-        reach = _radius(initiator, self.radius) + _radius(participant, self.radius)
-        dx, dy = a[0] - b[0], a[1] - b[1]
-        return dx * dx + dy * dy <= reach * reach
-
-    def to_json(self) -> dict[str, Any]:
-        return {"type": "circles_overlap", "position": self.position, "radius": self.radius}
-
-    def reach(self, initiator: Props, max_of: MaxOf) -> Reach | None:
-        return Reach(self.position, _radius(initiator, self.radius) + max_of(self.radius))
-
-
-class CircleMeetsBox(GroupDefinition):
-    """Members: nodes whose circle (centre ``position``, radius ``radius``) meets the
-    axis-aligned box ``(x0, y0, x1, y1)``, whatever the initiator's properties.
-
-    The box belongs to the definition, not to a node: one initiator's sessions may each
-    name their own (e.g. around the area a session is about). A node without a position
-    never matches; a missing radius counts as 0. The reach is taken around the
-    initiator's ``position``, which an initiator without one lacks: then no node matches.
-    """
-
-    def __init__(
-        self,
-        box: Sequence[float],
-        position: str = "position",
-        radius: str = "hull_length",
-    ) -> None:
-        if (
-            not isinstance(box, tuple | list)
-            or len(box) != 4
-            or not all(isinstance(v, int | float) and abs(v) <= MAX_COORDINATE for v in box)
-            or box[0] > box[2]
-            or box[1] > box[3]
-        ):
-            raise LocalProtocolError(
-                f"circle_meets_box: box must be four numbers within +-{MAX_COORDINATE:g} "
-                f"(positions' range), x0 <= x1 and y0 <= y1, as (x0, y0, x1, y1), got {box!r}"
-            )
-        x0, y0, x1, y1 = (float(v) for v in box)
-        self.box = (x0, y0, x1, y1)
-        self.position = position
-        self.radius = radius
-
-    def __call__(self, initiator: Props, participant: Props) -> bool:
-        # ``_point`` and ``_radius`` written out, and ``max`` as comparisons: a request
-        # group is tried on every node near its box when its session opens.
-        value = participant.get(self.position)
-        if not (isinstance(value, tuple | list) and len(value) == 2):
-            return False
-        px, py = value
-        if not (isinstance(px, int | float) and isinstance(py, int | float)):
-            return False
-        px, py = float(px), float(py)
-        r = participant.get(self.radius, 0.0)
-        r = float(r) if isinstance(r, int | float) else 0.0
-        x0, y0, x1, y1 = self.box
-        # As max(x0 - px, 0, px - x1), a NaN included (it then matches nothing).
-        dx = x0 - px if px < x0 else (px - x1 if px > x1 else (0.0 if px == px else px))
-        dy = y0 - py if py < y0 else (py - y1 if py > y1 else (0.0 if py == py else py))
-        return dx * dx + dy * dy <= r * r
-
-    def to_json(self) -> dict[str, Any]:
-        return {
-            "type": "circle_meets_box",
-            "box": list(self.box),
-            "position": self.position,
-            "radius": self.radius,
-        }
-
-    def reach(self, initiator: Props, max_of: MaxOf) -> Reach | None:
-        # Every member's centre lies within the largest radius of the box, and the box
-        # within its farthest corner of the initiator.
-        own = _point(initiator, self.position)
-        if own is None:
-            return Reach(self.position, 0.0)
-        x0, y0, x1, y1 = self.box
-        corner = max(abs(own[0] - x0), abs(own[0] - x1)), max(abs(own[1] - y0), abs(own[1] - y1))
-        return Reach(self.position, math.hypot(*corner) + max_of(self.radius))
-
-
-def checked_distance(kind: str, distance: object) -> float:
-    """``distance`` of a ``kind`` definition as a float, if it is a finite number >= 0.
+class Predicate(GroupDefinition):
+    """A plain callable inside a combination (``within(40) & f``): tried as it is, with
+    no reach (any node may match) and no JSON form.
 
     Raises:
-        LocalProtocolError: it is not.
+        LocalProtocolError: ``fn`` is not callable.
     """
-    if not (isinstance(distance, int | float) and distance >= 0 and math.isfinite(distance)):
-        raise LocalProtocolError(f"{kind}: distance must be a finite number >= 0, got {distance!r}")
-    return float(distance)
 
-
-class Within(GroupDefinition):
-    """Members: nodes within ``distance`` of the initiator."""
-
-    def __init__(self, distance: float, position: str = "position") -> None:
-        self.distance = checked_distance("within", distance)
-        self.position = position
+    def __init__(self, fn: DefinitionLike) -> None:
+        if not callable(fn):
+            raise LocalProtocolError(f"a group definition must be callable, got {fn!r}")
+        self.fn = fn
 
     def __call__(self, initiator: Props, participant: Props) -> bool:
-        d = distance(initiator, participant, self.position)
-        return d is not None and d <= self.distance
+        return bool(self.fn(initiator, participant))
 
     def to_json(self) -> dict[str, Any]:
-        return {"type": "within", "distance": self.distance, "position": self.position}
+        """Raises ``LocalProtocolError``: a callable has no JSON form."""
+        raise LocalProtocolError(
+            f"{self.fn!r} is a callable: it has no JSON form, nor has any definition that "
+            "holds it (write it as a declarative definition to send it)"
+        )
 
-    def reach(self, initiator: Props, max_of: MaxOf) -> Reach | None:
-        return Reach(self.position, self.distance)
+    def key(self) -> Any:
+        return ("callable", self.fn)
 
-
-class Near(GroupDefinition):
-    """Members: nodes within ``distance`` of the fixed ``point``, wherever the initiator
-    is (one node may run sessions about several places: a transport base, its stations'
-    auctions)."""
-
-    def __init__(self, point: Sequence[float], distance: float, position: str = "position") -> None:
-        if not (
-            isinstance(point, tuple | list)
-            and len(point) == 2
-            and all(isinstance(v, int | float) and abs(v) <= MAX_COORDINATE for v in point)
-        ):
-            raise LocalProtocolError(
-                f"near: point must be two numbers within +-{MAX_COORDINATE:g}, got {point!r}"
-            )
-        self.point = (float(point[0]), float(point[1]))
-        self.distance = checked_distance("near", distance)
-        self.position = position
-
-    def __call__(self, initiator: Props, participant: Props) -> bool:
-        other = _point(participant, self.position)
-        return other is not None and math.dist(self.point, other) <= self.distance
-
-    def to_json(self) -> dict[str, Any]:
-        return {
-            "type": "near",
-            "point": list(self.point),
-            "distance": self.distance,
-            "position": self.position,
-        }
-
-    def reach(self, initiator: Props, max_of: MaxOf) -> Reach | None:
-        return Reach(self.position, self.distance, self.point)
+    def __repr__(self) -> str:
+        return f"Predicate({self.fn!r})"
 
 
-class PropertyEquals(GroupDefinition):
-    """Members: nodes whose property ``name`` equals ``value``."""
+def as_definition(part: object, operator: str = "&") -> GroupDefinition:
+    """``part`` as a declarative definition: itself, or a callable wrapped in ``Predicate``.
 
-    def __init__(self, name: str, value: Any) -> None:
-        self.name = name
-        self.value = value
-
-    def __call__(self, initiator: Props, participant: Props) -> bool:
-        return self.name in participant and participant[self.name] == self.value
-
-    def to_json(self) -> dict[str, Any]:
-        return {"type": "property_equals", "name": self.name, "value": self.value}
+    Raises:
+        TypeError: ``part`` is not callable; the message says what ``operator`` takes.
+    """
+    if isinstance(part, GroupDefinition):
+        return part
+    if callable(part):
+        return Predicate(part)
+    raise TypeError(
+        f"{operator} combines group definitions: a definition of objectplaces.groups or a "
+        f"callable (initiator_props, participant_props) -> bool, got {part!r}"
+    )
 
 
 class AllOf(GroupDefinition):
@@ -307,6 +166,12 @@ class AllOf(GroupDefinition):
 
     def to_json(self) -> dict[str, Any]:
         return {"type": "and", "of": [part.to_json() for part in self.parts]}
+
+    def key(self) -> Any:
+        return ("and", tuple(part.key() for part in self.parts))
+
+    def __repr__(self) -> str:
+        return " & ".join(f"({part!r})" for part in self.parts)
 
     def reach(self, initiator: Props, max_of: MaxOf) -> Reach | None:
         # Any one bounded part bounds the conjunction; the tightest one is the best bound.
@@ -326,6 +191,12 @@ class AnyOf(GroupDefinition):
     def to_json(self) -> dict[str, Any]:
         return {"type": "or", "of": [part.to_json() for part in self.parts]}
 
+    def key(self) -> Any:
+        return ("or", tuple(part.key() for part in self.parts))
+
+    def __repr__(self) -> str:
+        return " | ".join(f"({part!r})" for part in self.parts)
+
     def reach(self, initiator: Props, max_of: MaxOf) -> Reach | None:
         # A disjunction is bounded only if every part is, around the same centre.
         reaches = [part.reach(initiator, max_of) for part in self.parts]
@@ -338,35 +209,30 @@ class AnyOf(GroupDefinition):
 
 
 def describe(definition: DefinitionLike) -> Any:
-    """A declarative definition's JSON form; any other callable's ``repr``."""
-    return definition.to_json() if isinstance(definition, GroupDefinition) else repr(definition)
+    """A declarative definition's JSON form; any other callable's ``repr`` (and that of a
+    definition whose JSON form fails, such as one holding a callable)."""
+    if isinstance(definition, GroupDefinition):
+        try:
+            return definition.to_json()
+        except Exception:
+            return repr(definition)
+    return repr(definition)
 
 
-def circles_overlap(position: str = "position", radius: str = "hull_length") -> CirclesOverlap:
-    """Nodes whose circles (centre ``position``, radius ``radius``) overlap the initiator's."""
-    return CirclesOverlap(position, radius)
+def checked_definition(definition: object, own: Props) -> DefinitionLike:
+    """``definition``, once it has shown it can resolve a group around ``own``.
 
-
-def circle_meets_box(
-    box: tuple[float, float, float, float],
-    position: str = "position",
-    radius: str = "hull_length",
-) -> CircleMeetsBox:
-    """Nodes whose circles (centre ``position``, radius ``radius``) meet ``box``,
-    ``(x0, y0, x1, y1)``."""
-    return CircleMeetsBox(box, position, radius)
-
-
-def within(distance: float, position: str = "position") -> Within:
-    """Nodes within ``distance`` of the initiator's ``position``."""
-    return Within(distance, position)
-
-
-def near(point: tuple[float, float], distance: float, position: str = "position") -> Near:
-    """Nodes whose ``position`` lies within ``distance`` of ``point``."""
-    return Near(point, distance, position)
-
-
-def property_equals(name: str, value: Any) -> PropertyEquals:
-    """Nodes whose property ``name`` equals ``value``."""
-    return PropertyEquals(name, value)
+    Raises:
+        LocalProtocolError: it is not callable, or it is declarative and its reach
+            fails (the error it raised is the cause).
+    """
+    if not callable(definition):
+        raise LocalProtocolError(f"group definition must be callable, got {definition!r}")
+    if isinstance(definition, GroupDefinition):
+        try:
+            definition.reach(own, lambda name: 0.0)
+        except Exception as exc:
+            raise LocalProtocolError(
+                f"group definition {definition!r} cannot resolve a group: {exc!r}"
+            ) from exc
+    return definition

@@ -5,7 +5,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import NewType
 
-__all__ = ["InitiatorRef", "NodeId", "ParticipantRef", "SessionId", "session_id_for"]
+__all__ = [
+    "InitiatorRef",
+    "NodeId",
+    "ParticipantRef",
+    "SessionId",
+    "session_id_for",
+    "session_number",
+]
 
 NodeId = NewType("NodeId", str)
 SessionId = NewType("SessionId", str)
@@ -14,6 +21,13 @@ SessionId = NewType("SessionId", str)
 def session_id_for(initiator: str, number: int) -> SessionId:
     """Build the network-wide id of session ``number`` started on node ``initiator``."""
     return SessionId(f"{initiator}#{number}")
+
+
+def session_number(session_id: str, initiator: str) -> int:
+    """The number of ``initiator``'s session ``session_id``; -1 when the id is not of a
+    session of ``initiator`` (no session has that number)."""
+    prefix, _, number = str(session_id).rpartition("#")
+    return int(number) if prefix == initiator and number.isdigit() else -1
 
 
 @dataclass(frozen=True, slots=True)

@@ -54,7 +54,7 @@ from objectplaces.core.errors import LocalProtocolError
 from objectplaces.core.ids import InitiatorRef, session_id_for
 from objectplaces.core.messages import ChannelAck, ChannelData, FrameKind
 from objectplaces.core.plumbing import Plumbing
-from objectplaces.core.roles import Participant, ParticipantBinding, bind
+from objectplaces.core.roles import OutReason, Participant, ParticipantBinding, bind
 from objectplaces.core.timers import ExpireTombstone, ParticipationOwner, RepeatLeft
 
 __all__ = ["ParticipantFactory", "ParticipationTable", "tombstone_life"]
@@ -64,6 +64,14 @@ log = logging.getLogger("objectplaces")
 ParticipantFactory = Callable[[], Participant]
 Binder = Callable[[ParticipationOwner, InitiatorRef], ParticipantBinding]
 """Makes the context a freshly activated participant role is bound to."""
+
+
+def _out_reason(payload: Any) -> OutReason:
+    """The reason a ``DEACTIVATE`` carries (``STOPPED`` when it carries none we know)."""
+    try:
+        return OutReason(payload)
+    except (ValueError, TypeError):
+        return OutReason.STOPPED
 
 
 def tombstone_life(config: NodeConfig) -> float:
@@ -171,7 +179,7 @@ class ParticipationTable:
                 ack = ChannelAck(False, frame.session, frame.epoch, frame.seq)
                 self._channels.acknowledge(source, ack)
                 return True
-            self._end(part, now)  # a newer activation supersedes the old one
+            self._end(part, now, why=OutReason.LEFT_GROUP)  # removed, and activated anew
             part = None
         if part is None:
             if frame.seq != 0 or frame.kind is not FrameKind.ACTIVATE:
@@ -202,7 +210,7 @@ class ParticipationTable:
             case FrameKind.ROLE if part.role is not None:
                 self._outbox.call(part.role.receive, (frame.payload,), part.ref.session_id)
             case FrameKind.DEACTIVATE:
-                self._end(part, now)
+                self._end(part, now, why=_out_reason(frame.payload))
             case FrameKind.PROBE:
                 pass  # acknowledged with the stream: we play the role
             case _:
@@ -269,9 +277,17 @@ class ParticipationTable:
             owner.initiator, part.channel, FrameKind.ROLE, message, now, limited=True
         )
 
-    def _end(self, part: _Participation, now: float, *, on_our_own: bool = False) -> None:
-        """End a participation; ``on_our_own``: without the initiator's word (it seemed
-        to have failed, or never acknowledged), so it is told, in case it still lives."""
+    def _end(
+        self,
+        part: _Participation,
+        now: float,
+        *,
+        on_our_own: bool = False,
+        why: OutReason = OutReason.STOPPED,
+    ) -> None:
+        """End a participation, for the reason ``why``; ``on_our_own``: without the
+        initiator's word (it seemed to have failed, or never acknowledged), so it is
+        told, in case it still lives."""
         owner = part.owner
         key = (owner.initiator, owner.session)
         if self._parts.get(key) is part:
@@ -292,6 +308,7 @@ class ParticipationTable:
         role = part.role
         if role is not None:
             part.role = None
+            role.out_reason = OutReason.UNREACHABLE if on_our_own else why
             self._outbox.call(role.out_group_of, (part.ref,), part.ref.session_id)
 
     def _tell_left(self, initiator: str, session: int, epoch: int, seq: int) -> None:
@@ -315,7 +332,7 @@ class ParticipationTable:
     def initiator_gone(self, node: str, now: float, *, failed: bool) -> None:
         """``node`` failed (``failed``) or left: every role in its sessions ends."""
         for part in [p for p in self._parts.values() if p.owner.initiator == node]:
-            self._end(part, now, on_our_own=failed)
+            self._end(part, now, on_our_own=failed)  # UNREACHABLE, or STOPPED: it left
         if not failed:  # it left on purpose: no one is there to hear a LEFT
             for (initiator, _), tomb in self._tombstones.items():
                 if initiator == node:
@@ -328,7 +345,7 @@ class ParticipationTable:
     def end_all(self, now: float) -> None:
         """End every participation (this node leaves)."""
         for part in list(self._parts.values()):
-            self._end(part, now)
+            self._end(part, now, why=OutReason.NODE_LEFT)
 
     def forget_tombstones_of(self, node: str) -> None:
         """``node`` restarted: its new run's sessions reuse numbers and must count."""

@@ -7,7 +7,8 @@ middleware activates it; before that, ``send`` and friends raise ``LocalProtocol
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import enum
+from collections.abc import Callable, Set
 from typing import Any, Protocol
 
 from mypy_extensions import mypyc_attr
@@ -19,12 +20,28 @@ from objectplaces.core.ids import InitiatorRef, ParticipantRef
 __all__ = [
     "Initiator",
     "InitiatorBinding",
+    "OutReason",
     "Participant",
     "ParticipantBinding",
     "Role",
     "bind",
     "is_bound",
 ]
+
+
+class OutReason(enum.Enum):
+    """Why a participant role was deactivated (``Participant.out_reason``)."""
+
+    STOPPED = "stopped"
+    """The initiator stopped the session (or its node left the network)."""
+    LEFT_GROUP = "left_group"
+    """This node no longer satisfies the session's group definition."""
+    RELEASED = "released"
+    """The initiator released this participant (``Initiator.release``)."""
+    UNREACHABLE = "unreachable"
+    """The initiator failed or could not be reached (or took this node for failed)."""
+    NODE_LEFT = "node_left"
+    """This node left the network."""
 
 
 class _Binding(Protocol):
@@ -42,7 +59,9 @@ class InitiatorBinding(_Binding, Protocol):
 
     def send(self, participant: ParticipantRef, message: Any) -> bool: ...
 
-    def members(self) -> frozenset[ParticipantRef]: ...
+    def members(self) -> Set[ParticipantRef]: ...
+
+    def release(self, participant: ParticipantRef) -> bool: ...
 
     def stop(self) -> None: ...
 
@@ -92,11 +111,21 @@ class Role:
         return self._bound().space
 
     def now(self) -> float:
-        """The node's clock: virtual time in the simulation, real time on the mesh."""
+        """The node's clock, in seconds: virtual time in the simulation; on a real
+        network the event loop's monotonic clock (real seconds elapsed, not the time of
+        day: use ``time.time()`` for a timestamp)."""
         return self._bound().now()  # type: ignore[no-any-return]
 
     def call_later(self, delay: float, fn: Callable[[], Any]) -> TimerHandle:
-        """Run ``fn`` after ``delay`` seconds unless the role is deactivated first."""
+        """Run ``fn`` after ``delay`` seconds of ``now()`` unless the role is deactivated
+        first (its session stops, or it leaves the group).
+
+        Returns:
+            A handle whose ``cancel()`` stops ``fn`` from running.
+
+        Raises:
+            LocalProtocolError: ``delay`` is negative or not a number.
+        """
         return self._bound().call_later(delay, fn)  # type: ignore[no-any-return]
 
 
@@ -132,9 +161,26 @@ class Initiator(Role):
         return self._bound().send(participant, message)  # type: ignore[no-any-return]
 
     @property
-    def members(self) -> frozenset[ParticipantRef]:
-        """The participants currently in the group."""
+    def members(self) -> Set[ParticipantRef]:
+        """The participants currently in the group: a set (a ``MemberSet``) that
+        iterates in node-id order, so seeded runs repeat whatever the hash seed."""
         return self._bound().members()  # type: ignore[no-any-return]
+
+    def release(self, participant: ParticipantRef) -> bool:
+        """Deactivate one participant, leaving the others in the session.
+
+        Its role hears ``out_group_of`` with ``out_reason`` ``OutReason.RELEASED``; this
+        role hears no ``out_group`` for it (it asked). Its node is not activated again
+        in this session while it keeps satisfying the definition; once it leaves the
+        group and comes back, it is.
+
+        Returns:
+            False when ``participant`` is no member (nothing done).
+
+        Raises:
+            LocalProtocolError: ``participant`` belongs to another session.
+        """
+        return self._bound().release(participant)  # type: ignore[no-any-return]
 
     def stop(self) -> None:
         """Stop the session: every participant is deactivated."""
@@ -145,11 +191,16 @@ class Initiator(Role):
 class Participant(Role):
     """Activated by the middleware on nodes that satisfy a group definition."""
 
+    #: Why the role was deactivated; None while it is active.
+    out_reason: OutReason | None = None
+
     def in_group_of(self, initiator: InitiatorRef) -> None:
         """The role was activated in ``initiator``'s session."""
 
     def out_group_of(self, initiator: InitiatorRef) -> None:
-        """The role was deactivated: the session stopped or this node left the group."""
+        """The role was deactivated; ``self.out_reason`` says why (``OutReason``: the
+        session stopped, this node left the group, the initiator released it or could
+        not be reached, or this node left the network)."""
 
     def receive(self, message: Any) -> None:
         """The initiator sent ``message``."""

@@ -27,6 +27,7 @@ A stopped session is forgotten once it has neither members nor closing channels
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 from objectplaces.core.channel import Channel
@@ -35,7 +36,7 @@ from objectplaces.core.groups import DefinitionLike, describe
 from objectplaces.core.ids import SessionId
 from objectplaces.core.roles import Initiator
 
-__all__ = ["MemberState", "SessionState"]
+__all__ = ["MemberState", "SessionState", "session_counts"]
 
 
 @dataclass(slots=True)
@@ -97,3 +98,13 @@ class SessionState:
             self.started_at,
             describe(self.definition),
         )
+
+
+def session_counts(sessions: Iterable[SessionState]) -> dict[str, int]:
+    """Sizes of the per-session structures of ``sessions`` (all 0 once none is left)."""
+    counts = {"sessions": 0, "members": 0, "closing_channels": 0}
+    for session in sessions:
+        counts["sessions"] += 1
+        counts["members"] += len(session.members)
+        counts["closing_channels"] += len(session.closing)
+    return counts

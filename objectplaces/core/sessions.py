@@ -8,11 +8,8 @@ frames. A stopped session is forgotten once every member's deactivation is
 acknowledged or its channel broke (guarantee 4: nothing left behind).
 
 Failure detection is local and links can fail one way, so the two sides can disagree
-about a membership. The table resolves it toward "not a member", the state a message
-can never be lost in: a peer taken for failed is deactivated all the same (it may still
-hear us), and a participant that reports ``LEFT`` (it took us for failed) is dropped
-and, if it still matches, activated afresh; idle members are probed now and then
-(``probe``), in case every repeat of a ``LEFT`` was lost.
+about a membership: the table resolves it toward "not a member", the state a message
+can never be lost in (``peer_gone``, ``_on_left``, ``probe``).
 """
 
 from __future__ import annotations
@@ -25,12 +22,13 @@ from objectplaces.core import codec
 from objectplaces.core.channel import Channel
 from objectplaces.core.config import SessionInfo
 from objectplaces.core.errors import LocalProtocolError
-from objectplaces.core.groups import DefinitionLike
-from objectplaces.core.ids import ParticipantRef, SessionId, session_id_for
+from objectplaces.core.groups import DefinitionLike, checked_definition
+from objectplaces.core.ids import ParticipantRef, SessionId, session_id_for, session_number
+from objectplaces.core.members import MemberSet
 from objectplaces.core.messages import ChannelAck, ChannelData, FrameKind
 from objectplaces.core.plumbing import Plumbing
-from objectplaces.core.roles import Initiator, InitiatorBinding, bind, is_bound
-from objectplaces.core.session_state import MemberState, SessionState
+from objectplaces.core.roles import Initiator, InitiatorBinding, OutReason, bind, is_bound
+from objectplaces.core.session_state import MemberState, SessionState, session_counts
 from objectplaces.core.timers import SessionOwner
 from objectplaces.core.view import PropertyView
 
@@ -74,14 +72,14 @@ class SessionTable:
         """Start a session: the role hears ``started``, then matches are activated.
 
         Raises:
-            LocalProtocolError: a bad argument, or ``role`` already plays in a session.
+            LocalProtocolError: a bad argument, ``role`` already plays in a session, or
+                the definition cannot resolve a group; nothing is left behind then.
         """
         if not isinstance(role, Initiator):
             raise LocalProtocolError(f"initiator role must subclass Initiator, got {role!r}")
         if is_bound(role):
             raise LocalProtocolError(f"{role!r} already plays in session {role.session_id!r}")
-        if not callable(definition):
-            raise LocalProtocolError(f"group definition must be callable, got {definition!r}")
+        definition = checked_definition(definition, self._own)
         if not isinstance(participant_role, str) or not participant_role:
             raise LocalProtocolError(
                 f"participant role name must be a non-empty string, got {participant_role!r}"
@@ -107,7 +105,7 @@ class SessionTable:
         session.stopped = True
         for member in list(session.members.values()):
             # The role asked for the stop: it hears no out_group for it (DESIGN.md).
-            self._remove(session, member, deactivate_at=now, notify=False)
+            self._remove(session, member, deactivate_at=now, notify=False, why=OutReason.STOPPED)
         session.declined.clear()
         self._role_timers.cancel(SessionOwner(session.sid))
         self._maybe_forget(session)
@@ -131,22 +129,35 @@ class SessionTable:
                 large; checked even when nothing would be sent, so a bad message fails
                 the same way whatever the membership.
         """
-        if participant.session_id != sid:
-            raise LocalProtocolError(f"{participant} is not a participant of {sid!r}")
-        session = self._live(sid)
-        member = None if session is None else session.members.get(participant.node_id)
-        if session is None or member is None or not member.joined:
+        _, member = self._member(sid, participant)
+        if member is None or not member.joined:
             codec.encode_value(message)
             return False
         channel = member.channel
         return self._channels.send(member.node, channel, FrameKind.ROLE, message, now, limited=True)
 
-    def members_of(self, sid: str) -> frozenset[ParticipantRef]:
-        """The joined members of a session (empty once it stopped)."""
+    def release(self, sid: str, participant: ParticipantRef, now: float) -> bool:
+        """Deactivate one member, pending or joined (reason ``RELEASED``; no ``out_group``:
+        the role asked). It is not asked again until it stops matching and matches anew.
+        False when it is no member; ``LocalProtocolError`` when of another session."""
+        session, member = self._member(sid, participant)
+        if session is None or member is None:
+            return False
+        self._remove(session, member, deactivate_at=now, notify=False, why=OutReason.RELEASED)
+        session.declined.add(member.node)  # as a declined node: not asked while it matches
+        return True
+
+    def _member(self, sid: str, ref: ParticipantRef) -> tuple[Any, MemberState | None]:
+        if ref.session_id != sid:
+            raise LocalProtocolError(f"{ref} is not a participant of {sid!r}")
         session = self._live(sid)
-        if session is None:
-            return frozenset()
-        return frozenset(ParticipantRef(m.node, sid) for m in session.members.values() if m.joined)
+        return session, None if session is None else session.members.get(ref.node_id)
+
+    def members_of(self, sid: str) -> MemberSet:
+        """The joined members of a session, in node-id order (empty once it stopped)."""
+        session = self._live(sid)
+        members = () if session is None else session.members.values()
+        return MemberSet(ParticipantRef(m.node, sid) for m in members if m.joined)
 
     # ------------------------------------------------------------------ the view moved
 
@@ -180,7 +191,7 @@ class SessionTable:
         for session in list(self._sessions.values()):
             member = session.members.get(node)
             if member is not None:
-                self._remove(session, member, deactivate_at=failed_at)
+                self._remove(session, member, deactivate_at=failed_at, why=OutReason.UNREACHABLE)
             if failed_at is None:
                 session.close(node)
             session.declined.discard(node)
@@ -202,8 +213,8 @@ class SessionTable:
         self._apply(session, node, matched, now)
 
     def _apply(self, session: SessionState, node: str, matched: bool, now: float) -> None:
-        """Activate ``node`` if it satisfies the definition and is not yet a member (nor
-        declined); remove it if it no longer does."""
+        """Activate a matching node that is no member (nor declined); remove one that
+        no longer matches."""
         if matched:
             if node not in session.members and node not in session.declined:
                 self._activate(session, node, now)
@@ -215,7 +226,7 @@ class SessionTable:
         session.declined.discard(node)
         member = session.members.get(node)
         if member is not None:
-            self._remove(session, member, deactivate_at=now)
+            self._remove(session, member, deactivate_at=now, why=OutReason.LEFT_GROUP)
 
     def _activate(self, session: SessionState, node: str, now: float) -> None:
         epoch = session.epochs.get(node, 0) + 1
@@ -232,12 +243,14 @@ class SessionTable:
         *,
         deactivate_at: float | None,
         notify: bool = True,
+        why: OutReason = OutReason.STOPPED,
     ) -> None:
-        """Drop a member; with ``deactivate_at``, tell it (the peer is still there)."""
+        """Drop a member; with ``deactivate_at``, tell it why (the peer is still there)."""
         del session.members[member.node]
         channel = member.channel
         if deactivate_at is not None and not channel.broken:
-            self._channels.send(member.node, channel, FrameKind.DEACTIVATE, None, deactivate_at)
+            deactivate = FrameKind.DEACTIVATE
+            self._channels.send(member.node, channel, deactivate, why.value, deactivate_at)
             session.closing[(member.node, member.epoch)] = channel
         else:
             channel.closed = True
@@ -351,10 +364,8 @@ class SessionTable:
 
     def channel_broken(self, target: str, channel: Channel, now: float) -> None:
         """``target`` never acknowledged: it is gone from this channel's session. One
-        heard from meanwhile lives, and left our frames unacknowledged because it no
-        longer knows the session (it ended its role while we could not reach it, and
-        its LEFT was lost): if it still satisfies the definition, it is asked afresh,
-        as after its LEFT."""
+        heard from meanwhile no longer knows the session (it ended its role, and its
+        LEFT was lost): if it still matches, it is asked afresh, as after its LEFT."""
         session = self._sessions.get(channel.session)
         if session is None:
             return
@@ -372,10 +383,7 @@ class SessionTable:
     # ------------------------------------------------------------------ introspection
 
     def _live(self, sid: str) -> SessionState | None:
-        prefix, _, number = str(sid).rpartition("#")
-        if prefix != self._node_id or not number.isdigit():
-            return None
-        session = self._sessions.get(int(number))
+        session = self._sessions.get(session_number(sid, self._node_id))
         return None if session is None or session.stopped else session
 
     def role_of(self, sid: str) -> Initiator | None:
@@ -389,8 +397,4 @@ class SessionTable:
 
     def counts(self) -> dict[str, int]:
         """Sizes of the per-session structures (all 0 once everything is stopped)."""
-        return {
-            "sessions": len(self._sessions),
-            "members": sum(len(s.members) for s in self._sessions.values()),
-            "closing_channels": sum(len(s.closing) for s in self._sessions.values()),
-        }
+        return session_counts(self._sessions.values())

@@ -8,6 +8,7 @@ it, from the properties held then, and kept up to date by the view from then on.
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Iterable, Mapping
 from typing import Any
 
@@ -15,6 +16,8 @@ from objectplaces.core.groups import DefinitionLike, GroupDefinition
 from objectplaces.core.spatial import GridIndex, RunningMax
 
 __all__ = ["ViewIndex"]
+
+log = logging.getLogger("objectplaces")
 
 
 class ViewIndex:
@@ -61,10 +64,15 @@ class ViewIndex:
         """Nodes that may satisfy ``definition``: the index's neighbours, or everyone.
 
         Only a declarative definition states its reach; any other callable is opaque
-        and must be tried on every node in the view.
+        and must be tried on every node in the view, and so is a definition whose
+        reach fails (a subclass's bug must cost speed, never the node: logged).
         """
         if isinstance(definition, GroupDefinition):
-            reach = definition.reach(own, self._max_of)
+            try:
+                reach = definition.reach(own, self._max_of)
+            except Exception:
+                log.exception("group definition %r: reach failed; trying every node", definition)
+                return self._props.keys()
             if reach is not None:
                 position = own.get(reach.position) if reach.centre is None else reach.centre
                 if not isinstance(position, tuple | list) or len(position) != 2:

@@ -54,6 +54,7 @@ class Connector:
         counters: node-wide counters; refusals and failed dials are counted here.
         on_link: runs an accepted link until it closes.
         accepting: whether an inbound connection may start a handshake now.
+        tag: what every member of the fleet shares (a peer with another is refused).
     """
 
     def __init__(
@@ -68,6 +69,7 @@ class Connector:
         counters: dict[str, int],
         on_link: OnLink,
         accepting: Callable[[], bool],
+        tag: str = "",
     ) -> None:
         self.node_id = node_id
         self.address = f"{host}:{port}"
@@ -77,6 +79,9 @@ class Connector:
         self._server_tls = identity.server_context() if identity is not None else None
         self._client_tls = identity.client_context() if identity is not None else None
         self._logged: set[tuple[str, str]] = set()
+        self._tag = tag
+        self.refusals: dict[str, str] = {}
+        """Why peers refused our links lately, by the address dialed (bounded)."""
         self._incarnation = incarnation
         self._options = options
         self._counters = counters
@@ -134,6 +139,7 @@ class Connector:
             max_frame=self._options.max_frame,
             dialed=dialed,
             certified=certified,
+            tag=self._tag,
         )
 
     def _refused(self, refused: Refused) -> None:
@@ -207,8 +213,14 @@ class Connector:
         except ConnectionClosed as exc:
             rcvd = exc.rcvd
             reason = f"{rcvd.code} {rcvd.reason}" if rcvd is not None else "connection lost"
-            log.warning("node %s: %s refused our link: %s", self.node_id, address, reason)
+            self._log_once(
+                address, reason, "node %s: %s refused our link: %s", self.node_id, address, reason
+            )
             self._count("refused_by_peer")
+            self.refusals.pop(address, None)
+            self.refusals[address] = reason  # newest last
+            if len(self.refusals) > _LOGGED_ONCE:
+                del self.refusals[next(iter(self.refusals))]
             return None
         except (OSError, TimeoutError, InvalidHandshake, InvalidURI, DecodeError) as exc:
             log.debug("node %s: cannot reach %s: %r", self.node_id, address, exc)

@@ -85,6 +85,8 @@ class HandshakeMachine:
         dialed: the address dialed (dialer only; names it in refusals).
         certified: the id the peer's TLS certificate names (None on a plain link): a
             hello naming another id is refused, whatever it proves.
+        tag: what every member of the fleet shares (``Hello.tag``): a peer with another
+            tag is refused, the reason naming both.
     """
 
     def __init__(
@@ -101,6 +103,7 @@ class HandshakeMachine:
         max_frame: int,
         dialed: str = "",
         certified: str | None = None,
+        tag: str = "",
     ) -> None:
         if len(nonce) != NONCE_SIZE:
             raise ValueError(f"nonce must be {NONCE_SIZE} bytes, got {len(nonce)}")
@@ -115,6 +118,7 @@ class HandshakeMachine:
         self._max_frame = max_frame
         self._dialed = dialed
         self._certified = certified
+        self._tag = tag
         self._peer: Hello | None = None
         self._expected_mac = b""
         self._outbox: list[bytes] = []
@@ -164,7 +168,7 @@ class HandshakeMachine:
                 self._refuse(CloseCode.PROTOCOL_ERROR, "expected a challenge")
             elif frame.node == self.node_id:
                 self._refuse(CloseCode.POLICY_VIOLATION, f"{self._dialed} is this node itself")
-            elif not self._as_certified(frame.node):
+            elif not self._as_certified(frame.node) or not self._same_tag(frame):
                 pass
             else:
                 self._peer = frame
@@ -187,7 +191,7 @@ class HandshakeMachine:
                 self._refuse(CloseCode.PROTOCOL_ERROR, "expected a hello")
             elif frame.node == self.node_id:
                 self._refuse(CloseCode.POLICY_VIOLATION, f"node id {frame.node!r} is this node's")
-            elif not self._as_certified(frame.node):
+            elif not self._as_certified(frame.node) or not self._same_tag(frame):
                 pass
             else:
                 self._peer = frame
@@ -224,6 +228,17 @@ class HandshakeMachine:
         )
         return False
 
+    def _same_tag(self, hello: Hello) -> bool:
+        """Whether the peer's fleet tag is ours (refuses the handshake if not)."""
+        if hello.tag == self._tag:
+            return True
+        self._refuse(
+            CloseCode.POLICY_VIOLATION,
+            f"another fleet: {hello.node} runs {hello.tag!r}, {self.node_id} runs {self._tag!r}",
+            "refused_tag",
+        )
+        return False
+
     def _hello(self, *, challenge: bool) -> bytes:
         return encode_hello(
             challenge=challenge,
@@ -231,6 +246,7 @@ class HandshakeMachine:
             address=self._address,
             incarnation=self._incarnation,
             nonce=self._nonce,
+            tag=self._tag,
         )
 
     def _decode(self, data: str | bytes) -> TransportFrame | None:

@@ -58,12 +58,14 @@ __all__ = [
     "parse_address",
 ]
 
-PROTOCOL_VERSION: Final = 1
+PROTOCOL_VERSION: Final = 2
 NONCE_SIZE: Final = 16
 HELLO, CHALLENGE, AUTH, WELCOME, GOSSIP, SUBSCRIBE, BATCH = range(
     codec.FIRST_TRANSPORT_TYPE, codec.FIRST_TRANSPORT_TYPE + 7
 )
 _MAX_ID: Final = 256
+MAX_TAG: Final = 128
+"""Characters of a fleet tag at most (``Hello.tag``)."""
 _MAX_GOSSIP: Final = 4096
 _MAX_CELLS: Final = 1 << 16
 
@@ -83,6 +85,9 @@ class Hello:
     address: str
     incarnation: int
     nonce: bytes
+    tag: str = ""
+    """What the sender's application says every member of its fleet shares (e.g. the
+    digest of the AGVs' layout); a peer with another tag is refused."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -149,11 +154,11 @@ def _pack(frame: list[Any]) -> bytes:
 
 
 def encode_hello(
-    *, challenge: bool, node: str, address: str, incarnation: int, nonce: bytes
+    *, challenge: bool, node: str, address: str, incarnation: int, nonce: bytes, tag: str = ""
 ) -> bytes:
     """Encode a hello, or with ``challenge=True`` the listener's answer to one."""
     code = CHALLENGE if challenge else HELLO
-    return _pack([code, PROTOCOL_VERSION, node, address, incarnation, nonce])
+    return _pack([code, PROTOCOL_VERSION, node, address, incarnation, nonce, tag])
 
 
 def encode_auth(mac: bytes, *, welcome: bool = False) -> bytes:
@@ -223,15 +228,19 @@ def _decode_hello(frame: list[Any]) -> Hello:
         raise VersionMismatch(
             f"protocol version {version!r:.40} not supported (this node speaks {PROTOCOL_VERSION})"
         )
-    if len(frame) != 6:
-        raise DecodeError(f"hello has {len(frame)} fields, expected 6")
+    if len(frame) != 7:
+        raise DecodeError(f"hello has {len(frame)} fields, expected 7")
     parse_address(frame[3])
+    tag = frame[6]
+    if not isinstance(tag, str) or len(tag) > MAX_TAG:
+        raise DecodeError(f"a hello's tag must be text of at most {MAX_TAG} characters")
     return Hello(
         frame[0] == CHALLENGE,
         _node(frame[2]),
         frame[3],
         _uint(frame[4], "incarnation"),
         _bytes(frame[5], "nonce", NONCE_SIZE),
+        tag,
     )
 
 

@@ -1,8 +1,7 @@
 """The WebSocket mesh: every node linked to every other, over authenticated WebSockets.
 
-Links are mutual TLS (``wss://``) when the node has a certified identity, and the id
-of a peer is its certificate's; a revoked certificate's links close within
-``REVOCATION_CHECK`` seconds of the fleet's revocation list changing.
+Links are mutual TLS (``wss://``) with a certified identity, a peer's id its
+certificate's; a revoked certificate's links close within ``REVOCATION_CHECK`` s.
 
 This module is the asyncio shell; it moves bytes and keeps the sockets. The decisions
 live in sans-I/O parts, each tested alone:
@@ -80,6 +79,7 @@ class WebSocketMesh:
         seeds: Iterable[str] = (),
         options: MeshOptions | None = None,
         incarnation: int,
+        tag: str = "",
     ) -> None:
         try:
             host, port = parse_address(listen)
@@ -101,6 +101,7 @@ class WebSocketMesh:
             counters=self.counters,
             on_link=self._run_link,
             accepting=lambda: not self._closing and len(self._all_links) < self.options.max_links,
+            tag=tag,
         )
         self._driver: NodeDriver | None = None
         self._opened = False
@@ -195,6 +196,10 @@ class WebSocketMesh:
     def peers(self) -> list[str]:
         """Peers with a link up now, sorted."""
         return sorted(self._links)
+
+    def refusals(self) -> dict[str, str]:
+        """Why peers refused our links lately, by the address dialed."""
+        return dict(self._connector.refusals)
 
     def peer_stats(self) -> dict[str, PeerStats]:
         """Traffic counters of every remembered peer that has been linked, by id."""

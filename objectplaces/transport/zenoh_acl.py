@@ -13,7 +13,7 @@ in: put                   ``p/props/*/e``, ``p/props/*/e/left``,          what X
                           ``p/all/e``, ``p/to/*/e``                       sends: its own keys
 in: declare_subscriber    ``p/props/**``, ``p/all/*``, ``p/to/e/*``       cells, broadcasts,
                                                                          its own inbox
-in: liveliness_token      ``p/alive/e/*``                                its own token
+in: liveliness_token      ``p/alive/e/*/*``                              its own token
 in: declare_queryable     ``p/who/*/e``                                  its own queryables
 in: query                 ``p/who/**``                                   asking late
 in: liveliness sub/query  ``p/alive/**``                                 who is alive
@@ -138,7 +138,7 @@ def _own_rules(p: str, node: str) -> list[dict[str, Any]]:
             [f"{p}/props/*/{e}", f"{p}/props/*/{e}/left", f"{p}/all/{e}", f"{p}/to/*/{e}"],
         ),
         _rule(f"{node} inbox", "ingress", ["declare_subscriber"], [f"{p}/to/{e}/*"]),
-        _rule(f"{node} token", "ingress", ["liveliness_token"], [f"{p}/alive/{e}/*"]),
+        _rule(f"{node} token", "ingress", ["liveliness_token"], [f"{p}/alive/{e}/*/*"]),
         _rule(f"{node} answers", "ingress", ["declare_queryable"], [f"{p}/who/*/{e}"]),
         _rule(f"{node} reads", "egress", ["put"], [f"{p}/to/{e}/*"]),
     ]

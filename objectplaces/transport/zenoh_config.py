@@ -37,13 +37,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
-import zenoh
-
 from objectplaces.core import codec
 from objectplaces.core.errors import LocalProtocolError
 from objectplaces.security.identity import Identity
 from objectplaces.security.secrets import derive_key
 from objectplaces.transport.zenoh_alive import TOKEN_GRACE
+from objectplaces.transport.zenoh_lib import zenoh
 
 __all__ = [
     "PEER_SCOUTING",

@@ -17,11 +17,11 @@ import asyncio
 from typing import Any, Final
 
 import msgpack
-import zenoh
 
 from objectplaces.transport.routing import Cell
 from objectplaces.transport.zenoh_inbox import ZenohInbox, direct
 from objectplaces.transport.zenoh_keys import FleetKeys
+from objectplaces.transport.zenoh_lib import zenoh
 from objectplaces.transport.zenoh_membership import QUERY_TIMEOUT, Membership
 
 __all__ = ["ASK_AGAIN_AFTER", "Declared"]

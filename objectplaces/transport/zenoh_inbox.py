@@ -27,17 +27,17 @@ from collections.abc import Callable
 from typing import Any, TypeVar
 
 import msgpack
-import zenoh
 
 from objectplaces.transport.routing import Cell
 from objectplaces.transport.zenoh_keys import FleetKeys
+from objectplaces.transport.zenoh_lib import zenoh
 
 __all__ = ["RING_CAPACITY", "Item", "ZenohInbox", "batched", "direct"]
 
 Item = tuple[Any, ...]
 """``("frame", source, data, cell)`` (cell: where a property update was published, else
-None), ``("alive" | "gone", node, incarnation)``,
-``("answer", node, incarnation, query)`` (a token up, answered to liveliness query
+None), ``("alive" | "gone", node, incarnation, tag)``,
+``("answer", node, incarnation, tag, query)`` (a token up, answered to liveliness query
 number ``query``) or ``("query", asker, cells)`` (cells None: the asker hears everything)."""
 
 _MAX_CELLS = 4096

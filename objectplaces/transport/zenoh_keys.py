@@ -10,7 +10,8 @@ Every key of a fleet starts with ``objectplaces/<fleet>``. Below it:
 - ``all/<node>``: a broadcast of ``node`` (every node hears ``all/*``).
 - ``to/<target>/<source>``: a frame for one node (session channels, snapshots); each
   node hears ``to/<itself>/*``.
-- ``alive/<node>/<incarnation>``: a node's liveliness token.
+- ``alive/<node>/<incarnation>/<tag>``: a node's liveliness token; the tag is what its
+  application says every member shares (e.g. its layout's digest; ``-`` for none).
 - ``who/<cx>,<cy>/<node>`` (or ``who/none/<node>`` before it has a cell): the node's
   queryable in each cell it publishes in, asked by a node that starts hearing that cell.
 
@@ -33,6 +34,7 @@ Cell = tuple[int, int]
 _SAFE: Final = re.compile(r"[A-Za-z0-9_.:@+=-]")
 _FLEET: Final = re.compile(r"[A-Za-z0-9_.-]{1,64}")
 _NO_CELL: Final = "none"
+_NO_TAG: Final = "-"
 _PARSED_KEYS: Final = 4096
 """Sample keys whose reading a node remembers: a node hears few distinct keys (one per
 sender and kind), and reading one costs microseconds on every sample otherwise."""
@@ -104,14 +106,16 @@ class FleetKeys:
         node: this node's id.
     """
 
-    __slots__ = ("_me", "_parsed", "node", "prefix")
+    __slots__ = ("_me", "_parsed", "_tag", "node", "prefix", "tag")
 
-    def __init__(self, fleet: str, node: str) -> None:
+    def __init__(self, fleet: str, node: str, tag: str = "") -> None:
         if not _FLEET.fullmatch(fleet):
             raise LocalProtocolError(f"a fleet name is 1-64 of [A-Za-z0-9_.-], got {fleet!r}")
         self.prefix = f"objectplaces/{fleet}"
         self.node = node
+        self.tag = tag
         self._me = escape_id(node)
+        self._tag = escape_id(tag) if tag else _NO_TAG
         self._parsed: dict[str, Inbound | None] = {}
 
     # ------------------------------------------------------------------ what we put
@@ -131,7 +135,7 @@ class FleetKeys:
 
     def alive(self, incarnation: int) -> str:
         """Our liveliness token for this run."""
-        return f"{self.prefix}/alive/{self._me}/{incarnation}"
+        return f"{self.prefix}/alive/{self._me}/{incarnation}/{self._tag}"
 
     def who(self, cell: Cell | None) -> str:
         """Our queryable while we publish in ``cell`` (None: in no cell)."""
@@ -161,7 +165,7 @@ class FleetKeys:
 
     def alive_all(self) -> str:
         """Every node's liveliness token."""
-        return f"{self.prefix}/alive/*/*"
+        return f"{self.prefix}/alive/*/*/*"
 
     def who_in(self, cell: Cell | None) -> str:
         """The queryables of the nodes publishing in ``cell`` (None: in no cell)."""
@@ -215,16 +219,18 @@ class FleetKeys:
         source = unescape_id(sender)
         return None if source is None else Inbound(kind, source, cell)
 
-    def parse_alive(self, key: str) -> tuple[str, int] | None:
-        """Node and incarnation of a liveliness token's key; None if it is none of ours."""
+    def parse_alive(self, key: str) -> tuple[str, int, str] | None:
+        """Node, incarnation and tag of a liveliness token's key; None if it is none of
+        ours."""
         rest = _below(key, self.prefix)
         if rest is None:
             return None
         chunks = rest.split("/")
-        if len(chunks) != 3 or chunks[0] != "alive" or not chunks[2].isdigit():
+        if len(chunks) != 4 or chunks[0] != "alive" or not chunks[2].isdigit():
             return None
         node = unescape_id(chunks[1])
-        return None if node is None else (node, int(chunks[2]))
+        tag = "" if chunks[3] == _NO_TAG else unescape_id(chunks[3])
+        return None if node is None or tag is None else (node, int(chunks[2]), tag)
 
 
 def _below(key: str, prefix: str) -> str | None:

@@ -1,5 +1,9 @@
 """Who is in the fleet, from Zenoh's liveliness tokens (asyncio).
 
+A token also carries its node's fleet tag (``FleetKeys``): a node whose tag is not ours
+is of another fleet (another layout, say). It is no member; the transport drops what it
+sends (``foreign``), and ``refusals`` says why, naming both tags, once per node.
+
 Every node holds the token ``alive/<node>/<incarnation>`` while its session lives and
 hears every token of its fleet. A token that appears is a node that joined (a newer
 incarnation: a restart, and the earlier run leaves every group); a token that goes and
@@ -14,17 +18,22 @@ The decisions are ``AliveTable``'s; this module declares, queries and keeps the 
 from __future__ import annotations
 
 import asyncio
+import logging
 from collections.abc import Callable
 from typing import Any
-
-import zenoh
 
 from objectplaces.transport.base import NodeDriver
 from objectplaces.transport.zenoh_alive import TOKEN_GRACE, AliveTable, Change
 from objectplaces.transport.zenoh_inbox import ZenohInbox
 from objectplaces.transport.zenoh_keys import FleetKeys
+from objectplaces.transport.zenoh_lib import zenoh
 
 __all__ = ["QUERY_TIMEOUT", "RECONCILE_EVERY", "Membership"]
+
+log = logging.getLogger("objectplaces.zenoh")
+
+_MAX_FOREIGN = 1024
+"""Nodes of another fleet tag remembered at most (then forgotten, and told again)."""
 
 RECONCILE_EVERY = 3.0
 """Seconds between two liveliness queries of every token up: a token report lost while
@@ -64,6 +73,12 @@ class Membership:
         self._reconcile_timer: asyncio.TimerHandle | None = None
         self._changed = asyncio.Event()
         self._closed = False
+        self.foreign: set[str] = set()
+        """Nodes whose token has another fleet tag: what they send is dropped."""
+        self.refusals: dict[str, str] = {}
+        """Why each of ``foreign`` is no member."""
+        self._incarnation: int | None = None
+        self._twins: dict[int, float] = {}  # another run's token of our own id: since when
 
     def attach(self, driver: NodeDriver) -> None:
         """Connect the driver of the node machine that hears of arrivals and departures."""
@@ -75,6 +90,7 @@ class Membership:
         Again on a new session (``suspend`` first): the tokens already known stay."""
         self.suspend()
         self._session, self._inbox = session, inbox
+        self._incarnation = incarnation
         liveliness = session.liveliness()
         declared = [
             liveliness.declare_subscriber(
@@ -122,22 +138,64 @@ class Membership:
 
     # ------------------------------------------------------------------ reports
 
-    def token_up(self, node: str, incarnation: int) -> None:
-        """Zenoh reported a token of ``node``'s run ``incarnation``."""
-        self._new_run(node, self._table.token_up(node, incarnation))
+    def twin_up_for(self) -> float | None:
+        """Seconds a token of our own id but of an earlier run has been up (None: none).
 
-    def answered(self, node: str, incarnation: int, query: int) -> None:
+        A run that crashed and was started again sees its old token until the lease
+        runs out; one that stays up longer is another process with this id, which was
+        there first (the later run gives way: an earlier one sees no twin)."""
+        if not self._twins:
+            return None
+        return asyncio.get_running_loop().time() - min(self._twins.values())
+
+    def token_up(self, node: str, incarnation: int, tag: str = "") -> None:
+        """Zenoh reported a token of ``node``'s run ``incarnation`` with fleet ``tag``."""
+        if node == self.keys.node:
+            ours = self._incarnation
+            if ours is not None and incarnation < ours:
+                self._twins.setdefault(incarnation, asyncio.get_running_loop().time())
+            return
+        if self._same_fleet(node, tag):
+            self._new_run(node, self._table.token_up(node, incarnation))
+
+    def answered(self, node: str, incarnation: int, tag: str, query: int) -> None:
         """Liveliness query number ``query`` found this token up."""
-        self._new_run(node, self._table.answered(node, incarnation, query))
+        if node == self.keys.node:
+            return  # a twin of ours is seen by its own report (``token_up``)
+        if self._same_fleet(node, tag):
+            self._new_run(node, self._table.answered(node, incarnation, query))
 
     def token_down(self, node: str, incarnation: int) -> None:
         """Zenoh reported that the token of ``node``'s run ``incarnation`` went."""
+        if node == self.keys.node:
+            self._twins.pop(incarnation, None)
+            return
+        if node in self.foreign:
+            return
         loop = asyncio.get_running_loop()
         change = self._table.token_down(node, incarnation, loop.time(), self._queries)
         if change is Change.MISSING:
             loop.call_later(self._table.grace, self._expire)
 
     # ------------------------------------------------------------------ inside
+
+    def _same_fleet(self, node: str, tag: str) -> bool:
+        """Whether ``node``'s token has our tag; if not, it is foreign from now on."""
+        ours = self.keys.tag
+        if tag == ours:
+            self.foreign.discard(node)  # a run of it with our tag
+            self.refusals.pop(node, None)
+            return True
+        if node not in self.foreign:
+            if len(self.foreign) >= _MAX_FOREIGN:
+                self.foreign.clear()
+                self.refusals.clear()
+            self.foreign.add(node)
+            reason = f"another fleet: {node} runs {tag!r}, {self.keys.node} runs {ours!r}"
+            self.refusals[node] = reason
+            self._count("refused_tag")
+            log.warning("node %s: %s", self.keys.node, reason)
+        return False
 
     def _new_run(self, node: str, change: Change) -> None:
         if change is Change.RESTARTED and self._driver is not None:

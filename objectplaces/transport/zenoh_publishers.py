@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from collections import OrderedDict
 
-import zenoh
+from objectplaces.transport.zenoh_lib import zenoh
 
 __all__ = ["PublisherCache"]
 

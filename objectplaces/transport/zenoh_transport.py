@@ -31,8 +31,6 @@ import contextlib
 import logging
 from typing import Protocol
 
-import zenoh
-
 from objectplaces.core.events import Broadcast, Output, Publish, Send, Subscribe
 from objectplaces.security.identity import Identity
 from objectplaces.transport.base import RawNodeDriver
@@ -48,6 +46,7 @@ from objectplaces.transport.zenoh_config import (
 from objectplaces.transport.zenoh_declared import Declared
 from objectplaces.transport.zenoh_inbox import Item, ZenohInbox
 from objectplaces.transport.zenoh_keys import FleetKeys
+from objectplaces.transport.zenoh_lib import zenoh
 from objectplaces.transport.zenoh_membership import Membership
 from objectplaces.transport.zenoh_publishers import PublisherCache
 from objectplaces.transport.zenoh_roster import ROSTER_CHECK, RosterWatch
@@ -88,11 +87,13 @@ class ZenohTransport:
         incarnation: int,
         tls: Identity | None = None,
         secret: bytes | None = None,
+        tag: str = "",
     ) -> None:
         self.node_id = node_id
         self.options = options
         self.incarnation = incarnation
-        self.keys = FleetKeys(options.fleet, node_id)
+        self.keys = FleetKeys(options.fleet, node_id, tag)
+
         self.counters: dict[str, int] = {}
         self._tls = tls
         self._credentials: Credentials | None = (
@@ -338,12 +339,15 @@ class ZenohTransport:
             return
         # Empty: we hear every cell (or no cell yet).
         cells = self._declared.cells if self._declared is not None else frozenset()
-        revoked = self._revoked
+        revoked, foreign = self._revoked, self.membership.foreign
         frames: list[tuple[str, bytes]] = []
         size = outside = 0
         for item in items:
             if revoked and item[1] in revoked:
                 self._count("dropped_revoked")
+                continue
+            if foreign and item[1] in foreign:
+                self._count("dropped_foreign")
                 continue
             if item[0] == "frame":  # nearly every item: the short way
                 if cells and item[3] is not None and item[3] not in cells:
@@ -376,11 +380,11 @@ class ZenohTransport:
 
     def _handle(self, driver: FrameDriver, item: Item) -> None:
         match item:
-            case ("alive", node, incarnation):
-                self.membership.token_up(node, incarnation)
-            case ("answer", node, incarnation, query):
-                self.membership.answered(node, incarnation, query)
-            case ("gone", node, incarnation):
+            case ("alive", node, incarnation, tag):
+                self.membership.token_up(node, incarnation, tag)
+            case ("answer", node, incarnation, tag, query):
+                self.membership.answered(node, incarnation, tag, query)
+            case ("gone", node, incarnation, _tag):
                 self.membership.token_down(node, incarnation)
             case ("query", asker, cells):
                 if self._declared is None or self._declared.should_answer(cells):

@@ -50,7 +50,8 @@ def test_a_waiting_order_is_listed_and_cancelled(tasks_page: tuple[Any, Served])
     row = page.locator(f"#tasks-panel tr[data-task-id='{task_id}']")
     row.wait_for(timeout=5_000)
     assert row.locator("td[data-state]").text_content() == "waiting"
-    assert row.locator("td").nth(1).text_content() == "pick-A1-1"
+    assert row.locator("td[data-creator]").text_content() == "api"
+    assert row.locator("td").nth(2).text_content() == "pick-A1-1"
     assert page.evaluate(CLIPPED_CELLS, "#tasks-panel") == []
     row.locator("button.cancel").click()
     page.wait_for_function(
@@ -74,7 +75,7 @@ def test_a_driving_order_has_no_cancel_and_the_filter_works(
         timeout=30_000,
     )
     row = page.locator(f"tr[data-task-id='{first}']")
-    assert row.locator("td").nth(4).text_content().startswith("agv")
+    assert row.locator("td").nth(5).text_content().startswith("agv")
     assert row.locator("button.cancel").count() == 0
     page.select_option("#tasks-state", "waiting")
     page.wait_for_function(

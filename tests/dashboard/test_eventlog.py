@@ -1,13 +1,20 @@
-"""The operator's log and the fleet watch that feeds it: pure, with ``now`` given."""
+"""The operator's log and the fleet watch that feeds it: pure, with ``now`` given; the
+log on an order store outlives its process."""
 
 from __future__ import annotations
+
+from pathlib import Path
 
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from agv_app.tasks.store import OrderStore
+from dashboard.app import create_app
 from dashboard.eventlog import EventLog
 from dashboard.watch import WAITING_ALARM_S, FleetWatch
+from tests.dashboard.conftest import NetworkSource
+from tests.dashboard.login import logged_in
 
 NODES = {"agv-1", "agv-2", "st:S1"}
 
@@ -118,3 +125,29 @@ def test_pauses_are_logged_with_their_reason_once() -> None:
     watch.observe(2.0, nodes=NODES, statuses={}, paused=True)
     watch.observe(3.0, nodes=NODES, statuses={}, paused=False)
     assert texts(log)[1:] == ["fleet paused: aisle blocked", "fleet resumed by itself"]
+
+
+def test_a_log_on_a_store_keeps_its_events_across_a_restart(tmp_path: Path) -> None:
+    path = tmp_path / "orders.db"
+    with OrderStore.open(path) as store:
+        log = EventLog(history=3, store=store)
+        for i in range(5):
+            log.record(float(i), "info", "fleet", f"event {i}")
+        log.raise_alarm("failed:agv-1", 5.0, "agv-1", "agv-1 failed")
+    with OrderStore.open(path) as store:
+        again = EventLog(history=3, store=store)
+        assert texts(again) == ["event 3", "event 4", "agv-1 failed"]
+        assert [e.seq for e in again.events] == [3, 4, 5]
+        assert again.dropped == 3
+        assert again.alarms == []  # conditions of the run that raised them
+        assert again.record(6.0, "warning", "fleet", "resumed").seq == 6  # none reused
+    with OrderStore.open(path) as store:
+        assert [e.text for e in EventLog(store=store).events][-1] == "resumed"
+
+
+def test_the_dashboard_serves_the_log_it_is_given(tmp_path: Path, source: NetworkSource) -> None:
+    with OrderStore.open(tmp_path / "orders.db") as store:
+        EventLog(store=store).record(1.0, "alarm", "agv-2", "agv-2 failed")
+        client = logged_in(create_app(source, events=EventLog(store=store)))
+        events = client.get("/api/events").json()["events"]
+        assert [(e["severity"], e["text"]) for e in events] == [("alarm", "agv-2 failed")]

@@ -28,7 +28,7 @@ from tests.dashboard.conftest import FailingSource, NetworkSource, TestClient
 from tests.dashboard.login import logged_in
 from tests.dashboard.served import Served
 
-DOCS = Path(__file__).resolve().parents[2] / "docs" / "dashboard.md"
+DOCS = Path(__file__).resolve().parents[2] / "docs" / "rest-api.md"
 HUGE = 1.797e308
 
 
@@ -174,7 +174,7 @@ def test_the_documented_curl_example_works_on_the_demo_fleet() -> None:
     example = re.search(
         r"curl -X POST localhost:8000/api/sessions .*? -d \\\n\s+'(.*?)'", text, re.S
     )
-    assert example is not None, "docs/dashboard.md lost its curl example"
+    assert example is not None, "docs/rest-api.md lost its curl example"
     body = json.loads(example.group(1))
     fleet = demo_source(agvs=12, seed=1)
     client = logged_in(create_app(fleet))

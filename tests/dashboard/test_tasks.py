@@ -14,6 +14,7 @@ from tests.dashboard.login import anonymous, logged_in
 
 TASK_FIELDS = {
     "id",
+    "creator",
     "source",
     "destination",
     "state",

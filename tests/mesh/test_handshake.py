@@ -24,6 +24,7 @@ def machine(
     secret: bytes = SECRET,
     now: float = 0.0,
     certified: str | None = None,
+    tag: str = "",
 ) -> HandshakeMachine:
     return HandshakeMachine(
         node_id=node,
@@ -37,6 +38,7 @@ def machine(
         max_frame=4096,
         dialed="127.0.0.1:7000" if dialing else "",
         certified=certified,
+        tag=tag,
     )
 
 
@@ -87,6 +89,27 @@ def test_ids_that_match_their_certificates_link() -> None:
     assert converse(dialer, listener) == 4
     assert isinstance(dialer.outcome, Established)
     assert isinstance(listener.outcome, Established)
+
+
+def test_a_peer_of_another_fleet_tag_is_refused_naming_both() -> None:
+    newcomer = machine("a", dialing=True, tag="layout:1111")
+    member = machine("b", dialing=False, tag="layout:2222")
+    converse(newcomer, member)
+    assert member.outcome == Refused(
+        1008, "another fleet: a runs 'layout:1111', b runs 'layout:2222'", "refused_tag"
+    )
+    # And the other way round: the listener's challenge carries its tag too.
+    dialer = machine("a", dialing=True, tag="layout:1111")
+    dialer.receive(listener_hello("b", tag="layout:2222"))
+    assert dialer.outcome == Refused(
+        1008, "another fleet: b runs 'layout:2222', a runs 'layout:1111'", "refused_tag"
+    )
+
+
+def listener_hello(node: str, *, tag: str) -> bytes:
+    return encode_hello(
+        challenge=True, node=node, address="127.0.0.1:7001", incarnation=1, nonce=b"n" * 16, tag=tag
+    )
 
 
 def test_a_dialer_without_the_secret_is_refused_and_learns_nothing() -> None:

@@ -86,7 +86,9 @@ def test_a_shrinking_circle_leaves_far_views_and_a_growing_one_arrives_whole() -
 
 
 def test_beats_go_to_the_footprint_so_a_silent_node_stays_alive_there() -> None:
-    net = SimulatedNetwork(seed=4, delay=0.01, cell_size=5.0, beat_interval=0.5)
+    net = SimulatedNetwork(
+        seed=4, delay=0.01, cell_size=5.0, beat_interval=0.5, property_interval=None
+    )
     listener = net.add_node("listener", interest_radius=5.0, footprint_margin=2.0)
     talker = net.add_node("talker", interest_radius=5.0, footprint_margin=2.0)
     place(listener, 0.0, 0.0)

@@ -81,6 +81,10 @@ def test_a_node_without_a_position_finds_the_candidates_near_a_point() -> None:
         groups.circle_meets_box((0.0, -1.5, 12.0, 2.0)),
         groups.circle_meets_box((1, 2, 3, 4), position="pos", radius="r")
         & groups.property_equals("kind", "agv"),
+        groups.property_above("battery", 50),
+        groups.property_below("load_kg", 12.5),
+        groups.property_in("status", ["idle", "charging"]),
+        groups.within(40) & (groups.property_above("battery", 50) | groups.property_in("k", [1])),
     ],
 )
 def test_json_round_trip(defn: groups.GroupDefinition) -> None:
@@ -104,6 +108,13 @@ def test_json_round_trip(defn: groups.GroupDefinition) -> None:
         ({"type": "near", "point": [0, "1"], "distance": 1}, "two numbers"),
         ({"type": "near", "point": [0, 0], "distance": math.nan}, "finite number >= 0"),
         ({"type": "property_equals", "name": "x"}, "needs a 'value'"),
+        ({"type": "property_above", "name": "x"}, "needs a 'value'"),
+        ({"type": "property_below", "name": "x", "value": "3"}, "must be a finite number"),
+        ({"type": "property_above", "name": "x", "value": True}, "must be a finite number"),
+        ({"type": "property_above", "name": "x", "value": math.inf}, "finite number"),
+        ({"type": "property_above", "value": 3}, "non-empty string"),
+        ({"type": "property_in", "name": "x", "values": "ab"}, "needs a list 'values'"),
+        ({"type": "property_in", "name": "x"}, "needs a list 'values'"),
         ({"type": "and", "of": []}, "non-empty list 'of'"),
         ({"type": "circles_overlap", "position": 3}, "non-empty string"),
         ({"type": "circle_meets_box"}, "box must be four numbers within"),

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+from collections.abc import Callable
 from itertools import pairwise
 from typing import Any
 
@@ -40,11 +42,18 @@ def make_order(
     update_id: int = 0,
     released: int | None = None,
     first_sequence: int = 0,
+    actions: dict[int, list[dict[str, Any]]] | None = None,
 ) -> dict[str, Any]:
-    """An order along ``points``; the first ``released`` nodes are the base (all: None)."""
+    """An order along ``points``; the first ``released`` nodes are the base (all: None);
+    ``actions`` by index of the node they are on."""
     base = len(points) if released is None else released
     nodes = [
-        {"nodeId": p, "sequenceId": first_sequence + 2 * i, "released": i < base, "actions": []}
+        {
+            "nodeId": p,
+            "sequenceId": first_sequence + 2 * i,
+            "released": i < base,
+            "actions": (actions or {}).get(i, []),
+        }
         for i, p in enumerate(points)
     ]
     edges: list[dict[str, Any]] = [
@@ -63,6 +72,20 @@ def make_order(
         "nodes": nodes,
         "edges": edges,
     }
+
+
+def action(
+    action_id: str, action_type: str, blocking: str = "HARD", **parameters: Any
+) -> dict[str, Any]:
+    """A node action."""
+    out: dict[str, Any] = {
+        "actionId": action_id,
+        "actionType": action_type,
+        "blockingType": blocking,
+    }
+    if parameters:
+        out["actionParameters"] = [{"key": k, "value": v} for k, v in parameters.items()]
+    return out
 
 
 def instant(serial: str, *actions: tuple[str, str]) -> dict[str, Any]:
@@ -106,4 +129,16 @@ class OneVehicle:
 
     def state(self) -> dict[str, Any]:
         """The state the endpoint would publish now."""
-        return self.endpoint._state().message
+        return self.endpoint.state_now()
+
+    def send(self, subtopic: str, message: Any) -> None:
+        """Hand the endpoint a message, as the bridge does."""
+        self.endpoint.handle(subtopic, json.dumps(message).encode(), now=self.net.now)
+
+    def run_until(self, what: Callable[[], bool], *, within: float) -> float:
+        """Step until ``what()`` holds (virtual seconds, at most ``within``); the time."""
+        for _ in range(round(within / DT)):
+            if what():
+                return self.net.now
+            self.run(DT)
+        raise AssertionError(f"not within {within} virtual seconds")

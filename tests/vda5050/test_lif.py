@@ -7,6 +7,9 @@ import json
 
 from agv_app.layout.elements import Point, Segment, Station
 from agv_app.layout.graph import Layout
+from agv_app.vda5050.actions import ActionBook
+from agv_app.vda5050.charging import ConstantRateBattery
+from agv_app.vda5050.handling import LoadHandling
 from agv_app.vda5050.lif import VEHICLE_TYPE_ID, layout_to_lif, main
 from agv_app.vda5050.order import OrderBook
 from agv_app.vda5050.topics import MANUFACTURER
@@ -54,7 +57,12 @@ def test_an_order_made_from_the_lif_edges_is_accepted() -> None:
     (plan,) = layout_to_lif(layout)["layouts"]
     edges = {(e["startNodeId"], e["endNodeId"]): e["edgeId"] for e in plan["edges"]}
     for path in (["B", "A"], ["A", "B", "C"]):
-        book = OrderBook(layout, MANUFACTURER, "agv-01", last_node_id=path[0])
+        effects = LoadHandling(
+            layout, ConstantRateBattery(), handling_s=5.0, standing_at=lambda: None
+        )
+        book = OrderBook(
+            layout, MANUFACTURER, "agv-01", actions=ActionBook(effects), last_node_id=path[0]
+        )
         order = {
             **header("agv-01"),
             "orderId": "o",
@@ -73,7 +81,7 @@ def test_an_order_made_from_the_lif_edges_is_accepted() -> None:
                 for i, (a, b) in enumerate(itertools.pairwise(path))
             ],
         }
-        assert book.receive(order, at_rest=True) == "accepted"
+        assert book.receive(order, at_rest=True, now=0.0) == "accepted"
 
 
 def test_the_module_prints_the_demo_warehouse(capsys) -> None:

@@ -139,7 +139,7 @@ async def test_bad_orders_are_reported_cancel_stops_and_a_killed_agv_breaks(
                 why=lambda: f"two errors: {p.last_state('agv-02')['errors']}",
             )
             errors = p.last_state("agv-02")["errors"]
-            assert [e["errorType"] for e in errors] == ["validationError", "noRouteError"]
+            assert [e["errorType"] for e in errors] == ["VALIDATION_FAILURE", "NO_ROUTE_TO_TARGET"]
             assert schema_errors("state", p.last_state("agv-02")) == []
 
             path = station_path(p, "agv-02")

@@ -68,13 +68,13 @@ def test_stale_and_unstitched_updates_are_rejected() -> None:
     )
     bad = make_order(v.layout, "agv-01", path[2:], update_id=1, first_sequence=4)
     v.endpoint.handle("order", json.dumps(bad).encode())
-    assert [e["errorType"] for e in v.state()["errors"]] == ["orderUpdateError"]
+    assert [e["errorType"] for e in v.state()["errors"]] == ["START_NODE_OUT_OF_RANGE"]
     again = make_order(v.layout, "agv-01", path, released=2)
     v.endpoint.handle("order", json.dumps(again).encode())  # the same orderUpdateId: ignored
     assert len(v.state()["errors"]) == 1
     other = make_order(v.layout, "agv-01", path, order_id="order-2")
     v.endpoint.handle("order", json.dumps(other).encode())
-    assert [e["errorType"] for e in v.state()["errors"]][-1] == "orderError"
+    assert [e["errorType"] for e in v.state()["errors"]][-1] == "OTHER_ORDER_ACTIVE"
 
 
 def test_malformed_and_impossible_orders_leave_errors_and_the_vehicle_works() -> None:
@@ -93,11 +93,11 @@ def test_malformed_and_impossible_orders_leave_errors_and_the_vehicle_works() ->
     state = v.state()
     assert schema_errors("state", state) == []
     assert [e["errorType"] for e in state["errors"]] == [
-        "validationError",
-        "validationError",
-        "noRouteError",
-        "noRouteError",
-        "noRouteError",
+        "VALIDATION_FAILURE",
+        "VALIDATION_FAILURE",
+        "NO_ROUTE_TO_TARGET",
+        "NO_ROUTE_TO_TARGET",
+        "START_NODE_OUT_OF_RANGE",
     ]
     refs = {r["referenceKey"] for e in state["errors"] for r in e["errorReferences"]}
     assert {"edgeId", "nodeId", "orderId"} <= refs
@@ -159,7 +159,7 @@ def test_cancel_stops_at_the_next_node_it_can_and_clears_the_order() -> None:
     v.endpoint.handle(
         "instantActions", json.dumps(instant("agv-01", ("c2", "cancelOrder"))).encode()
     )
-    assert v.state()["errors"][-1]["errorType"] == "noOrderToCancel"
+    assert v.state()["errors"][-1]["errorType"] == "NO_ORDER_TO_CANCEL"
     back = list(v.layout.shortest_path(v.agv.point, v.home))
     v.endpoint.handle(
         "order", json.dumps(make_order(v.layout, "agv-01", back, order_id="o2")).encode()
@@ -173,6 +173,7 @@ def test_factsheet_and_state_requests_answer_with_valid_messages() -> None:
     out = v.endpoint.handle(
         "instantActions",
         json.dumps(instant("agv-01", ("f", "factsheetRequest"), ("s", "stateRequest"))).encode(),
+        now=0.0,
     )
     kinds = {o.subtopic: o.message for o in out}
     assert set(kinds) == {"factsheet", "state"}
@@ -202,6 +203,6 @@ def test_an_order_and_a_desk_task_never_run_at_once() -> None:
         "order", json.dumps(make_order(v.layout, "agv-01", back, order_id="o2")).encode()
     )
     error = v.state()["errors"][-1]
-    assert error["errorType"] == "orderError"
+    assert error["errorType"] == "OTHER_ORDER_ACTIVE"
     assert "task" in error["errorDescription"]
     assert v.state()["orderId"] == "order-1"

@@ -57,7 +57,7 @@ async def test_hostile_puts_cost_the_sender_never_the_node() -> None:
             intruder.get(f"{PREFIX}/who/**", lambda _r: None, payload=payload)
         tokens = [
             intruder.liveliness().declare_token(f"{PREFIX}/alive/ghost/notanumber"),
-            intruder.liveliness().declare_token(f"{PREFIX}/alive/ghost/1"),
+            intruder.liveliness().declare_token(f"{PREFIX}/alive/ghost/1/-"),
         ]
 
         def refused() -> int:

@@ -65,7 +65,9 @@ def test_parse_reads_kind_and_sender() -> None:
     assert me.parse(other.broadcast()) == Inbound("all", "x y")
     assert me.parse(other.to("me")) == Inbound("to", "x y")
     assert me.parse(other.alive(7)) is None
-    assert me.parse_alive(other.alive(7)) == ("x y", 7)
+    assert me.parse_alive(other.alive(7)) == ("x y", 7, "")
+    tagged = FleetKeys("f", "t", "layout:ab/c d")
+    assert me.parse_alive(tagged.alive(3)) == ("t", 3, "layout:ab/c d")
 
 
 @pytest.mark.parametrize(

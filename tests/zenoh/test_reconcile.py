@@ -78,7 +78,7 @@ async def session_of_a_with_b(a: ZenohNode, b: ZenohNode) -> Recorder:
 
 def flap(a: ZenohNode, b: ZenohNode, kind: str) -> None:
     """Hand ``a`` the report Zenoh gives when ``b``'s token goes ("gone") or is back."""
-    a._transport._on_items([(kind, "b", b._transport.incarnation)])
+    a._transport._on_items([(kind, "b", b._transport.incarnation, "")])
 
 
 async def test_a_token_back_within_the_grace_costs_no_group_its_member(

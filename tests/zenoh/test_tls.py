@@ -264,7 +264,7 @@ async def test_a_revoked_member_is_cut_off_and_refused_afterwards(fleet: Fleet) 
     heard, hear = recorder()
     try:
         again.declare_subscriber(f"{PREFIX}/**", hear)
-        again.liveliness().declare_token(f"{PREFIX}/alive/c/1")
+        again.liveliness().declare_token(f"{PREFIX}/alive/c/1/-")
         again.put(f"{PREFIX}/all/c", forged((7.0, 7.0)))
         a.update_node_property("position", (0.0, 8.0))
         await until(lambda: position_of(b, "a") == (0.0, 8.0), within=WITHIN)

@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from agv_app.tasks import TASK_STATES, TaskBook
+from agv_app.tasks import TASK_STATES, TaskBook, TaskSpec
 
 
 def test_a_task_passes_every_state_with_its_times_and_vehicle() -> None:
@@ -139,3 +139,18 @@ def test_counts_match_the_transitions_and_memory_stays_bounded(
         assert book.open_ids() == open_ids
         assert len(book.records()) <= history + len(open_ids)
     assert book.durations.count == entered["done"]
+
+
+def test_a_task_that_comes_with_its_vehicle_is_driving_at_once() -> None:
+    book = TaskBook()
+    record = book.add_held(TaskSpec("m-1", "p", "d"), "agv-01", now=2.0, creator="master")
+    assert (record.state, record.vehicle, record.creator) == ("driving", "agv-01", "master")
+    assert record.times == {"created": 2.0, "assigned": 2.0, "driving": 2.0}
+    with pytest.raises(ValueError, match="open already"):
+        book.add_held(TaskSpec("m-1", "p", "d"), "agv-02", now=3.0, creator="master")
+    assert book.finish("m-1", now=9.0)
+    book.add_held(TaskSpec("m-2", "p", "d"), "agv-01", now=10.0, creator="master")
+    assert book.withdraw("m-2", now=11.0)
+    assert not book.withdraw("m-2", now=12.0)
+    assert [r.state for r in book.records()] == ["done", "cancelled"]
+    assert book.double_assignments == 0

@@ -132,7 +132,9 @@ def test_a_member_that_stops_matching_is_deactivated_and_its_late_frames_dropped
     called(side.outbox), sent(side.outbox)
     side.place("b", 2, 30.0)
     assert called(side.outbox) == [("out_group", (ParticipantRef("b", "a#1"),))]
-    assert sent(side.outbox) == [("b", ChannelData(True, 1, 1, 1, FrameKind.DEACTIVATE, None))]
+    assert sent(side.outbox) == [
+        ("b", ChannelData(True, 1, 1, 1, FrameKind.DEACTIVATE, "left_group"))
+    ]
     assert side.table.counts() == {"sessions": 1, "members": 0, "closing_channels": 1}
     side.table.on_frame("b", ChannelData(False, 1, 1, 1, FrameKind.ROLE, "vote"), now=0.0)
     assert called(side.outbox) == []  # guarantee 1: never delivered
@@ -186,7 +188,9 @@ def test_a_peer_taken_for_failed_is_deactivated_all_the_same(side: InitiatorSide
     called(side.outbox), sent(side.outbox)
     side.table.peer_gone("b", failed_at=2.0)  # it may only be cut off one way
     assert called(side.outbox) == [("out_group", (ParticipantRef("b", "a#1"),))]
-    assert sent(side.outbox) == [("b", ChannelData(True, 1, 1, 1, FrameKind.DEACTIVATE, None))]
+    assert sent(side.outbox) == [
+        ("b", ChannelData(True, 1, 1, 1, FrameKind.DEACTIVATE, "unreachable"))
+    ]
     assert side.table.counts()["closing_channels"] == 1  # retransmitted until acked
     side.table.on_ack("b", ChannelAck(False, 1, 1, 1), now=2.5)
     assert side.table.counts()["closing_channels"] == 0
