@@ -29,7 +29,7 @@ the wait it serves (:mod:`agv_app.traffic.fifo`), kept across every request aske
 again for the same stretch, so the one that has waited longest wins; a request whose
 age differs from its priority carries it (``"g"``).
 
-Fairness and the wait for locks (docs/traffic.md, "Why no cycle of waits can form" and
+Fairness and the wait for locks (docs/traffic.md, "Why no circle of waits forms" and
 "Bounded waits"):
 
 * A request held up by a *lock* stays pending (``patience`` None), so it keeps its

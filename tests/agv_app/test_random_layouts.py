@@ -43,7 +43,7 @@ def test_two_agvs_at_the_two_docks_swap_them() -> None:
 
 
 # Seeds where, before the longest-waiting request won its conflicts, one AGV lost a
-# single track to newer requests for over 180 s (docs/traffic.md, "Fairness").
+# single track to newer requests for over 180 s (docs/traffic.md, "Bounded waits").
 _STARVED = [
     TwoWayRun(single_track(4, 14.0, "p1n p1s p2n p2s"), 327, 60.0),
     TwoWayRun(single_track(5, 12.0, "p1n p1s p2n p3n p3s"), 4559, 20.0),
