@@ -50,7 +50,7 @@ lint: $(STAMP)
 docs: $(STAMP)
 	$(BIN)/mkdocs build --strict
 
-BENCHMARKS := tuplespace groups mesh fleet dashboard vda5050 tls
+BENCHMARKS := tuplespace groups mesh fleet dashboard vda5050 tls stop
 
 bench: $(STAMP) chromium mosquitto
 	for name in $(BENCHMARKS); do $(BIN)/python -m bench.$$name || exit 1; done

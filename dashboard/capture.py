@@ -17,6 +17,13 @@ from typing import Any
 
 from agv_app.layout import Layout
 from dashboard.source import FleetSource, VehicleView
+from dashboard.stopping import (
+    StopState,
+    fleet_stop_asked,
+    in_service_of,
+    motion_of,
+    stop_state,
+)
 
 __all__ = [
     "COORD_DIGITS",
@@ -81,6 +88,7 @@ class FleetState:
     sessions: Mapping[str, SessionRecord] = field(default_factory=dict)
     nodes: Mapping[str, JSON] = field(default_factory=dict)
     metrics: Mapping[str, float] = field(default_factory=dict)
+    stop: StopState = "running"
 
 
 def _xy(point: Sequence[float]) -> list[float]:
@@ -151,9 +159,10 @@ def vehicle_json(vehicle: VehicleView, cache: PolygonCache | None = None) -> JSO
 
     Returns:
         A dict with ``x, y, heading, length, width, status, task, hull, hull_length,
-        locked, requested``.
+        locked, requested, speed, held, in_service``.
     """
     poly = _polygon if cache is None else cache.polygon
+    speed, held = motion_of(vehicle)
     return {
         "x": round(float(vehicle.x), COORD_DIGITS),
         "y": round(float(vehicle.y), COORD_DIGITS),
@@ -166,6 +175,9 @@ def vehicle_json(vehicle: VehicleView, cache: PolygonCache | None = None) -> JSO
         "hull_length": round(float(vehicle.hull_length), COORD_DIGITS),
         "locked": [poly(p) for p in vehicle.locked],
         "requested": [poly(p) for p in vehicle.requested],
+        "speed": None if math.isnan(speed) else round(speed, 2),
+        "held": held,
+        "in_service": in_service_of(vehicle),
     }
 
 
@@ -230,7 +242,8 @@ def capture(
     """
     if cache is not None:
         cache.next_generation()
-    vehicles = {v.id: vehicle_json(v, cache) for v in source.vehicles()}
+    views = source.vehicles()
+    vehicles = {v.id: vehicle_json(v, cache) for v in views}
     metrics = {str(k): float(v) for k, v in source.metrics().items()}
     return FleetState(
         now=float(source.now),
@@ -240,4 +253,5 @@ def capture(
         sessions=dict(sessions),
         nodes={k: dict(v) for k, v in nodes.items()},
         metrics=metrics,
+        stop=stop_state(fleet_stop_asked(source), views),
     )

@@ -43,7 +43,7 @@ def snapshot_message(state: FleetState, layout: JSON, *, seq: int = 0) -> JSON:
         "type": "snapshot",
         "seq": seq,
         "now": round(state.now, COORD_DIGITS),
-        "sim": {"paused": state.paused, "speed": state.speed},
+        "sim": {"paused": state.paused, "speed": state.speed, "stop": state.stop},
         "layout": layout,
         "vehicles": {k: state.vehicles[k] for k in sorted(state.vehicles)},
         "sessions": [state.sessions[k].as_json() for k in sorted(state.sessions)],
@@ -66,8 +66,8 @@ def diff(old: FleetState, new: FleetState, *, include_nodes: bool = True) -> JSO
         an empty dict when nothing changed (time alone does not count).
     """
     out: JSON = {}
-    if (old.paused, old.speed) != (new.paused, new.speed):
-        out["sim"] = {"paused": new.paused, "speed": new.speed}
+    if (old.paused, old.speed, old.stop) != (new.paused, new.speed, new.stop):
+        out["sim"] = {"paused": new.paused, "speed": new.speed, "stop": new.stop}
 
     vehicles: JSON = {}
     locks: JSON = {}

@@ -10,7 +10,7 @@ from __future__ import annotations
 import base64
 import math
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -200,6 +200,11 @@ class VehicleOut(_Out):
     hull_length: float = Field(description="radius of its collision-avoidance circle")
     locked: list[Polygon]
     requested: list[Polygon]
+    speed: float | None = Field(
+        default=None, description="m/s as the vehicle reports it (None: not reported)"
+    )
+    held: bool = Field(default=False, description="it reports holding for an operator's stop")
+    in_service: bool = Field(default=True, description="it reports taking tasks")
 
 
 class TaskIn(_In):
@@ -238,6 +243,10 @@ class SimOut(_Out):
     now: float = Field(description="simulated seconds since start")
     paused: bool
     speed: float = Field(description="simulated seconds per wall-clock second")
+    stop: Literal["running", "stopping", "stopped"] = Field(
+        default="running",
+        description="the fleet stop as the vehicles report it: stopped once every one stands",
+    )
 
 
 class SimActionIn(_In):

@@ -27,6 +27,7 @@ from dashboard.membership import MembershipHistory
 from dashboard.poll import POLL_ROLE, RESPONDER_ROLE, PollResponder, poll_factory
 from dashboard.schemas import SimOut
 from dashboard.source import FleetSource, InitiatorFactory, NodeHandle
+from dashboard.stopping import fleet_stop_asked, stop_state
 from dashboard.watch import FleetWatch
 from objectplaces import Initiator, Session
 
@@ -191,7 +192,12 @@ class DashboardState:
     def sim(self) -> SimOut:
         """The clock state."""
         s = self.source
-        return SimOut(now=float(s.now), paused=bool(s.paused), speed=float(s.speed))
+        return SimOut(
+            now=float(s.now),
+            paused=bool(s.paused),
+            speed=float(s.speed),
+            stop=stop_state(fleet_stop_asked(s), s.vehicles()),
+        )
 
     # ---- changing (the driver and mutating handlers) ---------------------------------
 

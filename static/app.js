@@ -35,7 +35,8 @@ const COLORS = {
   status: {
     idle: "#7f8c99", driving: "#4aa3ff", moving: "#4aa3ff", waiting: "#ff9f43",
     blocked: "#ff9f43", loading: "#00d2d3", unloading: "#00d2d3", charging: "#b388ff",
-    failed: "#ff5e57", crashed: "#ff5e57", other: "#48dbfb",
+    failed: "#ff5e57", crashed: "#ff5e57", stopping: "#f368e0", stopped: "#f368e0",
+    "out-of-service": "#576574", other: "#48dbfb",
   },
   lockedFill: "rgba(46, 204, 113, 0.22)",
   lockedStroke: "rgba(46, 204, 113, 0.85)",
@@ -97,7 +98,7 @@ const state = {
   sessions: new Map(), // id -> record
   nodes: new Map(), // id -> {messages, bytes, ...}
   metrics: {},
-  sim: { paused: false, speed: 1 },
+  sim: { paused: false, speed: 1, stop: "running" },
   now: 0,
   messages: 0,
   lastDeltaAt: 0,
@@ -752,10 +753,11 @@ canvas.addEventListener(
 async function simAction(path, body) {
   const sim = await post(path, body);
   if (sim) {
-    state.sim = { paused: sim.paused, speed: sim.speed };
+    state.sim = { paused: sim.paused, speed: sim.speed, stop: sim.stop || "running" };
     state.panelsDirty = true;
     updatePanels();
-    say(sim.paused ? "fleet paused" : `fleet running at ${sim.speed}×`);
+    if (state.sim.stop !== "running") say(state.sim.stop === "stopped" ? "fleet stopped" : "fleet stop asked");
+    else say(sim.paused ? "fleet paused" : `fleet running at ${sim.speed}×`);
   }
 }
 
@@ -842,6 +844,7 @@ const el = {
   metrics: document.getElementById("metrics-list"),
   metricsMore: document.getElementById("metrics-more"),
   pause: document.getElementById("btn-pause"),
+  fleetStop: document.getElementById("fleet-stop"),
   resume: document.getElementById("btn-resume"),
 };
 
@@ -850,7 +853,16 @@ const metricRows = new Map();
 function updatePanels() {
   if (!state.panelsDirty) return;
   state.panelsDirty = false;
-  setText(el.clock, fmtTime(state.now) + (state.sim.paused ? " (paused)" : ""));
+  const stop = state.sim.stop || "running";
+  const clockNote = stop !== "running" ? ` (${stop})` : state.sim.paused ? " (paused)" : "";
+  setText(el.clock, fmtTime(state.now) + clockNote);
+  // What the vehicles report, never what was asked: "stopped" once every one stands.
+  el.fleetStop.dataset.stop = stop;
+  if (stop === "stopped") setText(el.fleetStop, "fleet stopped: every vehicle stands");
+  else if (stop === "stopping") {
+    const moving = [...state.vehicles.values()].filter((v) => !(v.speed === 0 && (v.held || v.status === "failed")));
+    setText(el.fleetStop, `fleet stopping: ${moving.length} vehicle${moving.length === 1 ? "" : "s"} still moving`);
+  } else setText(el.fleetStop, "");
   setText(el.vehicleCount, String(state.vehicles.size));
   setText(el.sessionCount, String(state.sessions.size));
   el.pause.classList.toggle("active", state.sim.paused);
@@ -1059,6 +1071,12 @@ window.__dashboard = {
   vehicles() {
     const out = {};
     for (const v of state.vehicles.values()) out[v.id] = [v.x, v.y, v.status, v.task];
+    return out;
+  },
+  /** {id: [speed, held]} of every AGV, as it reports them. */
+  motion() {
+    const out = {};
+    for (const v of state.vehicles.values()) out[v.id] = [v.speed, v.held];
     return out;
   },
   /** {id: members} of every live session. */

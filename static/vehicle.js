@@ -1,11 +1,16 @@
 // The vehicle panel: click an AGV on the floor plan (app.js sends "vehicle-select") and
 // GET /api/vehicles/{id}/detail twice a second shows its status, task, route, locks,
 // wait, sessions and traffic; the rest of its route is drawn on the map while selected.
+// Opened, #vehicle-space-box lists what the AGV's tuplespace holds (its locks live
+// there): GET /api/nodes/{id}/space, the first SPACE_LIMIT tuples, with each refresh.
+// The buttons of #vehicle-actions (Stop, Resume, Out of service, In service) POST to
+// /api/vehicles/{id}/<action>; the facts show what the vehicle then reports.
 // Hooks: #vehicle-panel, #vehicle-id, #vehicle-facts dd[data-fact], #vehicle-initiated,
-// #vehicle-participating, #vehicle-traffic, #vehicle-close, #vehicle-status, and
-// window.__vehiclePanel.
+// #vehicle-participating, #vehicle-traffic, #vehicle-close, #vehicle-status,
+// #vehicle-actions button[data-action], and window.__vehiclePanel.
 
 const REFRESH_MS = 500;
+const SPACE_LIMIT = 50;
 // One colour for the drawing and the legend's swatch: the page's --route.
 const ROUTE_COLOR = getComputedStyle(document.documentElement).getPropertyValue("--route").trim() || "#c6ff00";
 
@@ -16,6 +21,9 @@ const initiated = document.getElementById("vehicle-initiated");
 const participating = document.getElementById("vehicle-participating");
 const traffic = document.getElementById("vehicle-traffic");
 const status = document.getElementById("vehicle-status");
+const spaceBox = document.getElementById("vehicle-space-box");
+const spaceList = document.getElementById("vehicle-space");
+const spaceNote = document.getElementById("vehicle-space-note");
 
 const selection = { id: null, detail: null, drawnPoints: 0, generation: 0 };
 
@@ -85,6 +93,9 @@ function render(d) {
   );
   setFact("locks", "locks", `${d.locked.length} locked, ${d.requested.length} requested`);
   setFact("hull", "hull length", `${d.hull_length.toFixed(2)} m`);
+  const speed = d.speed == null ? "–" : `${d.speed.toFixed(2)} m/s`;
+  setFact("motion", "motion", d.held ? `${speed}, held (stopped by the operator)` : speed);
+  setFact("service", "service", d.in_service === false ? "out of service" : "in service");
   const w = d.wait;
   setFact("wait", "wait", w.waiting ? `${fmtSeconds(w.seconds)} (since ${fmtSeconds(w.since)})` : "not waiting");
   const t = d.traffic;
@@ -133,10 +144,75 @@ async function refresh() {
     selection.detail = data;
     render(data);
     say("");
+    if (spaceBox.open) refreshSpace(id, generation);
   } else {
     selection.detail = null;
     say(data && data.detail ? `${id}: ${data.detail}` : `${id}: ${response.status}`, true);
   }
+}
+
+// What the AGV's node's tuplespace holds; a node in another process says why not.
+async function refreshSpace(id, generation) {
+  let response;
+  try {
+    response = await fetch(`/api/nodes/${encodeURIComponent(id)}/space?limit=${SPACE_LIMIT}`);
+  } catch {
+    return;
+  }
+  const data = await response.json().catch(() => null);
+  if (generation !== selection.generation) return;
+  if (!response.ok || !data) {
+    spaceList.replaceChildren();
+    spaceNote.textContent = data && data.detail ? data.detail : String(response.status);
+    return;
+  }
+  const shown = data.tuples.length;
+  spaceNote.textContent = shown < data.total ? `${shown} of ${data.total} tuples` : `${data.total} tuples`;
+  const texts = data.tuples.map((t) => JSON.stringify(t));
+  if (texts.join("\n") === [...spaceList.children].map((li) => li.textContent).join("\n")) return;
+  spaceList.replaceChildren(
+    ...texts.map((text) => {
+      const li = document.createElement("li");
+      li.textContent = text;
+      return li;
+    }),
+  );
+}
+
+spaceBox.addEventListener("toggle", () => {
+  if (spaceBox.open && selection.id) refreshSpace(selection.id, selection.generation);
+});
+
+// Ask the fleet to stop, resume, take out of or bring into service the selected AGV.
+async function act(action) {
+  const id = selection.id;
+  if (!id) return;
+  let response;
+  try {
+    response = await fetch(`/api/vehicles/${encodeURIComponent(id)}/${action}`, {
+      method: "POST",
+      headers: { "Content-Type": "application/json" },
+      body: "{}",
+    });
+  } catch (err) {
+    say(`request failed: ${err.message}`, true);
+    return;
+  }
+  let data = null;
+  try {
+    data = await response.json();
+  } catch {
+    data = null;
+  }
+  if (!response.ok) {
+    say(`${action}: ${data && data.detail ? data.detail : response.status}`, true);
+    return;
+  }
+  say(`${id}: ${action.replaceAll("-", " ")} asked`); // the facts show what it reports
+}
+
+for (const button of document.querySelectorAll("#vehicle-actions button[data-action]")) {
+  button.addEventListener("click", () => act(button.dataset.action));
 }
 
 function select(id) {
@@ -145,6 +221,8 @@ function select(id) {
   selection.generation++;
   facts.replaceChildren();
   for (const tbody of [initiated, participating, traffic]) tbody.replaceChildren();
+  spaceList.replaceChildren();
+  spaceNote.textContent = "";
   say(id ? "loading…" : "");
   panel.hidden = !id;
   if (id) {

@@ -534,6 +534,17 @@ class TupleSpace:
         self._flush(after)
         return len(found)
 
+    def arities(self) -> list[int]:
+        """The arities of the live tuples, ascending: with a template of ``ANY`` per
+        field, ``rd_all`` reads every tuple of one (what a node's space holds)."""
+        with self._lock:
+            if self._heap:
+                self._drop_ended()
+            out = sorted(n for n, a in self._arities.items() if len(a.all) - a.all.dead > 0)
+            after = self._drain()
+        self._flush(after)
+        return out
+
     def __len__(self) -> int:
         """The number of live tuples."""
         with self._lock:

@@ -17,9 +17,11 @@ publishes as properties (position and hull length at every request and release,
 status, task, last done), it shows the observer, over the observer's display session
 (:mod:`agv_app.fleet.display_feed`), what it needs to draw the vehicle, each only when
 it changes: ``position`` and ``heading`` (radians) as it moves, ``state`` (the
-dashboard's finer status), ``size`` (``[length, width]``), ``locked`` and ``requested``
-(its projections in the compact form of :func:`~agv_app.geometry.polygon_to_coords`)
-and ``route`` (the vertices ahead); and what the dashboard shows of its node:
+dashboard's finer status), ``speed`` (m/s, 0 only standing), ``held`` (it holds for
+the control's stop, :mod:`agv_app.fleet.holding`), ``in_service``, ``size``
+(``[length, width]``), ``locked`` and ``requested`` (its projections in the compact form
+of :func:`~agv_app.geometry.polygon_to_coords`) and ``route`` (the vertices ahead); and
+what the dashboard shows of its node:
 ``sessions``, ``roles`` and ``traffic`` (:mod:`agv_app.fleet.remote`).
 
 It stops by itself, always through a graceful ``node.close()``: when ``--run-seconds``
@@ -50,6 +52,7 @@ from pathlib import Path
 from typing import Any
 
 from agv_app.fleet.display_feed import DISPLAY_ROLE, DisplayFeed
+from agv_app.fleet.holding import HoldListener
 from agv_app.fleet.liveness import (
     REPUBLISH_BEATS,
     REST_BEAT_S,
@@ -245,6 +248,11 @@ class DisplayPublisher:
         # from one report, whatever the order of the property stream and the channel.
         feed.set("task", agv.node.properties.get("task"))
         feed.set("state", agv.display_status())
+        speed = agv.vehicle.speed
+        # Standing is exactly 0; any motion shows as at least 0.1 m/s.
+        feed.set("speed", 0.0 if speed == 0.0 else max(0.1, round(speed, 1)))
+        feed.set("held", agv.held)
+        feed.set("in_service", agv.in_service)
         locks, request = agv.areas()
         feed.set("locked", self._locked(locks))
         feed.set("requested", self._requested([] if request is None else [request]))
@@ -609,6 +617,8 @@ async def run(args: argparse.Namespace, credentials: Credentials) -> int:
     stop = asyncio.Event()
     for signum in (signal.SIGTERM, signal.SIGINT):
         loop.add_signal_handler(signum, stop.set)
+    # From the start: a process still waiting for a router stops by itself too.
+    loop.call_later(args.run_seconds, stop.set)
     spec = VehicleSpec(DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M)
     config = AgvConfig(t_update=args.t_update, dwell=args.dwell)
     liveness = process_liveness(args.t_update, args.republish_beats, args.rest_beat)
@@ -663,6 +673,7 @@ async def run(args: argparse.Namespace, credentials: Credentials) -> int:
             # did, whether or not the control process runs (traffic/stale_relay.py).
             StaleRelay(node)
             StaleListener(node, lambda: agv.book)
+        HoldListener(node, agv)  # the control's stop: from the observer alone
         display = DisplayPublisher(agv, traffic_interval_s=args.introspection_interval)
         display.publish()
         trace = VehicleTrace(agv, args.trace) if args.trace is not None else None
@@ -710,9 +721,7 @@ async def run(args: argparse.Namespace, credentials: Credentials) -> int:
             ]
             if vda5050 is not None:
                 tasks.append(tg.create_task(bridge_for(agv, vda5050)))
-            with contextlib.suppress(TimeoutError):
-                async with asyncio.timeout(args.run_seconds):
-                    await stop.wait()
+            await stop.wait()
             _emit("stopping")
             for task in tasks:
                 task.cancel()

@@ -7,9 +7,10 @@ what differs (vehicles, nodes, time, metrics, creating tasks).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Collection, Mapping
 from typing import Any
 
+from agv_app.fleet.holding import HoldOrders
 from agv_app.fleet.view import OBSERVER_ID
 from agv_app.layout.graph import Layout
 from agv_app.tasks.book import TaskRecord
@@ -32,6 +33,8 @@ class FleetSourceBase:
         self.layout = layout
         self.desk = desk
         self._paused = False
+        self.holds = HoldOrders()
+        """Which vehicles the operator told to stand (``stop_vehicles``)."""
 
     def layout_view(self) -> Layout:
         """The floor plan."""
@@ -86,3 +89,65 @@ class FleetSourceBase:
     def paused(self) -> bool:
         """True between ``pause()`` and ``resume()``."""
         return self._paused
+
+    def stop_vehicles(self, vehicle_ids: Collection[str] | None = None) -> None:
+        """Stop ``vehicle_ids`` (None: the whole fleet): each brakes to a standstill
+        within its braking distance and stands, locks kept (:mod:`agv_app.fleet.holding`).
+
+        Raises:
+            KeyError: a vehicle is not in the fleet (the message names the known ones).
+        """
+        self._check_known(vehicle_ids)
+        self.holds.stop(vehicle_ids)
+        self._apply_holds()
+
+    def resume_vehicles(self, vehicle_ids: Collection[str] | None = None) -> None:
+        """Let ``vehicle_ids`` (None: the fleet) drive on; every order goes on.
+
+        Raises:
+            KeyError: a vehicle is not in the fleet.
+            ValueError: a vehicle is to resume while the whole fleet is stopped.
+        """
+        self._check_known(vehicle_ids)
+        self.holds.resume(vehicle_ids)
+        self._apply_holds()
+
+    def set_service(self, vehicle_ids: Collection[str], *, in_service: bool) -> None:
+        """Take ``vehicle_ids`` out of service (each finishes the task it holds, parks at
+        home and takes no more), or bring them back.
+
+        Raises:
+            KeyError: a vehicle is not in the fleet.
+        """
+        self._check_known(vehicle_ids)
+        self.holds.set_service(vehicle_ids, in_service=in_service)
+        self._apply_holds()
+
+    def service_asked(self, vehicle_id: str) -> bool:
+        """Whether ``vehicle_id`` is to be in service (what was asked)."""
+        return self.holds.in_service(vehicle_id)
+
+    @property
+    def fleet_stopped(self) -> bool:
+        """True between a fleet stop and a fleet resume (what was asked, not done)."""
+        return self.holds.fleet
+
+    def stop_asked(self, vehicle_id: str) -> bool:
+        """Whether ``vehicle_id`` was told to stand (the fleet's stop or its own)."""
+        return self.holds.held(vehicle_id)
+
+    def vehicle_ids(self) -> Collection[str]:
+        """The ids of the fleet's vehicles."""
+        raise NotImplementedError
+
+    def _apply_holds(self) -> None:
+        """Tell the vehicles what ``holds`` says."""
+        raise NotImplementedError
+
+    def _check_known(self, vehicle_ids: Collection[str] | None) -> None:
+        if vehicle_ids is None:
+            return
+        known = set(self.vehicle_ids())
+        unknown = sorted(set(vehicle_ids) - known)
+        if unknown:
+            raise KeyError(f"unknown vehicle {unknown[0]!r} (known: {', '.join(sorted(known))})")

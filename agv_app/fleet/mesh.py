@@ -30,7 +30,7 @@ import math
 import random
 import sys
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -38,6 +38,7 @@ from typing import Any
 from agv_app.fleet.agv_process import POLL_INTERVAL_S, process_liveness
 from agv_app.fleet.base import FleetSourceBase
 from agv_app.fleet.display_feed import DISPLAY_ROLE, DisplayCollector, display_group
+from agv_app.fleet.holding import HOLD_PROPERTY
 from agv_app.fleet.liveness import REPUBLISH_BEATS, REST_BEAT_S, liveness_arguments
 from agv_app.fleet.metrics import FleetMetrics
 from agv_app.fleet.observed import LastingOverlaps
@@ -115,9 +116,12 @@ class MeshFleet(FleetSourceBase):
     """A ``FleetSource`` over the WebSocket mesh: AGV processes, a transport base, an
     observer.
 
-    Real-time processes cannot be paused: ``pause()`` stops issuing new automatic tasks
-    (tasks created with ``create_task`` are still handed out, and the AGVs finish what
-    they carry), and the speed is always 1.0.
+    Real-time processes cannot be paused, so ``pause()`` stops the fleet: it stops
+    issuing new automatic tasks and holds every vehicle (``stop_vehicles``: the
+    observer publishes the stop, each AGV process brakes to a standstill and stands,
+    locks kept, :mod:`agv_app.fleet.holding`); ``resume()`` lets them drive on. The
+    vehicles report whether they hold and their speed, and ``vehicles()`` shows that,
+    never what was asked. The speed is always 1.0.
 
     Args:
         agvs: number of AGV processes.
@@ -402,6 +406,7 @@ class MeshFleet(FleetSourceBase):
         observer: MeshNode = await start_node(OBSERVER_ID, tls=tls, **node_args)
         observer.update_node_property("kind", OBSERVER_KIND)
         observer.set_at_rest(True)  # it listens, and says nothing more
+        observer.update_node_property(HOLD_PROPERTY, self.holds.wire())  # the operator's stop
         self.observer = observer
         observer.register_node_property_observer(self._on_property, names=("last_done",))
         observer.start_interaction(self.display, display_group(), DISPLAY_ROLE)
@@ -569,6 +574,26 @@ class MeshFleet(FleetSourceBase):
         process exited, or its node departed) where it was last heard, ``failed``."""
         self._note_exits()
         return self.roster.vehicles()
+
+    def vehicle_ids(self) -> Collection[str]:
+        """The AGVs spawned, or, joining a fleet, every AGV heard so far."""
+        self._note_exits()
+        return [*self.roster.agv_ids]
+
+    def _apply_holds(self) -> None:
+        """Publish the stop as the observer's property; every AGV process follows it."""
+        if self.observer is not None and not self.observer.closed:
+            self.observer.update_node_property(HOLD_PROPERTY, self.holds.wire())
+
+    def pause(self) -> None:
+        """Stop the fleet: no new automatic tasks, and every vehicle holds."""
+        super().pause()
+        self.stop_vehicles()
+
+    def resume(self) -> None:
+        """Resume the fleet (vehicles stopped on their own stay stopped)."""
+        super().resume()
+        self.resume_vehicles()
 
     def vehicle_route(self, vehicle_id: str) -> tuple[XY, ...]:
         """The rest of an AGV's route as it last published it, from where it stands;

@@ -100,6 +100,9 @@ def vehicle_state(agv_id: str, props: Mapping[str, Any], seen: ObservedAgv) -> V
         _number(props.get("hull_length")),
         seen.locked,
         seen.requested,
+        _number(props.get("speed")),
+        props.get("held") is True,
+        props.get("in_service") is not False,
     )
 
 

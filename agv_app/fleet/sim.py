@@ -11,7 +11,7 @@ from __future__ import annotations
 import functools
 import math
 import random
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass
 
 from agv_app.fleet.base import FleetSourceBase
@@ -510,7 +510,25 @@ class Fleet(FleetSourceBase):
             hand_back(
                 agv, held, loaded=old.task is not None and old.phase in ("to_drop", "at_drop")
             )
+        if self.holds.held(agv_id):
+            agv.hold()
+        agv.in_service = self.holds.in_service(agv_id)
         return agv
+
+    # -- holding (an operator's stop) -------------------------------------------------------
+
+    def vehicle_ids(self) -> Collection[str]:
+        """The ids of every AGV."""
+        return self.agvs.keys()
+
+    def _apply_holds(self) -> None:
+        """Hold or release every AGV as ``holds`` says, at once (it is in this process)."""
+        for agv_id, agv in self.agvs.items():
+            if self.holds.held(agv_id):
+                agv.hold()
+            else:
+                agv.release()
+            agv.in_service = self.holds.in_service(agv_id)
 
     def _listen(self, agv_id: str, node: RoleActivator) -> None:
         """A scoped AGV takes the failed AGVs the observer relays into its lock book."""
@@ -639,6 +657,9 @@ class Fleet(FleetSourceBase):
                     agv.current_hull_length(),
                     tuple(r for a in locks for r in area_rings(a)),
                     area_rings(request),
+                    agv.vehicle.speed,
+                    agv.held,
+                    agv.in_service,
                 )
             )
         return out

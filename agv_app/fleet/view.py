@@ -32,6 +32,12 @@ class VehicleState:
     hull_length: float
     locked: tuple[tuple[XY, ...], ...]
     requested: tuple[tuple[XY, ...], ...]
+    speed_m_s: float = 0.0
+    """Its speed as it last reported it."""
+    held: bool = False
+    """Whether it holds for an operator's stop (as it reports it)."""
+    in_service: bool = True
+    """Whether it takes tasks (as it reports it)."""
 
 
 def area_rings(area: Area | None) -> tuple[tuple[XY, ...], ...]:

@@ -25,14 +25,14 @@ persistence, and ``set_tcp_nodelay true`` (without it, QoS 1 round trips were me
 at 88 ms).
 
 ``python -m agv_app.vda5050.broker --pki DIR [--id broker] [--listen HOST:PORT]`` runs
-one in the foreground until SIGTERM or SIGINT.
+one in the foreground until SIGTERM or SIGINT. The configuration's text is written by
+:mod:`agv_app.vda5050.mosquitto_config`; this module runs the process.
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
-import ipaddress
 import os
 import shutil
 import signal
@@ -45,10 +45,9 @@ import time
 from pathlib import Path
 from typing import Final
 
-from cryptography import x509
-
 from agv_app.vda5050.acl import access_list
 from agv_app.vda5050.link import BrokerError, MqttLink, probe_broker
+from agv_app.vda5050.mosquitto_config import broker_config, find_mosquitto, names_address
 from agv_app.vda5050.topics import BrokerAddress
 from objectplaces.core.errors import LocalProtocolError
 from objectplaces.security import CredentialError, Identity, is_loopback, issued
@@ -61,19 +60,6 @@ BROKER_ID: Final = "broker"
 
 _HOST: Final = "127.0.0.1"
 _RELOADING: Final = "Reloading config."  # what mosquitto logs as it handles SIGHUP
-_CANDIDATES: Final = (
-    "/usr/sbin/mosquitto",
-    "/usr/local/sbin/mosquitto",
-    "/opt/homebrew/sbin/mosquitto",
-)
-
-
-def find_mosquitto() -> str | None:
-    """The path of the mosquitto executable, or None if it is not installed."""
-    found = shutil.which("mosquitto")
-    if found:
-        return found
-    return next((c for c in _CANDIDATES if Path(c).is_file()), None)
 
 
 def _free_port(host: str) -> int:
@@ -87,67 +73,6 @@ def _accepts(host: str, port: int) -> bool:
     with contextlib.suppress(OSError), socket.create_connection((host, port), timeout=0.2):
         return True
     return False
-
-
-def _names_address(identity: Identity, host: str) -> bool:
-    """Whether the identity's certificate names ``host`` among its alternative names."""
-    cert = x509.load_pem_x509_certificate(identity.cert.read_bytes())
-    try:
-        names = cert.extensions.get_extension_for_class(x509.SubjectAlternativeName).value
-    except x509.ExtensionNotFound:
-        return False
-    try:
-        address = ipaddress.ip_address(host)
-    except ValueError:
-        return host.lower() in (n.lower() for n in names.get_values_for_type(x509.DNSName))
-    return address in names.get_values_for_type(x509.IPAddress)
-
-
-def broker_config(
-    *,
-    host: str,
-    port: int,
-    tls: Identity | None,
-    acl_file: Path | None,
-    tcp_nodelay: bool = True,
-) -> str:
-    """The text of mosquitto's configuration (see the module doc).
-
-    Args:
-        host: the listener's address.
-        port: its port.
-        tls: the broker's identity (None: a plain listener, anonymous clients).
-        acl_file: the access list (with ``tls``).
-        tcp_nodelay: ``set_tcp_nodelay`` (off only to measure what it saves).
-    """
-    lines = [
-        "per_listener_settings false",
-        "persistence false",
-        f"set_tcp_nodelay {'true' if tcp_nodelay else 'false'}",
-        "max_queued_messages 10000",
-    ]
-    if os.geteuid() == 0:
-        # As root, mosquitto drops to the user "mosquitto", who cannot read the PKI
-        # folder (0700). Stay the user who started it, as for anyone else.
-        lines.append("user root")
-    if tls is None:
-        lines += ["allow_anonymous true", f"listener {port} {host}"]
-        return "\n".join(lines) + "\n"
-    assert acl_file is not None
-    lines += [
-        "allow_anonymous false",
-        f"acl_file {acl_file}",
-        f"listener {port} {host}",
-        f"cafile {tls.ca}",
-        f"certfile {tls.cert}",
-        f"keyfile {tls.key}",
-        *([] if tls.crl is None else [f"crlfile {tls.crl}"]),
-        "require_certificate true",
-        "use_identity_as_username true",
-        "use_username_as_clientid true",
-        "tls_version tlsv1.3",
-    ]
-    return "\n".join(lines) + "\n"
 
 
 class LocalBroker:
@@ -190,7 +115,7 @@ class LocalBroker:
             )
         if tls is None and not is_loopback(host):
             raise LocalProtocolError(f"a plain broker listens on loopback only, not on {host}")
-        if tls is not None and not _names_address(tls, host):
+        if tls is not None and not names_address(tls, host):
             raise CredentialError(
                 f"certificate {tls.cert} of the broker does not name {host}, so no client "
                 f"would trust it: issue it with --address {host}"

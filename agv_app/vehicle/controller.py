@@ -281,6 +281,13 @@ class AgvController:
         """Since when a published circle covers the pending request, its area, claims."""
         self._circle: _Circle | None = None
         """The circle in force: the last position and hull length published, and when."""
+        self._held = False
+        self.in_service = True
+        """False once taken out of service: it finishes the task it holds, goes home and
+        bids for no task until brought back (:meth:`take_out_of_service`)."""
+        self._held_route: Polyline | None = None
+        self._held_s = 0.0
+        """While held: the route the vehicle rests on and the arc length it rests at."""
         self.attach(node)
         if central is not None:
             central.register(self.node_id, lambda: self.book)
@@ -463,6 +470,48 @@ class AgvController:
         self.attach(node)
         self._released_at_s = self.vehicle.s
 
+    # -- holding (an operator's stop) -------------------------------------------------------
+
+    def hold(self) -> None:
+        """Brake to a standstill within the braking distance and stand there, locks kept.
+
+        The vehicle's limit becomes the point where it comes to rest braking now (never
+        past the end of its locks): it brakes as it would for any stop, asks for no
+        floor and sets off for nothing until :meth:`release`; the locks it stands in
+        stay its own. It bids for no task meanwhile.
+        """
+        if not self._held:
+            self._held = True
+            self._held_route = None
+
+    def release(self) -> None:
+        """Drive on after :meth:`hold`: every order goes on where it stood."""
+        self._held = False
+        self._held_route = None
+
+    @property
+    def held(self) -> bool:
+        """True between :meth:`hold` and :meth:`release`."""
+        return self._held
+
+    def take_out_of_service(self) -> None:
+        """Take no more tasks: the one it holds (and one awarded while it dwells) it
+        finishes, then it drives home and parks there."""
+        self.in_service = False
+
+    def return_to_service(self) -> None:
+        """Take tasks again."""
+        self.in_service = True
+
+    def _held_limit(self) -> float:
+        """The arc length the held vehicle rests at: where it stopped braking at the
+        hold, or, on a route set since (only ever while standing), where it stands."""
+        vehicle = self.vehicle
+        if self._held_route is not vehicle.route:
+            self._held_route = vehicle.route
+            self._held_s = vehicle.stopping_s()
+        return self._held_s
+
     # -- properties -------------------------------------------------------------------
 
     @property
@@ -477,9 +526,15 @@ class AgvController:
         return "idle" if self.task is None or self.phase == "at_drop" else "busy"
 
     def display_status(self) -> str:
-        """A finer state for the dashboard: idle, driving, waiting, loading or failed."""
+        """A finer state for the dashboard: idle, driving, waiting, loading, stopping or
+        stopped (held by the operator), out-of-service (parked, taking no task) or
+        failed."""
         if self.failed:
             return "failed"
+        if self._held:
+            return "stopped" if self.vehicle.speed == 0.0 else "stopping"
+        if not self.in_service and self._dest is None and self.task is None:
+            return "out-of-service"
         if self.phase in ("at_pick", "at_drop") or self.node.now() < self._hold_until:
             return "loading"
         if self._dest is not None and self.vehicle.speed == 0.0:
@@ -548,7 +603,7 @@ class AgvController:
         On the way home it is the distance by way of the point the AGV would stop at
         if awarded (:meth:`_turn_point`).
         """
-        if self.failed or self.status != "idle":
+        if self.failed or self._held or not self.in_service or self.status != "idle":
             return None
         pick = self.layout.station(task.pick).point
         if self._dest is None:
@@ -689,8 +744,10 @@ class AgvController:
             self._report_done()
         if self._dest is not None:
             limit = vehicle.s if now < self._hold_until else self.book.lock_end(default=vehicle.s)
+            if self._held:
+                limit = min(limit, self._held_limit())
             moved = vehicle.step(dt, limit)
-            self._stalled = moved == 0.0
+            self._stalled = moved == 0.0 and not self._held  # held, it wants to stand
             requester = self._requester
             if (
                 requester is not None
@@ -712,7 +769,8 @@ class AgvController:
         else:
             self._stalled = False
             vehicle.stand(dt)
-            self._idle(now)
+            if not self._held:
+                self._idle(now)
         self._rest_when_parked()
         if vehicle.fault is not None:
             self.fail()  # its runner takes the node off the network
@@ -741,8 +799,8 @@ class AgvController:
         which asking again would restart.
         """
         requester = self._requester
-        if requester is None or requester.done:
-            return
+        if requester is None or requester.done or self._held:
+            return  # held: it stands where it is, and yields or detours for nobody
         if requester.blocked_by and (
             (self._must_yield(now) and self._yield_place() is not None)
             or self._must_drive_on(now, requester)
@@ -804,7 +862,7 @@ class AgvController:
     def _request_ahead(
         self, now: float, prior: _Announced | None = None, kept: Requester | None = None
     ) -> None:
-        if self._requester is not None or self._plan is None or now < self._retry_at:
+        if self._requester is not None or self._plan is None or now < self._retry_at or self._held:
             return
         if self.cut_off.isolated(len(self.node.view())):
             return  # it hears nothing: it drives on inside its locks only, and stops

@@ -13,9 +13,11 @@ from dashboard.routes import (
     log,
     membership,
     nodes,
+    operate,
     page,
     sessions,
     sim,
+    space,
     tasks,
     vehicle_detail,
     vehicles,
@@ -24,6 +26,7 @@ from dashboard.routes import (
 __all__ = ["ROUTERS"]
 
 ROUTERS: tuple[APIRouter, ...] = (
+    space.router,
     nodes.router,
     sessions.router,
     membership.router,
@@ -31,6 +34,7 @@ ROUTERS: tuple[APIRouter, ...] = (
     fleet.router,
     vehicles.router,
     vehicle_detail.router,
+    operate.router,
     tasks.router,
     sim.router,
     log.router,

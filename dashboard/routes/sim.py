@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
-from fastapi import APIRouter, HTTPException, Path
+from fastapi import APIRouter, HTTPException, Path, Request
 
 from dashboard.deps import State
 from dashboard.errors import ERROR_RESPONSES
 from dashboard.limits import shown
 from dashboard.schemas import SimActionIn, SimOut, SpeedIn
+from dashboard.stopping import who_asked
 
 __all__ = ["router"]
 
@@ -15,19 +16,22 @@ router = APIRouter(prefix="/api/sim", tags=["sim"], responses=ERROR_RESPONSES)
 
 
 @router.post("/pause", response_model=SimOut)
-async def pause(body: SimActionIn, state: State) -> SimOut:
-    """Stop simulated time; ``reason`` goes to the operator's log (body ``{}``: none given)."""
+async def pause(body: SimActionIn, state: State, request: Request) -> SimOut:
+    """Stop simulated time (a fleet of AGV processes, which cannot stop its clock, stops
+    its vehicles: ``stop`` in the answer follows them); ``reason`` and who asked go to the
+    operator's log (body ``{}``: no reason given)."""
     state.source.pause()
-    state.watch.paused(state.source.now, True, body.reason)
+    state.watch.paused(state.source.now, True, f"{body.reason} (asked by {who_asked(request)})")
     state.publish()
     return state.sim()
 
 
 @router.post("/resume", response_model=SimOut)
-async def resume(body: SimActionIn, state: State) -> SimOut:
-    """Let simulated time run again; ``reason`` goes to the operator's log."""
+async def resume(body: SimActionIn, state: State, request: Request) -> SimOut:
+    """Let simulated time run again (the vehicles drive on); ``reason`` and who asked go
+    to the operator's log."""
     state.source.resume()
-    state.watch.paused(state.source.now, False, body.reason)
+    state.watch.paused(state.source.now, False, f"{body.reason} (asked by {who_asked(request)})")
     state.publish()
     return state.sim()
 

@@ -228,7 +228,12 @@ def test_locks_and_metrics(client: TestClient) -> None:
     r = client.get("/api/metrics")
     assert r.status_code == 200
     body = r.json()
-    assert body["sim"] == {"now": pytest.approx(0.5), "paused": False, "speed": 1.0}
+    assert body["sim"] == {
+        "now": pytest.approx(0.5),
+        "paused": False,
+        "speed": 1.0,
+        "stop": "running",
+    }
     assert body["metrics"]["tasks_created"] == 0.0
     assert body["metrics"]["messages"] > 0
 

@@ -15,7 +15,7 @@ pytestmark = BROWSER_MARKS
 
 HULL_STATUSES = {
     "idle", "driving", "moving", "waiting", "blocked", "loading", "unloading",
-    "charging", "failed", "crashed", "other",
+    "charging", "failed", "crashed", "stopping", "stopped", "out-of-service", "other",
 }  # fmt: skip
 
 
@@ -35,7 +35,7 @@ def test_every_hull_colour_has_a_legend_entry(page: Any) -> None:
     assert named == HULL_STATUSES
     colours = [colour for _, colour in entries]
     assert len(colours) == len(set(colours)), "one entry per colour"
-    assert len(colours) == 7
+    assert len(colours) == 9
     kinds = page.evaluate(
         """() => [...document.querySelectorAll('#station-colors [data-station-kind]')]
             .map((e) => e.dataset.stationKind)"""

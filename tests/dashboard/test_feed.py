@@ -70,7 +70,7 @@ def test_first_message_is_a_full_snapshot() -> None:
     assert msg["vehicles"]["agv-1"]["locked"] == []
     assert msg["sessions"][0]["id"] == "s1"
     assert msg["sessions"][0]["members"] == ["agv-2"]
-    assert msg["sim"] == {"paused": False, "speed": 1.0}
+    assert msg["sim"] == {"paused": False, "speed": 1.0, "stop": "running"}
     json.dumps(msg, allow_nan=False)
 
 
@@ -194,8 +194,12 @@ def test_metrics_send_changed_keys_and_no_nan() -> None:
 
 
 def test_sim_state_changes() -> None:
-    assert diff(state(), state(paused=True)) == {"sim": {"paused": True, "speed": 1.0}}
-    assert diff(state(), state(speed=4.0)) == {"sim": {"paused": False, "speed": 4.0}}
+    assert diff(state(), state(paused=True)) == {
+        "sim": {"paused": True, "speed": 1.0, "stop": "running"}
+    }
+    assert diff(state(), state(speed=4.0)) == {
+        "sim": {"paused": False, "speed": 4.0, "stop": "running"}
+    }
 
 
 def test_time_alone_is_no_change() -> None:

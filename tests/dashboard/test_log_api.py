@@ -41,15 +41,16 @@ def test_sessions_started_and_stopped_over_rest_are_logged(logged: TestClient) -
     assert body["dropped"] == 0
 
 
-def test_pause_and_resume_are_logged_with_why(logged: TestClient) -> None:
+def test_pause_and_resume_are_logged_with_why_and_who(logged: TestClient) -> None:
     assert logged.post("/api/sim/pause", json={"reason": "aisle 3 blocked"}).status_code == 200
     assert logged.post("/api/sim/resume", json={}).status_code == 200
     events = logged.get("/api/events").json()["events"]
+    who = "(asked by operator at testclient)"
     assert [(e["severity"], e["text"]) for e in events] == [
-        ("warning", "fleet paused: aisle 3 blocked"),
-        ("info", "fleet resumed: asked over REST"),
+        ("warning", f"fleet paused: aisle 3 blocked {who}"),
+        ("info", f"fleet resumed: asked over REST {who}"),
     ]
-    assert texts(logged, severity="warning") == ["fleet paused: aisle 3 blocked"]
+    assert texts(logged, severity="warning") == [f"fleet paused: aisle 3 blocked {who}"]
 
 
 def test_the_driver_logs_nodes_that_leave(

@@ -13,7 +13,7 @@ from tests.dashboard.login import logged_in
 
 FIELDS = {
     "id", "x", "y", "heading", "length", "width", "status", "task",
-    "hull", "hull_length", "locked", "requested",
+    "hull", "hull_length", "locked", "requested", "speed", "held", "in_service",
 }  # fmt: skip
 
 

@@ -7,6 +7,7 @@ vehicle whose layout is not its fleet's (both digests named).
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 from collections.abc import Iterator
@@ -108,3 +109,30 @@ def test_control_needs_the_certificates_of_its_nodes(pki: TemporaryPki) -> None:
     done = objectplaces("control", "--connect", "127.0.0.1:9", "--pki", str(pki.directory))
     assert done.returncode == 2
     assert "observer.pem: cannot be read" in done.stderr
+
+
+def test_an_unreachable_router_is_said_and_retried_with_backoff(pki: TemporaryPki) -> None:
+    done = objectplaces(
+        "agv",
+        "--id",
+        "agv-01",
+        "--transport",
+        "zenoh",
+        "--mode",
+        "client",
+        "--connect",
+        "tls/127.0.0.1:9",  # discard: nothing listens there
+        "--pki",
+        str(pki.directory),
+        "--home",
+        "P0350n",
+        "--run-seconds",
+        "4",
+    )
+    assert done.returncode == 0, done.stderr  # stopped by itself when its time was up
+    events = [json.loads(line) for line in done.stdout.splitlines()]
+    waits = [e["retry_in_s"] for e in events if e["event"] == "unreachable"]
+    assert len(waits) >= 2
+    assert waits == sorted(waits)  # backing off
+    assert waits[-1] > waits[0]
+    assert "cannot reach tls/127.0.0.1:9 yet" in done.stderr

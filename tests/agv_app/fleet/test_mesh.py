@@ -108,15 +108,17 @@ async def test_agv_processes_take_a_task_and_are_reaped() -> None:
     assert not pki.exists(), "the throwaway CA is removed with the run"
 
 
-async def test_speed_is_real_time_and_pause_only_stops_new_tasks() -> None:
+async def test_speed_is_real_time_and_pause_stops_the_fleet() -> None:
     fleet = MeshFleet(agvs=1, seed=1)
     with pytest.raises(ValueError, match=r"speed is always 1\.0"):
         fleet.set_speed(2.0)
     fleet.set_speed(1.0)
     fleet.pause()
     assert fleet.paused
+    assert fleet.fleet_stopped, "the vehicles hold (tests/agv_app/fleet/test_mesh_holding.py)"
     fleet.resume()
     assert not fleet.paused
+    assert not fleet.fleet_stopped
     with pytest.raises(ValueError, match="not running"):
         fleet.create_task(PICK)
     with pytest.raises(KeyError):
