@@ -218,7 +218,9 @@ def run_sim(args: argparse.Namespace) -> int:
     figures = fleet.summary(time.perf_counter() - started)
     width = max(len(k) for k in figures)
     for key, value in figures.items():
-        print(f"{key:<{width}}  {value}")
+        # The bound with the terms it is made of, read off the layout and the fleet.
+        shown = fleet.wait_bound if key == "wait_bound" else value
+        print(f"{key:<{width}}  {shown}")
     admission = fleet.desk.admission
     if admission is not None:
         print(
@@ -227,6 +229,13 @@ def run_sim(args: argparse.Namespace) -> int:
         )
     for violation in fleet.monitor.violations:
         print(f"VIOLATION {violation}", file=sys.stderr)
+    if figures["max_wait"] > figures["wait_bound"]:
+        print(
+            f"objectplaces sim: a wait of {figures['max_wait']:g} s passed the wait bound of "
+            f"{figures['wait_bound']:g} s: this run breaks an assumption of the bound "
+            '(docs/traffic.md, "Bounded waits")',
+            file=sys.stderr,
+        )
     if figures["deadlocks"] and fleet.desk.admission is None and fleet.desk.max_open is None:
         carried = carried_tasks(fleet.layout)
         per = f"one per {LANE_M_PER_OPEN_TASK:g} m of lane"

@@ -23,6 +23,7 @@ from agv_app.fleet.view import OBSERVER_ID, VehicleState, area_rings
 from agv_app.geometry import XY, Area, Pose
 from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
 from agv_app.layout.graph import Layout
+from agv_app.samples import percentile
 from agv_app.tasks.admission import CROWDED, limit_for
 from agv_app.tasks.desk import BASE_ID, TaskDesk, pick_stations, require_task_stations
 from agv_app.tasks.free_flow import FreeFlowBound, FreeFlowTimer
@@ -38,6 +39,7 @@ from agv_app.traffic.central import CentralScheduler
 from agv_app.traffic.monitor import SafetyMonitor, SafetyViolation
 from agv_app.traffic.reach import dissemination_margin, interest_radius
 from agv_app.traffic.stale_relay import StaleListener, StaleRelay
+from agv_app.traffic.wait_bound import WaitBound, wait_bound
 from agv_app.vehicle.comeback import hand_back
 from agv_app.vehicle.controller import DEFAULT_ADVANCE_M, AgvConfig, AgvController
 from agv_app.vehicle.driven import planning_spec
@@ -183,6 +185,12 @@ class FleetConfig:
                 raise ValueError(f"{name} must be a positive number, got {value!r}")
         if self.start_tasks is not None and self.start_tasks < 0:
             raise ValueError(f"start_tasks must be 0 or more, got {self.start_tasks!r}")
+
+
+def _insert_after(figures: dict[str, float], key: str, more: dict[str, float]) -> dict[str, float]:
+    keys = list(figures)
+    at = keys.index(key) + 1
+    return {k: figures[k] for k in keys[:at]} | more | {k: figures[k] for k in keys[at:]}
 
 
 class SafetyError(AssertionError):
@@ -422,6 +430,20 @@ class Fleet(FleetSourceBase):
         assert detection is not None  # the fleet's nodes always detect failures
         return {"delay_s": worst_delay, "failure_detection_s": detection}
 
+    @functools.cached_property
+    def wait_bound(self) -> WaitBound:
+        """The longest any AGV of this fleet waits, from the layout and the fleet
+        (docs/traffic.md, "Bounded waits"); its ``seconds`` is the figure
+        ``wait_bound``."""
+        return wait_bound(
+            self.layout,
+            self.spec,
+            self.agv_config,
+            agvs=self.config.agvs,
+            delay_s=self._timing()["delay_s"],
+            step_s=self.config.dt,
+        )
+
     def _relocate(self, agv: AgvController) -> str | None:
         """A free rest point for an idle AGV that stands in the way (nearest ahead).
 
@@ -566,7 +588,8 @@ class Fleet(FleetSourceBase):
             progress(self.net.now)
 
     def summary(self, wall_seconds: float = 0.0) -> dict[str, float]:
-        """The run's figures (see ``FleetMetrics.summary``)."""
+        """The run's figures (see ``FleetMetrics.summary``), with ``lead_ratio_p95``
+        (:meth:`lead_ratios`) and ``wait_bound`` (:attr:`wait_bound`)."""
         stats = self.net.stats()
         agv_sent: dict[str, tuple[int, int]] = {}
         for agv_id in self.agvs:
@@ -576,7 +599,7 @@ class Fleet(FleetSourceBase):
             for kind, (n, b) in traffic.sent.items():
                 old = agv_sent.get(kind, (0, 0))
                 agv_sent[kind] = (old[0] + n, old[1] + b)
-        return self.metrics_raw.summary(
+        figures = self.metrics_raw.summary(
             tasks=self.desk.book,
             tasks_returned=self.desk.returned,
             tasks_refused=self.desk.refused,
@@ -591,6 +614,23 @@ class Fleet(FleetSourceBase):
             bytes_=stats.bytes,
             agv_sent=agv_sent,
         )
+        # Beside the task times, their share of free flow; beside the longest wait, what
+        # it may be at most.
+        lead = {"lead_ratio_p95": round(percentile(self.lead_ratios(), 95), 3)}
+        figures = _insert_after(figures, "task_time_p95", lead)
+        return _insert_after(figures, "max_wait", {"wait_bound": round(self.wait_bound.seconds, 2)})
+
+    def lead_ratios(self) -> list[float]:
+        """Each delivered task's lead time (from its creation, time at the task desk
+        included, to its delivery) over its free-flow lead time (the same in the
+        free-flow replay, :class:`~agv_app.tasks.free_flow.FreeFlowBound`), for the
+        tasks the book still holds in detail, oldest first."""
+        ratios = []
+        for record in self.desk.book.records():
+            ideal = self.free_flow.lead_seconds(record.id)
+            if record.state == "done" and ideal:
+                ratios.append((record.times["done"] - record.times["created"]) / ideal)
+        return ratios
 
     # -- FleetSource ------------------------------------------------------------------------
 

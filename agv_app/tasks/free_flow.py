@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import heapq
 import math
+from collections import OrderedDict
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -97,21 +98,28 @@ class FreeFlowBound:
     from where that vehicle is (its home at first, then its last drop). Memory: one
     entry per vehicle, plus the finish times still ahead of the last ``completed`` call.
 
+    Each task's free-flow lead time (from its creation to its delivery in the replay) is
+    kept for the last ``keep`` tasks (:meth:`lead_seconds`): what the task takes in a run
+    without traffic, its wait for a free vehicle included.
+
     Args:
         timer: free-flow times on the fleet's layout.
         homes: each vehicle's starting point.
+        keep: how many tasks' lead times to keep.
 
     Raises:
         ValueError: no vehicles.
     """
 
-    def __init__(self, timer: FreeFlowTimer, homes: Sequence[str]) -> None:
+    def __init__(self, timer: FreeFlowTimer, homes: Sequence[str], *, keep: int = 1000) -> None:
         if not homes:
             raise ValueError("a free-flow bound needs at least one vehicle")
         self.timer = timer
         self._free: list[tuple[float, int, str]] = [(0.0, i, h) for i, h in enumerate(homes)]
         self._ahead: list[float] = []
         self._finished = 0
+        self._keep = keep
+        self._lead: OrderedDict[str, float] = OrderedDict()
 
     def add(self, task: TaskSpec, now: float) -> None:
         """A task was created at ``now``."""
@@ -123,6 +131,14 @@ class FreeFlowBound:
         finish = max(free_at, now) + seconds
         heapq.heappush(self._free, (finish, index, self.timer.layout.station(task.drop).point))
         heapq.heappush(self._ahead, finish)
+        self._lead[task.id] = finish - now
+        if len(self._lead) > self._keep:
+            self._lead.popitem(last=False)
+
+    def lead_seconds(self, task_id: str) -> float | None:
+        """Seconds from the creation of ``task_id`` to its delivery in the replay (None:
+        not among the last ``keep`` tasks, or no vehicle could do it)."""
+        return self._lead.get(task_id)
 
     def completed(self, now: float) -> int:
         """Tasks the free-flow replay has finished by ``now`` (call with ``now`` not

@@ -24,21 +24,26 @@ A voter that allowed a request must not later win a conflict with it: its own
 requests that overlap a request it allowed (until the requester says it ended, an
 ``end`` message, or ``keep_allowed`` after the voter left its session) get a lower
 priority than that one
-(:meth:`LockBook.next_priority`). Within that rule an AGV keeps the priority of its
-first attempt at a stretch across retries, so the one that has waited longest wins.
+(:meth:`LockBook.next_priority`). Within that rule a request is asked at the *age* of
+the wait it serves (:mod:`agv_app.traffic.fifo`), kept across every request asked
+again for the same stretch, so the one that has waited longest wins; a request whose
+age differs from its priority carries it (``"g"``).
 
-Fairness and the wait for locks (docs/traffic.md, "Why no cycle of waits can form"):
+Fairness and the wait for locks (docs/traffic.md, "Why no circle of waits forms" and
+"Bounded waits"):
 
 * A request held up by a *lock* stays pending (``patience`` None), so it keeps its
   place in line and no younger request slips past it. Instead the voter that holds it
-  up with a lock inherits its priority (``("blocking", ...)``: the AGV's next request
+  up with a lock inherits its age (``("blocking", ...)``: the AGV's next request
   ranks just above it), and the waiting AGV *steps aside* for that lock's owner only:
   its voter allows the owner's request, withdraws its own and asks again at once,
   ranked below the owner's (at most once per ``recheck``: the node's ``blockers``
   name nobody meanwhile, and the voter defers for priority until its next recheck).
-* A request held up by an *older request* for ``queue_patience`` withdraws and retries
-  (same age): the last resort that lets a younger AGV whose allow ranks another AGV's
-  request above its own be overtaken.
+  Once the owner asks again at the inherited age, the allow it was given ends, and the
+  AGV that stepped aside asks again at its own age, just behind it.
+* A request held up by an *older request* for ``queue_patience`` is asked again at
+  once (same age, ``on_outwaited``): the last resort that ends the allows it was given,
+  so that a younger AGV whose allow ranks it above its own is no longer held below it.
 
 The bookkeeping all of them share lives in the node's tuplespace
 (:mod:`agv_app.traffic.lockbook`).
@@ -55,6 +60,7 @@ from agv_app.geometry import Area, coords_to_polygon, polygon_to_coords
 from agv_app.geometry.probe import Probe
 from agv_app.protocol import AGV_KIND, MessageTally, tally_send
 from agv_app.traffic.deadlock import Claim, claims_conflict
+from agv_app.traffic.fifo import AGE_FIELD
 from agv_app.traffic.lockbook import LockBook, Priority, RequestEntry
 from objectplaces import Initiator, Participant, ParticipantRef, groups
 from objectplaces.groups import AllOf, CircleMeetsBox, GroupDefinition
@@ -150,6 +156,10 @@ def decide_vote(
     of a lock (an AGV in the run, the other way) is held up by that lock; with those
     of our pending request, the priorities decide.
 
+    A conflict with our pending request is decided by rank: the request is allowed only
+    if its priority ranks above our request's priority and above the age of the wait
+    ours serves, where that is older (:mod:`agv_app.traffic.fifo`).
+
     The group condition makes sure the voter's view already holds the requester's
     new circle: the requester's circle as the voter sees it covers the request. Then
     that circle meets the box of any request of the voter's over the requested area,
@@ -182,10 +192,19 @@ def decide_vote(
     if (
         own is not None
         and (probe.overlaps(own.area) or claims_conflict(claims, own.claims))
-        and not priority < own.priority
+        and not priority < _rank(own)
     ):
         return "priority"
     return "allow"
+
+
+def _rank(own: RequestEntry) -> Priority:
+    """Where our pending request stands in the queue of a conflict: its priority, or
+    its age where that ranks higher. Deferring a request that ranks between the two is
+    always safe, and no request younger than our wait goes first (agv_app.traffic.fifo)."""
+    if own.age is None or own.age >= own.priority[0]:
+        return own.priority
+    return (own.age, own.priority[1])
 
 
 _WIRE_GROWTH_M = 0.1
@@ -238,6 +257,8 @@ def _request_message(entry: RequestEntry) -> dict[str, Any]:
         "p": [entry.priority[0], entry.priority[1]],
         "a": request_coords(entry.area),
     }
+    if entry.age is not None and entry.age != entry.priority[0]:
+        message[AGE_FIELD] = entry.age
     if entry.claims:
         message["c"] = [[seg, way] for seg, way in sorted(entry.claims)]
     return message
@@ -275,6 +296,10 @@ class Requester(Initiator):
             vote is no longer awaited and ``on_silent`` is told (None: wait for ever).
         on_silent: told the id of a member counted as failed
             (:meth:`~agv_app.traffic.plausibility.PeerWatch.silent`).
+        on_outwaited: called instead of withdrawing when an older request has held
+            this one up for ``queue_patience``: the AGV asks again at once, at the same
+            age (:meth:`withdraw` with the session kept, then :meth:`ask_again`), so its
+            voter never stands without a request for a younger one to slip past.
     """
 
     def __init__(
@@ -291,8 +316,10 @@ class Requester(Initiator):
         definition: GroupDefinition | None = None,
         vote_deadline: float | None = None,
         on_silent: Callable[[str], None] | None = None,
+        on_outwaited: Callable[[], None] | None = None,
     ) -> None:
         self.entry = entry
+        self._on_outwaited = on_outwaited
         self.vote_deadline = vote_deadline
         self._on_silent = on_silent
         self._asked: dict[str, float] = {}  # member -> when it was asked
@@ -364,14 +391,25 @@ class Requester(Initiator):
 
     def receive(self, participant: ParticipantRef, message: Any) -> None:
         """A vote: ``allow`` counts; a deferral because of a lock withdraws the request.
+        ``revoke``: the member takes its allow back; it counts no more, and the member
+        hears that it does not (``revoked``) before it ranks its own requests higher.
 
-        A vote on an earlier request of this session (asked again since) is ignored.
+        A vote on an earlier request of this session (asked again since) is ignored, and
+        so is a revoke once the request is locked or withdrawn (its ``end``, or the next
+        request, tells the member).
         """
         if not isinstance(message, dict) or self.done:
             return
         if message.get("k", self.entry.key) != self.entry.key:
             return
         node = participant.node_id
+        if message.get("t") == "revoke":
+            if self._votes.get(node):
+                self._votes[node] = False
+            reply: dict[str, Any] = {"t": "revoked", "k": self.entry.key}
+            if self.send(participant, reply):
+                tally_send(self._tally, "vote", reply)
+            return
         if message.get("t") in ("allow", "defer"):
             self._answered.add(node)
             if node in self._silent:  # it was only late: its vote counts again
@@ -455,12 +493,15 @@ class Requester(Initiator):
             return
         book = LockBook(self.space)
         now = self.now()
-        if (
-            book.hits_stale(self.entry.area)
-            or _outwaited(self._blocked, self.patience, now)
-            or _outwaited(self._queued, self.queue_patience, now)
-        ):
+        if book.hits_stale(self.entry.area) or _outwaited(self._blocked, self.patience, now):
             self._finish("withdrawn")
+            return
+        if _outwaited(self._queued, self.queue_patience, now):
+            if self._on_outwaited is None:
+                self._finish("withdrawn")
+            else:
+                self._queued.clear()
+                self._on_outwaited()
             return
         silent = self.vote_deadline is not None and self._count_silent(now)
         if silent and book.hits_stale(self.entry.area):  # a silent member's floor
@@ -524,6 +565,8 @@ class Voter(Participant):
         blockers: the nodes whose locks hold up this node's own pending request.
         step_aside: withdraws this node's pending request and asks again at once (its
             new priority ranks below the request just allowed).
+        revoked: told when an allow this voter took back (this node's AGV asked for it
+            with ``LockBook.revoke``) counts no more: the AGV may ask again higher.
         tally: counts the messages sent.
     """
 
@@ -535,10 +578,13 @@ class Voter(Participant):
         keep_allowed: float = 30.0,
         blockers: Callable[[], frozenset[str]] | None = None,
         step_aside: Callable[[], None] | None = None,
+        revoked: Callable[[], None] | None = None,
         tally: MessageTally | None = None,
     ) -> None:
         self._blockers = blockers
         self._step_aside = step_aside
+        self._revoked = revoked
+        self._revoking = False  # a revoke of the current allow is on its way
         self._view = view
         self._keep = keep_allowed
         self._recheck = recheck
@@ -547,6 +593,7 @@ class Voter(Participant):
         self._probe: Probe | None = None
         self._claims: frozenset[Claim] = frozenset()
         self._priority: Priority = (0.0, "")
+        self._age = 0.0  # the age of the wait the request serves (agv_app.traffic.fifo)
         self._said = ""
         # What the last vote was decided on (the book's version and the requester's
         # circle) and its verdict: the same inputs give the same verdict.
@@ -594,6 +641,18 @@ class Voter(Participant):
             if self._said == "allow":
                 LockBook(self.space).forget_allowed(self._record)
             return
+        if isinstance(message, dict) and message.get("t") == "revoked":
+            if self._said == "allow" and self._revoking and message.get("k") == self._key:
+                # The requester counts our allow no more: it cannot lock with it, so our
+                # own requests need no longer rank below it. Our AGV asks again first,
+                # then the request is voted on afresh against that one.
+                LockBook(self.space).forget_allowed(self._record)
+                self._unwatch()
+                self._said, self._decided, self._revoking = "", None, False
+                if self._revoked is not None:
+                    self._revoked()
+                self._evaluate()
+            return
         if not isinstance(message, dict) or message.get("t") != "req":
             return
         key = message.get("k")
@@ -604,12 +663,19 @@ class Voter(Participant):
             p = message["p"]
             priority = (float(p[0]), str(p[1]))
             claims = frozenset((str(seg), int(way)) for seg, way in message.get("c", ()))
+            age = float(message.get(AGE_FIELD, priority[0]))
         except (KeyError, IndexError, TypeError, ValueError):
             return
         if self._area is not None:
             self._forget_request()
+        else:
+            # A new participation: the requester asked this node afresh (``in_group``),
+            # so no allow an earlier voter of ours gave in this session counts there any
+            # more; those kept a while after it left (``keep_allowed``) end now.
+            LockBook(self.space).forget_allowed_in(str(self.session_id))
         self._probe, self._area, self._priority, self._claims = probe, probe.area, priority, claims
         self._key = key
+        self._age = age
         self._record = f"{self.session_id}/{key}"
         self._evaluate()
 
@@ -620,6 +686,19 @@ class Voter(Participant):
         self._round += 1
         self._said = ""
         self._decided = None
+        self._revoking = False
+
+    def _on_revoke(self, kind: str, tup: tuple[Any, ...]) -> None:
+        if self._active and self._said == "allow" and not self._revoking:
+            self._revoking = True
+            # Not from inside the tuplespace operation, as for releases.
+            self.call_later(0.0, self._send_revoke)
+
+    def _send_revoke(self) -> None:
+        if self._active and self._said == "allow" and self._revoking:
+            message = {"t": "revoke", "k": self._key}
+            self.send(message)
+            tally_send(self._tally, "vote", message)
 
     def _circle_of(self, node_id: str) -> tuple[float, float, float] | None:
         props = {} if self._view is None else self._view().get(node_id, {})
@@ -659,6 +738,10 @@ class Voter(Participant):
             self._unwatch()
             self._said = "allow"
             book.note_allowed(self._record, probe.area, self._priority)
+            # Our AGV may want the allow back, once its own wait is older than this
+            # request (agv_app.traffic.fifo).
+            space_: TupleSpace = self.space
+            self._watches = [space_.notify(("revoke", self._record), self._on_revoke, on="out")]
             if aside and self._step_aside is not None:
                 # The requester's lock holds up our request, so it must move first: our
                 # request goes, and comes back ranked below the one we allow.
@@ -677,9 +760,10 @@ class Voter(Participant):
             self._schedule_recheck()
         if verdict == "lock":
             # Tell our AGV that it stands in someone's way (an idle one moves off), and
-            # let it inherit the priority of the request it holds up.
+            # let it inherit the age of the request it holds up: its age, not the
+            # priority it was asked with, which may rank below it after a step aside.
             self.space.out(("in_the_way", requester), lease=self._recheck * 2)
-            book.note_blocking(self._record, self._priority, lease=self._recheck * 3)
+            book.note_blocking(self._record, (self._age, requester), lease=self._recheck * 3)
         if verdict != self._said:
             self._said = verdict
             message = {"t": "defer", "why": verdict, "k": self._key}

@@ -6,6 +6,8 @@ node's tuplespace (:class:`LockBook` is typed access to these tuples):
 * ``("lock", key, end_s, area)``: a locked projection (``end_s`` is the arc length of
   the route the lock reaches);
 * ``("request", key, end_s, area, priority)``: the pending request;
+* ``("age", key, age)``: the age of the wait the pending request ``key`` serves, where
+  its priority ranks below it (:mod:`agv_app.traffic.fifo`; none: its priority's time);
 * ``("claims", key, claims)``: the direction claims on two-way segments that the lock
   or request ``key`` holds (:data:`agv_app.traffic.deadlock.Claim`; none: no tuple);
 * ``("stale", node_id, x, y, radius)``: the last known circle of a failed AGV, which
@@ -15,9 +17,13 @@ node's tuplespace (:class:`LockBook` is typed access to these tuples):
 * ``("allowed", session, area, priority)``: a request this node's voter allowed,
   kept until its requester says it ended, or ``keep_allowed`` seconds after the voter
   left its session;
-* ``("blocking", session, priority)``: a request this node's voter defers because of
-  one of its locks (leased, renewed while it defers): the AGV inherits that request's
-  priority, so it gets out of the older request's way before younger ones.
+* ``("revoke", session)``: this node's AGV wants the allow of ``session`` back (leased):
+  the voter that gave it asks its requester to count it no more
+  (:mod:`agv_app.traffic.fifo`);
+* ``("blocking", session, (age, node_id))``: a request this node's voter defers
+  because of one of its locks (leased, renewed while it defers), with the age of the
+  wait it serves: the AGV inherits that age (:mod:`agv_app.traffic.fifo`), so it gets
+  out of the older request's way before younger ones.
 
 ``session`` in these two names the request: the voter passes ``"<session>/<key>"``, as
 a session may ask again (``Requester.ask_again``) and each request counts on its own.
@@ -50,13 +56,18 @@ class LockEntry:
 
 @dataclass(frozen=True, slots=True)
 class RequestEntry:
-    """The pending request of this node's AGV (with the direction claims it asks for)."""
+    """The pending request of this node's AGV (with the direction claims it asks for).
+
+    ``age`` is the age of the wait it serves (:mod:`agv_app.traffic.fifo`; None: its
+    priority's time), which its priority may rank below.
+    """
 
     key: int
     end_s: float
     area: Area
     priority: Priority
     claims: frozenset[Claim] = frozenset()
+    age: float | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -127,15 +138,23 @@ class LockBook:
     def request(self) -> RequestEntry | None:
         """The pending request, if any."""
         t = self.space.rdp(("request", ANY, ANY, ANY, ANY))
-        return None if t is None else RequestEntry(t[1], t[2], t[3], t[4], self.claims_of(t[1]))
+        if t is None:
+            return None
+        age = self.space.rdp(("age", t[1], ANY))
+        return RequestEntry(
+            t[1], t[2], t[3], t[4], self.claims_of(t[1]), None if age is None else age[2]
+        )
 
     def lock_end(self, default: float = 0.0) -> float:
         """The furthest arc length any lock reaches (``default`` without locks)."""
         return max((t[2] for t in self.space.rd_all(("lock", ANY, ANY, ANY))), default=default)
 
     def add_request(self, entry: RequestEntry) -> None:
-        """Record the pending request (there is at most one)."""
+        """Record the pending request (there is at most one), with its age where its
+        priority ranks below it."""
         self._set_claims(entry.key, entry.claims)
+        if entry.age is not None and entry.age != entry.priority[0]:
+            self.space.out(("age", entry.key, entry.age))
         self.space.out(("request", entry.key, entry.end_s, entry.area, entry.priority))
 
     def grant(self, key: int) -> LockEntry | None:
@@ -146,6 +165,7 @@ class LockBook:
         entry = LockEntry(key, t[2], t[3], self.claims_of(key))
         self.space.out(("lock", key, entry.end_s, entry.area))
         self.space.inp(("request", key, ANY, ANY, ANY))
+        self.space.inp(("age", key, ANY))
         return entry
 
     def withdraw(self, key: int) -> bool:
@@ -153,6 +173,7 @@ class LockBook:
         gone = self.space.inp(("request", key, ANY, ANY, ANY)) is not None
         if gone:
             self._set_claims(key, frozenset())
+            self.space.inp(("age", key, ANY))
         return gone
 
     def set_locks(self, entry: LockEntry) -> None:
@@ -170,6 +191,7 @@ class LockBook:
         self.space.in_all(("lock", ANY, ANY, ANY))
         self.space.in_all(("request", ANY, ANY, ANY, ANY))
         self.space.in_all(("claims", ANY, ANY))
+        self.space.in_all(("age", ANY, ANY))
 
     def note_allowed(self, session_id: str, area: Area, priority: Priority) -> None:
         """Remember that this node allowed a request, as long as our vote may count:
@@ -188,18 +210,38 @@ class LockBook:
         for t in self.space.in_all(("allowed", session_id, ANY, ANY)):
             self.space.out(t, lease=keep)
 
+    def allowed(self) -> list[tuple[str, Area, Priority]]:
+        """The requests this node allowed and still ranks below: ``(session, area,
+        priority)``, oldest record first."""
+        return [(t[1], t[2], t[3]) for t in self.space.rd_all(("allowed", ANY, ANY, ANY))]
+
+    def revoke(self, session_id: str, *, lease: float) -> None:
+        """Ask, for ``lease`` seconds, that the allow of ``session_id`` be taken back
+        (its voter watches for this; :mod:`agv_app.traffic.fifo`)."""
+        self.space.in_all(("revoke", session_id))
+        self.space.out(("revoke", session_id), lease=lease)
+
+    def forget_allowed_in(self, session: str) -> None:
+        """Forget every request of session ``session`` this node allowed (records named
+        ``"<session>/<key>"``): its requester counts none of those allows any more."""
+        prefix = f"{session}/"
+        for t in self.space.rd_all(("allowed", ANY, ANY, ANY)):
+            if str(t[1]).startswith(prefix):
+                self.space.inp(t)
+
     def forget_allowed(self, session_id: str) -> None:
         """Forget that this node allowed the request of ``session_id``: its requester
         said it is locked or withdrawn, so it no longer outranks our requests."""
         self.space.in_all(("allowed", session_id, ANY, ANY))
 
-    def note_blocking(self, session_id: str, priority: Priority, *, lease: float) -> None:
-        """Remember for ``lease`` seconds that one of our locks holds up a request."""
+    def note_blocking(self, session_id: str, age: Priority, *, lease: float) -> None:
+        """Remember for ``lease`` seconds that one of our locks holds up a request whose
+        wait has age ``(age, requester)``."""
         self.space.in_all(("blocking", session_id, ANY))
-        self.space.out(("blocking", session_id, priority), lease=lease)
+        self.space.out(("blocking", session_id, age), lease=lease)
 
     def inherited(self) -> float | None:
-        """The oldest start time of the requests our locks hold up (None: none)."""
+        """The oldest age of the requests our locks hold up (None: none)."""
         times = [float(t[2][0]) for t in self.space.rd_all(("blocking", ANY, ANY))]
         return min(times, default=None)
 

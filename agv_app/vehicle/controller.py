@@ -49,6 +49,7 @@ from agv_app.traffic.deadlock import (
     merge_branches,
     turn_offs,
 )
+from agv_app.traffic.fifo import allows_to_revoke, priority_at, ranks_higher, wait_age
 from agv_app.traffic.lockbook import LockBook, LockEntry, RequestEntry, StaleRecord
 from agv_app.traffic.plausibility import PeerWatch
 from agv_app.vehicle.comeback import HandBack, come_back
@@ -340,6 +341,7 @@ class AgvController:
                 recheck=self.config.t_update / 2,
                 blockers=self._blockers,
                 step_aside=self._step_aside,
+                revoked=self._revoked,
                 tally=self.tally,
             ),
         )
@@ -378,6 +380,17 @@ class AgvController:
         self._aside_at = self.node.now()
         self._ask_again()
 
+    def _revoked(self) -> None:
+        """An allow this AGV took back counts no more: ask again at the priority its
+        age now gives, if that ranks higher (agv_app.traffic.fifo)."""
+        requester = self._requester
+        if (
+            isinstance(requester, Requester)
+            and not requester.done
+            and ranks_higher(requester.entry, self._age(), self.node_id, self.book)
+        ):
+            self._ask_again()
+
     def _ask_again(self) -> None:
         """Withdraw the pending request and make a new one at once (no gap in which
         younger requests would find our area free); its priority is worked out anew."""
@@ -401,16 +414,16 @@ class AgvController:
         if kept is not None:
             kept.close()  # nothing if the new request was asked on it
 
-    def _priority_for(self, area: Area) -> tuple[float, str]:
-        """The priority of a request over ``area``: when the AGV started waiting for this
-        stretch, or the older priority of a request its locks hold up (inherited), then
-        ranked below the pending requests this node allowed."""
+    def _age(self) -> float:
+        """The age of the wait a request serves: when the AGV started waiting for this
+        stretch, or the older age of a request its locks hold up (inherited)."""
         assert self._first_try is not None
-        wanted = self._first_try[1]
-        inherited = self.book.inherited()
-        if inherited is not None and inherited < wanted:
-            wanted = inherited - 1e-6
-        return self.book.next_priority(wanted, self.node_id, area)
+        return wait_age(self._first_try[1], self.book)
+
+    def _priority_for(self, area: Area) -> tuple[float, str]:
+        """The priority of a request over ``area``: its age (:meth:`_age`), ranked below
+        the pending requests this node allowed."""
+        return priority_at(self._age(), self.node_id, area, self.book)
 
     def _largest_hull_length(self) -> float:
         # Imported here: reach reads AgvConfig from this module.
@@ -777,29 +790,41 @@ class AgvController:
             self.node.set_at_rest(at_rest)
 
     def _review_request(self, now: float) -> None:
-        """Withdraw the pending request to yield (see ``_must_yield``), or ask again if
-        it would now rank higher (an inherited priority).
+        """Withdraw the pending request to yield (see ``_must_yield``), take back the
+        allows that let younger requests over its floor go first, ask for less while a
+        lock holds it up, or ask again if it would now rank higher (an inherited age, or
+        an allow that ranked it lower ended: agv_app.traffic.fifo).
 
-        Not while a lock holds it up: asking again would restart its ``patience``.
+        Held up by a lock, it asks again to rank higher only without ``patience``,
+        which asking again would restart.
         """
         requester = self._requester
         if requester is None or requester.done or self._held:
             return  # held: it stands where it is, and yields or detours for nobody
-        if requester.blocked_by:
-            if (
-                (self._must_yield(now) and self._yield_place() is not None)
-                or self._must_drive_on(now, requester)
-                or self._must_detour(now, requester)
+        if requester.blocked_by and (
+            (self._must_yield(now) and self._yield_place() is not None)
+            or self._must_drive_on(now, requester)
+            or self._must_detour(now, requester)
+        ):
+            requester.withdraw()
+            return
+        if isinstance(requester, Requester):
+            # Allows given to younger requests over our floor let them go first: take
+            # them back, but not those of the AGVs whose locks are in our way.
+            for session in allows_to_revoke(
+                self._age(), self.node_id, requester.entry.area, self.book, requester.blocked_by
             ):
-                requester.withdraw()
-            elif self._may_shorten():
+                self.book.revoke(session, lease=2 * self.config.t_update)
+        if requester.blocked_by:
+            if self._may_shorten():
                 # Held up by a lock while standing: ask for half the stretch, which
                 # may fit behind the AGV ahead (followers close up on a full lane).
                 self._advance = max(_MIN_ADVANCE_M, self._advance / 2)
                 self._ask_again()
-            return
-        entry = requester.entry
-        if self._priority_for(entry.area) < entry.priority:
+                return
+            if self.config.patience is not None:
+                return
+        if ranks_higher(requester.entry, self._age(), self.node_id, self.book):
             self._ask_again()
 
     def _may_shorten(self) -> bool:
@@ -866,7 +891,9 @@ class AgvController:
         self._key += 1
         if self._first_try is None or self._first_try[0] != lock_end:
             self._first_try = (lock_end, now)
-        entry = RequestEntry(self._key, end, area, self._priority_for(area), claims)
+        age = self._age()
+        priority = priority_at(age, self.node_id, area, book)
+        entry = RequestEntry(self._key, end, area, priority, claims, age)
         book.add_request(entry)
         # A request inside the circle in force needs no new one: the others have had
         # it since it went out (docs/traffic.md, "A request inside the published circle").
@@ -901,6 +928,7 @@ class AgvController:
             definition=definition,
             vote_deadline=self.config.vote_deadline,
             on_silent=self.peers.silent,
+            on_outwaited=self._ask_again,
         )
         self._requester = requester
         self.node.start_interaction(requester, definition, "voter")

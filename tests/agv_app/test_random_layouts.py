@@ -1,8 +1,8 @@
 """Deadlock freedom on small random layouts (``tests/agv_app/two_way_floors.py``): two-way
 lanes, dead-end docks, crossings. A random fleet of 2 to 4 AGVs runs a random task
-stream; the run must have no collision, no lock overlap and no AGV stalled past the
-stall limit. ``python -m tests.soak.floors --kind two-way`` runs many more seeds of the
-same drawing.
+stream; the run must have no collision, no lock overlap, no AGV stalled past the stall
+limit and no wait past the fleet's wait bound (docs/traffic.md, "Bounded waits").
+``python -m tests.soak.floors --kind two-way`` runs many more seeds of the same drawing.
 """
 
 from __future__ import annotations
@@ -43,7 +43,7 @@ def test_two_agvs_at_the_two_docks_swap_them() -> None:
 
 
 # Seeds where, before the longest-waiting request won its conflicts, one AGV lost a
-# single track to newer requests for over 180 s (docs/traffic.md, "Fairness").
+# single track to newer requests for over 180 s (docs/traffic.md, "Bounded waits").
 _STARVED = [
     TwoWayRun(single_track(4, 14.0, "p1n p1s p2n p2s"), 327, 60.0),
     TwoWayRun(single_track(5, 12.0, "p1n p1s p2n p3n p3s"), 4559, 20.0),
@@ -103,7 +103,9 @@ def test_random_layouts_stay_safe_and_get_work_done(run: TwoWayRun) -> None:
 def test_random_layouts_never_stall(run: TwoWayRun) -> None:
     fleet = run_two_way(run)
     stuck = {a: (agv.phase, agv.point) for a, agv in fleet.agvs.items() if agv.stalled}
-    assert fleet.summary()["deadlocks"] == 0, f"{run}: stalled {stuck}"
+    figures = fleet.summary()
+    assert figures["deadlocks"] == 0, f"{run}: stalled {stuck}"
+    assert figures["max_wait"] <= figures["wait_bound"], f"{run}: {fleet.wait_bound}"
 
 
 def test_spare_rest_points_are_never_on_a_two_way_lane() -> None:

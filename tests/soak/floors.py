@@ -13,8 +13,13 @@ stream that ``draw_floor_run(random.Random(n))`` draws
 simulated seconds and 200 more to finish them. ``--kind two-way`` draws small two-way
 layouts with dead-end docks and crossings instead
 (``tests/agv_app/two_way_floors.py``: tasks for 200 s, 200 more to finish them).
+``--kind crossing``, ``areas`` and ``halls`` draw the shapes that make AGVs wait long
+(``tests/agv_app/hard_floors.py``): two-way lanes crossing with stations and parking
+at the arms' ends, a lane (or a lane with a lay-by) between two dead-end areas, one-way
+halls joined by a two-way door.
 The safety monitor checks every step (a collision or a lock overlap ends the seed);
-at the end no AGV may have stalled past the stall limit and a task must be done.
+at the end no AGV may have stalled past the stall limit, no wait may have passed the
+fleet's wait bound (docs/traffic.md, "Bounded waits") and a task must be done.
 ``--off RULE`` runs the fleet without a traffic rule (``clear_merges``,
 ``clear_turn_offs``, ``keep_way_out``, ``drive_on_after``, ``detour_after``) or with
 stations that call every winner at once (``one_at_a_time``) or that call an AGV whose
@@ -35,6 +40,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from agv_app.fleet import Fleet, SafetyError
+from tests.agv_app.hard_floors import DRAWS, HardRun, run_hard
 from tests.agv_app.one_way_floors import FloorRun, draw_floor_run, run_floor
 from tests.agv_app.two_way_floors import TwoWayRun, draw_two_way_run, run_two_way
 from tests.agv_app.vehicles import vehicle_with
@@ -65,6 +71,7 @@ FLEET_RULES: dict[str, Any] = {"one_at_a_time": False, "wait_for_drop": False}
 KINDS: dict[str, tuple[Callable[[random.Random], Any], Callable[..., Fleet]]] = {
     "one-way": (draw_floor_run, run_floor),
     "two-way": (draw_two_way_run, run_two_way),
+    **{kind: (draw, run_hard) for kind, draw in DRAWS.items()},
 }
 """The floors ``--kind`` draws: how a seed's run is drawn, and how it is run."""
 
@@ -81,6 +88,8 @@ class FloorResult:
         yields: times an AGV backed off from the start of its route.
         drive_ons: times an AGV drove on past its destination to come back later.
         detours: times an AGV took another way to its destination.
+        max_wait: the longest single wait, seconds.
+        wait_bound: the fleet's wait bound, seconds (docs/traffic.md, "Bounded waits").
         standing: the AGVs still standing past the limit at the end, with their phase
             and the point their route started from.
         violation: the safety violation that ended the run, if any.
@@ -88,20 +97,27 @@ class FloorResult:
     """
 
     seed: int
-    run: FloorRun | TwoWayRun
+    run: FloorRun | TwoWayRun | HardRun
     tasks_done: int
     stalls: int
     yields: int
     drive_ons: int
     detours: int
+    max_wait: float
+    wait_bound: float
     standing: tuple[tuple[str, str, str], ...]
     violation: str | None
     wall_seconds: float
 
     @property
     def ok(self) -> bool:
-        """Safe, nothing stalled, something done."""
-        return self.violation is None and self.stalls == 0 and self.tasks_done > 0
+        """Safe, nothing stalled, no wait past the bound, something done."""
+        return (
+            self.violation is None
+            and self.stalls == 0
+            and self.max_wait <= self.wait_bound
+            and self.tasks_done > 0
+        )
 
 
 def replay_command(seed: int, off: Sequence[str] = (), kind: str = "one-way") -> str:
@@ -128,7 +144,7 @@ def run_floor_seed(seed: int, off: Sequence[str] = (), kind: str = "one-way") ->
         fleet = drive(run, **options)
     except SafetyError as violation:
         return FloorResult(
-            seed, run, 0, 0, 0, 0, 0, (), str(violation), time.perf_counter() - started
+            seed, run, 0, 0, 0, 0, 0, 0.0, 0.0, (), str(violation), time.perf_counter() - started
         )
     figures = fleet.summary()
     now, watch = fleet.net.now, fleet.stalls
@@ -145,6 +161,8 @@ def run_floor_seed(seed: int, off: Sequence[str] = (), kind: str = "one-way") ->
         int(figures["yields"]),
         int(figures["drive_ons"]),
         int(figures["detours"]),
+        figures["max_wait"],
+        figures["wait_bound"],
         standing,
         None,
         time.perf_counter() - started,
@@ -155,14 +173,22 @@ def _describe(result: FloorResult) -> str:
     head = f"seed {result.seed}: {result.run}"
     if result.violation is not None:
         return f"{head}: {result.violation}"
-    resorts = f"{result.yields} yields, {result.drive_ons} drive-ons, {result.detours} detours"
-    if result.stalls:
+    resorts = (
+        f"{result.yields} yields, {result.drive_ons} drive-ons, {result.detours} detours, "
+        f"the longest wait {result.max_wait:g} s of at most {result.wait_bound:g} s"
+    )
+    if result.stalls or result.max_wait > result.wait_bound:
         agvs = ", ".join(f"{a} ({phase} from {point})" for a, phase, point in result.standing)
+        over = ", A WAIT PAST THE BOUND" if result.max_wait > result.wait_bound else ""
         return (
             f"{head}: {result.tasks_done} tasks done, {resorts}, {result.stalls} waits past "
-            f"the stall limit; standing at the end: {agvs or 'none'}"
+            f"the stall limit{over}; standing at the end: {agvs or 'none'}"
         )
     return f"{head}: {result.tasks_done} tasks done, {resorts}"
+
+
+def _share(result: FloorResult) -> float:
+    return result.max_wait / result.wait_bound
 
 
 def _worker(job: tuple[int, tuple[str, ...], str]) -> FloorResult:
@@ -173,6 +199,7 @@ def _run_many(seeds: list[int], off: tuple[str, ...], kind: str, jobs: int) -> i
     started = time.perf_counter()
     failed: list[FloorResult] = []
     done = tasks = yields = drive_ons = detours = 0
+    closest: FloorResult | None = None  # the run whose longest wait came nearest its bound
     with (
         seed_progress() as progress,
         multiprocessing.get_context("fork").Pool(jobs, maxtasksperchild=50) as pool,
@@ -184,6 +211,8 @@ def _run_many(seeds: list[int], off: tuple[str, ...], kind: str, jobs: int) -> i
             yields += result.yields
             drive_ons += result.drive_ons
             detours += result.detours
+            if result.wait_bound and (closest is None or _share(result) > _share(closest)):
+                closest = result
             if not result.ok:
                 failed.append(result)
                 progress.console.print(f"FAILED {_describe(result)}")
@@ -194,6 +223,11 @@ def _run_many(seeds: list[int], off: tuple[str, ...], kind: str, jobs: int) -> i
         f"{len(failed)} failed, {tasks} tasks done, {yields} yields, {drive_ons} drive-ons, "
         f"{detours} detours, {time.perf_counter() - started:.1f}s wall"
     )
+    if closest is not None:
+        print(
+            f"the longest wait nearest its bound: seed {closest.seed}, {closest.max_wait:g} s "
+            f"of at most {closest.wait_bound:g} s ({_share(closest):.0%})"
+        )
     for result in sorted(failed, key=lambda r: r.seed):
         print(f"FAILED {_describe(result)}")
         print(f"  {replay_command(result.seed, off, kind)}")

@@ -65,9 +65,11 @@ def _gaps(vehicle: type[_Logged]) -> list[float]:
 def test_a_circle_of_agvs_steps_aside_at_most_twice_a_second_each() -> None:
     """Found on that run: from 116.3 s on five AGVs, each holding up the next, stepped
     aside round the circle at every round trip (agv-39 every 0.04 s), each step a new
-    request to its whole group."""
+    request to its whole group. With requests served oldest first (the AGV in the way
+    inherits the age it holds up, agv_app.traffic.fifo) that circle no longer forms, but
+    without the limit an AGV still steps aside again within a round trip."""
     before = _gaps(_EveryTime)
-    assert sum(gap < 0.1 for gap in before) > 50
+    assert any(gap < 0.1 for gap in before), sorted(before)[:5]
     after = _gaps(_Logged)
     assert after, "no AGV stepped aside"
     assert min(after) >= 0.5 - 1e-9

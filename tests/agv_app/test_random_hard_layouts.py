@@ -1,0 +1,49 @@
+"""Bounded waits on the shapes that make AGVs wait long (``tests/agv_app/hard_floors.py``):
+two-way lanes crossing with stations and parking at the arms' ends, a lane (or a lane
+with a lay-by) between two dead-end areas, one-way halls joined by a two-way door. A
+random fleet runs a random task stream; the run must have no collision, no lock
+overlap, no AGV stalled past the stall limit and no wait past the fleet's wait bound
+(docs/traffic.md, "Bounded waits"). ``python -m tests.soak.floors --kind crossing``
+(``areas``, ``halls``) runs many more seeds of the same drawings.
+"""
+
+from __future__ import annotations
+
+import random
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from tests.agv_app.hard_floors import DRAWS, HardRun, draw_areas_run, run_hard
+from tests.agv_app.test_random_layouts import FLEET_EXAMPLES
+
+
+def _check(run: HardRun) -> None:
+    fleet = run_hard(run)
+    figures = fleet.summary()
+    stuck = {a: (agv.phase, agv.point) for a, agv in fleet.agvs.items() if agv.stalled}
+    assert figures["collisions"] == figures["lock_overlaps"] == 0
+    assert figures["deadlocks"] == 0, f"{run}: stalled {stuck}"
+    assert figures["max_wait"] <= figures["wait_bound"], f"{run}: {fleet.wait_bound}"
+    assert figures["tasks_completed"] >= 1, f"{run}: nothing done"
+
+
+def test_an_areas_seed_draws_a_lane_between_two_dead_end_areas() -> None:
+    run = draw_areas_run(random.Random(46))
+    assert run.floor.shape == "lane 15 m, stations (2, 1), parking (1, 1)"
+    _check(run)  # a visit of the other AGV held its wait up: in, dwell, out
+
+
+# Six fleet runs of 500 simulated seconds per shape, up to 8 AGVs (a few seconds of
+# CPU each).
+@pytest.mark.slow
+@pytest.mark.timeout(900)
+@pytest.mark.parametrize("kind", sorted(DRAWS))
+def test_random_hard_layouts_keep_every_wait_within_the_bound(kind: str) -> None:
+    @settings(FLEET_EXAMPLES, max_examples=6)
+    @given(run=st.randoms(use_true_random=False).map(DRAWS[kind]))
+    def check(run: HardRun) -> None:
+        _check(run)
+
+    check()
