@@ -83,6 +83,7 @@ SIM_MODULES: Final = (
     "agv_app.traffic.monitor",
     "agv_app.traffic.reach",
     "agv_app.traffic.stale_relay",
+    "agv_app.vehicle.battery",
     "agv_app.vehicle.controller",
     "agv_app.vehicle.driven",
     "agv_app.vehicle.driver",

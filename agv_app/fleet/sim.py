@@ -685,4 +685,5 @@ def _widest(a: VehicleSpec, b: VehicleSpec) -> VehicleSpec:
         max(a.width_m, b.width_m),
         max(a.max_speed_m_s, b.max_speed_m_s),
         min(a.max_accel_m_s2, b.max_accel_m_s2),
+        a.battery,
     )
