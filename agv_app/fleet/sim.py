@@ -627,6 +627,7 @@ class Fleet(FleetSourceBase):
     def vehicles(self) -> Sequence[VehicleState]:
         """Every AGV, by id."""
         out = []
+        chargers, now = self.chargers, self.net.now
         for agv_id, agv in sorted(self.agvs.items()):
             pose = agv.vehicle.pose()
             locks, request = agv.areas()
@@ -650,6 +651,7 @@ class Fleet(FleetSourceBase):
                     agv.vehicle.speed,
                     agv.held,
                     agv.in_service,
+                    None if chargers is None else chargers.state_of_charge(agv_id, now),
                 )
             )
         return out
