@@ -15,7 +15,7 @@ from agv_app.vehicle.battery import BatterySpec
 
 pytestmark = pytest.mark.slow
 
-AGVS = 6
+AGVS = 5
 HOURS = 2.0
 # Drained fast enough that every AGV needs a charge within the two hours.
 BATTERY = BatterySpec(
