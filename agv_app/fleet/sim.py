@@ -506,6 +506,9 @@ class Fleet(FleetSourceBase):
         if self.holds.held(agv_id):
             agv.hold()
         agv.in_service = self.holds.in_service(agv_id)
+        if self.chargers is not None:
+            agv.battery = self.chargers.batteries[agv_id]  # the vehicle's, not a fresh one
+            agv.in_service = agv.in_service and self.chargers.takes_tasks(agv_id)
         return agv
 
     # -- holding (an operator's stop) -------------------------------------------------------

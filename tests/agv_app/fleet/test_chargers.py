@@ -4,12 +4,17 @@ alarm. Virtual time."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from agv_app.fleet import Fleet, FleetConfig
 from agv_app.fleet.chargers import charger_points
 from agv_app.fleet.parking import ParkingPlan
-from agv_app.layout.demo import demo_warehouse
+from agv_app.geometry import Pose
+from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
+from agv_app.vehicle import SimDriver
 from agv_app.vehicle.battery import BatterySpec
 from agv_app.vehicle.kinematics import VehicleSpec
+from agv_app.vehicle.state_file import StateFile
 
 FAST_DRAIN = BatterySpec(
     drain_per_m=0.1,
@@ -97,3 +102,22 @@ def test_an_agv_that_runs_empty_stops_and_raises_an_alarm() -> None:
     assert shown[moving.node_id] == "empty"
     assert fleet.summary()["ran_empty"] == 1
     assert not moving.in_service
+
+
+def test_a_rebooted_agv_keeps_its_battery(tmp_path: Path) -> None:
+    spec = VehicleSpec(DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M)
+
+    def drivers(agv_id: str, pose: Pose) -> SimDriver:
+        return SimDriver.recovered(spec, StateFile(tmp_path / f"{agv_id}.json"), default=pose)
+
+    cfg = FleetConfig(agvs=2, seed=3, task_until=0.0, batteries=FAST_DRAIN)
+    fleet = Fleet(demo_warehouse(), cfg, spec=spec, drivers=drivers)
+    chargers = fleet.chargers
+    assert chargers is not None
+    battery = chargers.batteries["agv-01"]
+    battery.drain(metres=300.0)
+    fleet.crash("agv-01")
+    fleet.run(5.0)
+    agv = fleet.reboot("agv-01")
+    assert agv.battery is battery
+    assert battery.state_of_charge(fleet.now) < 71.0
