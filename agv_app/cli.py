@@ -24,6 +24,7 @@ from agv_app.layout.json_format import load_any
 from agv_app.tasks.admission import CROWDED, LANE_M_PER_OPEN_TASK, carried_tasks
 from agv_app.tasks.desk import parse_max_open
 from agv_app.tasks.load import DEFAULT_LOAD
+from agv_app.vehicle.battery import BatterySpec
 from objectplaces.arguments import POSITIVE, number, whole
 
 __all__ = [
@@ -148,6 +149,13 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
         f"this often (default {REST_BEAT_S:g} s, or the heartbeat when longer; 'none': as "
         "often as the others); a node at rest counts as failed after three of these",
     )
+    p.add_argument(
+        "--batteries",
+        action="store_true",
+        help="give every AGV a battery (BatterySpec's defaults): it drains as it drives and "
+        "handles loads, charges at the layout's chargers, and stops if it runs empty "
+        '(docs/cli.md, "Batteries")',
+    )
     p.add_argument("--json", dest="json_path", help="write the metrics to this JSON file")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument(
@@ -194,6 +202,7 @@ def run_sim(args: argparse.Namespace) -> int:
             max_open_tasks=args.max_open_tasks,
             heartbeat=args.heartbeat,
             rest_beat=args.rest_beat,
+            batteries=BatterySpec() if args.batteries else None,
         )
         fleet = Fleet(layout, config)
     except (LayoutError, ValueError, OSError) as exc:
@@ -250,4 +259,8 @@ def run_sim(args: argparse.Namespace) -> int:
         )
     if args.json_path:
         Path(args.json_path).write_text(json.dumps(figures, indent=2, sort_keys=True) + "\n")
-    return 1 if any(figures[k] for k in SAFETY_KEYS) else 0
+    if fleet.chargers is not None:
+        for at, agv_id, alarm in fleet.chargers.alarms:
+            print(f"ALARM {at:.1f} s {agv_id}: {alarm}", file=sys.stderr)
+    ran_empty = figures.get("ran_empty", 0)
+    return 1 if ran_empty or any(figures[k] for k in SAFETY_KEYS) else 0

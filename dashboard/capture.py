@@ -159,7 +159,8 @@ def vehicle_json(vehicle: VehicleView, cache: PolygonCache | None = None) -> JSO
 
     Returns:
         A dict with ``x, y, heading, length, width, status, task, hull, hull_length,
-        locked, requested, speed, held, in_service``.
+        locked, requested, speed, held, in_service, battery`` (the state of charge in
+        percent; None: no battery model).
     """
     poly = _polygon if cache is None else cache.polygon
     speed, held = motion_of(vehicle)
@@ -178,7 +179,16 @@ def vehicle_json(vehicle: VehicleView, cache: PolygonCache | None = None) -> JSO
         "speed": None if math.isnan(speed) else round(speed, 2),
         "held": held,
         "in_service": in_service_of(vehicle),
+        "battery": _battery_of(vehicle),
     }
+
+
+def _battery_of(vehicle: VehicleView) -> float | None:
+    """The vehicle's state of charge, percent, rounded (None: it reports none)."""
+    level = getattr(vehicle, "battery", None)
+    if not isinstance(level, int | float) or isinstance(level, bool) or math.isnan(level):
+        return None
+    return round(float(level), 1)
 
 
 def layout_json(layout: Layout) -> JSON:

@@ -205,6 +205,9 @@ class VehicleOut(_Out):
     )
     held: bool = Field(default=False, description="it reports holding for an operator's stop")
     in_service: bool = Field(default=True, description="it reports taking tasks")
+    battery: float | None = Field(
+        default=None, description="state of charge, percent (None: no battery model)"
+    )
 
 
 class TaskIn(_In):

@@ -1,9 +1,9 @@
 """Watches the fleet between two steps and writes what changed into the operator's log.
 
 :class:`FleetWatch` compares what it sees now with what it saw last time: nodes that
-joined or left, vehicles that failed or recovered, vehicles waiting too long, and a
-pause or resume the dashboard did not ask for. Pure: the caller passes what it reads
-from the fleet and ``now``.
+joined or left, vehicles that failed or recovered or ran empty, vehicles waiting too
+long, and a pause or resume the dashboard did not ask for. Pure: the caller passes what
+it reads from the fleet and ``now``.
 """
 
 from __future__ import annotations
@@ -85,6 +85,10 @@ class FleetWatch:
     def _status_changed(self, now: float, vid: str, status: str) -> None:
         before = self._status.get(vid)
         self._status[vid] = status
+        if status == "empty" and before != "empty":
+            self.log.raise_alarm(
+                f"empty:{vid}", now, vid, f"{vid} ran empty: stopped where it stands"
+            )
         if status == "failed" and before != "failed":
             self.log.raise_alarm(f"failed:{vid}", now, vid, f"{vid} failed")
         elif before == "failed" and status != "failed":

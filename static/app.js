@@ -36,7 +36,7 @@ const COLORS = {
     idle: "#7f8c99", driving: "#4aa3ff", moving: "#4aa3ff", waiting: "#ff9f43",
     blocked: "#ff9f43", loading: "#00d2d3", unloading: "#00d2d3", charging: "#b388ff",
     failed: "#ff5e57", crashed: "#ff5e57", stopping: "#f368e0", stopped: "#f368e0",
-    "out-of-service": "#576574", other: "#48dbfb",
+    "out-of-service": "#576574", "to-charger": "#b388ff", empty: "#ff5e57", other: "#48dbfb",
   },
   lockedFill: "rgba(46, 204, 113, 0.22)",
   lockedStroke: "rgba(46, 204, 113, 0.85)",

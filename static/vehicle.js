@@ -96,6 +96,7 @@ function render(d) {
   const speed = d.speed == null ? "–" : `${d.speed.toFixed(2)} m/s`;
   setFact("motion", "motion", d.held ? `${speed}, held (stopped by the operator)` : speed);
   setFact("service", "service", d.in_service === false ? "out of service" : "in service");
+  setFact("battery", "battery", d.battery == null ? "–" : `${d.battery.toFixed(1)} %`);
   const w = d.wait;
   setFact("wait", "wait", w.waiting ? `${fmtSeconds(w.seconds)} (since ${fmtSeconds(w.since)})` : "not waiting");
   const t = d.traffic;

@@ -100,20 +100,33 @@ class ParkingPlan:
         """``agv_id`` owns rest point ``point`` (its home at the start)."""
         self._resting[point] = agv_id
 
-    def relocate(self, agv_id: str, home: str, at: str) -> str | None:
-        """A free rest point for ``agv_id``, which owns ``home`` and stands at ``at``.
+    def relocate(
+        self, agv_id: str, home: str, at: str, *, among: Sequence[str] | None = None
+    ) -> str | None:
+        """A free rest point for ``agv_id``, which owns ``home`` and stands at ``at``
+        (``among``: one of these points instead, e.g. the chargers).
 
         The nearest free point by route wins (ties by point id); the AGV gives up its
         old point. None when no free point is reachable.
         """
         dist = self.layout.distances_from(at)
-        free = [p for p in self._pool if p not in self._resting and p in dist]
+        pool = self._pool if among is None else among
+        free = [p for p in pool if p not in self._resting and p in dist]
         if not free:
             return None
         best = min(free, key=lambda p: (dist[p], p))
         self._resting.pop(home, None)
         self._resting[best] = agv_id
         return best
+
+    def set_aside(self, points: Sequence[str]) -> None:
+        """Hand out none of ``points`` as a rest point (they stay homes if they are)."""
+        keep = set(self.homes)
+        self._pool = [p for p in self._pool if p in keep or p not in points]
+
+    def owner(self, point: str) -> str | None:
+        """The AGV that owns ``point`` (None: free)."""
+        return self._resting.get(point)
 
     def _rest_points(self, taken: list[str], n: int) -> list[str]:
         """Up to ``n`` more points to rest on, a hull diagonal from each other, from

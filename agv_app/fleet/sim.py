@@ -8,6 +8,7 @@ the dashboard imports us, never the other way round).
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 import random
@@ -15,6 +16,7 @@ from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass
 
 from agv_app.fleet.base import FleetSourceBase
+from agv_app.fleet.chargers import Chargers
 from agv_app.fleet.liveness import REPUBLISH_BEATS, REST_BEAT_S, fleet_liveness
 from agv_app.fleet.metrics import FleetMetrics
 from agv_app.fleet.parking import ParkingPlan, home_heading
@@ -40,6 +42,7 @@ from agv_app.traffic.monitor import SafetyMonitor, SafetyViolation
 from agv_app.traffic.reach import dissemination_margin, interest_radius
 from agv_app.traffic.stale_relay import StaleListener, StaleRelay
 from agv_app.traffic.wait_bound import WaitBound, wait_bound
+from agv_app.vehicle.battery import BatterySpec
 from agv_app.vehicle.comeback import hand_back
 from agv_app.vehicle.controller import DEFAULT_ADVANCE_M, AgvConfig, AgvController
 from agv_app.vehicle.driven import planning_spec
@@ -135,6 +138,9 @@ class FleetConfig:
         advance_m: how far beyond its locks an AGV's request reaches at least
             (``AgvConfig.advance_m``; the interest radius follows it).
         fail_on_violation: raise at the first safety violation.
+        batteries: every AGV's battery (None: none, unless the vehicle spec declares
+            one): they drain, charge at the layout's chargers and may run empty
+            (:mod:`agv_app.fleet.chargers`).
     """
 
     agvs: int = 20
@@ -170,6 +176,7 @@ class FleetConfig:
     dwell: float = 5.0
     advance_m: float = DEFAULT_ADVANCE_M
     fail_on_violation: bool = False
+    batteries: BatterySpec | None = None
 
     def __post_init__(self) -> None:
         check_load(self.load)
@@ -234,6 +241,8 @@ class Fleet(FleetSourceBase):
         self.layout = layout or demo_warehouse()
         self.config = cfg = config or FleetConfig()
         self.spec = spec or VehicleSpec(DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M)
+        if cfg.batteries is not None:
+            self.spec = dataclasses.replace(self.spec, battery=cfg.batteries)
         self._vehicle = vehicle
         self._drivers = drivers
         self._node_liveness = liveness = self._liveness()
@@ -330,6 +339,9 @@ class Fleet(FleetSourceBase):
         ):
             self._build(agv_id, home, start, pose, driver)
             self.parking.claim(agv_id, home)
+        battery = self.spec.battery
+        self.chargers = None if battery is None else Chargers(battery, self.parking, self.agvs)
+        """The AGVs' batteries and the chargers (None: no battery model)."""
         if cfg.station_nodes:
             for sid in pick_stations(self.layout):
                 self.desk.open_base(self.net.add_node(f"st:{sid}"), [sid])
@@ -447,8 +459,11 @@ class Fleet(FleetSourceBase):
     def _relocate(self, agv: AgvController) -> str | None:
         """A free rest point for an idle AGV that stands in the way (nearest ahead).
 
-        Rest points are the fleet's to hand out, like a warehouse's parking plan.
+        Rest points are the fleet's to hand out, like a warehouse's parking plan; one
+        bound for or on a charger stays.
         """
+        if self.chargers is not None and self.chargers.stays(agv.node_id):
+            return None
         return self.parking.relocate(agv.node_id, agv.home, agv.point)
 
     def _draw_interval(self) -> float:
@@ -513,6 +528,9 @@ class Fleet(FleetSourceBase):
         if self.holds.held(agv_id):
             agv.hold()
         agv.in_service = self.holds.in_service(agv_id)
+        if self.chargers is not None:
+            agv.battery = self.chargers.batteries[agv_id]  # the vehicle's, not a fresh one
+            agv.in_service = agv.in_service and self.chargers.takes_tasks(agv_id)
         return agv
 
     # -- holding (an operator's stop) -------------------------------------------------------
@@ -523,12 +541,15 @@ class Fleet(FleetSourceBase):
 
     def _apply_holds(self) -> None:
         """Hold or release every AGV as ``holds`` says, at once (it is in this process)."""
+        chargers = self.chargers
         for agv_id, agv in self.agvs.items():
-            if self.holds.held(agv_id):
+            if self.holds.held(agv_id) or (chargers is not None and chargers.empty(agv_id)):
                 agv.hold()
             else:
                 agv.release()
-            agv.in_service = self.holds.in_service(agv_id)
+            agv.in_service = self.holds.in_service(agv_id) and (
+                chargers is None or chargers.takes_tasks(agv_id)
+            )
 
     def _listen(self, agv_id: str, node: RoleActivator) -> None:
         """A scoped AGV takes the failed AGVs the observer relays into its lock book."""
@@ -565,6 +586,8 @@ class Fleet(FleetSourceBase):
             elif shown == "waiting":
                 m.waiting_seconds += dt
             self.stalls.observe(agv_id, stalled=agv.stalled, now=now)
+        if self.chargers is not None:
+            self._charge(dt, now)
         truths = self._truths
         hulls = [
             (a, truths[a]() if a in truths else agv.vehicle.hull()) for a, agv in self.agvs.items()
@@ -575,6 +598,16 @@ class Fleet(FleetSourceBase):
         if found and cfg.fail_on_violation:
             raise SafetyError("\n".join(str(v) for v in found))
         return found
+
+    def _charge(self, dt: float, now: float) -> None:
+        """Drain and charge the batteries; chargers to the AGVs that need one."""
+        chargers = self.chargers
+        assert chargers is not None
+        holds = self.holds
+        for agv_id, agv in self.agvs.items():
+            chargers.step(agv_id, agv, dt, now)
+            agv.in_service = holds.in_service(agv_id) and chargers.takes_tasks(agv_id)
+        chargers.grant(self.agvs, now)
 
     def run(self, seconds: float, progress: Callable[[float], None] | None = None) -> None:
         """Run for ``seconds`` of simulated time (whole steps), reporting progress."""
@@ -613,7 +646,7 @@ class Fleet(FleetSourceBase):
             messages=stats.messages,
             bytes_=stats.bytes,
             agv_sent=agv_sent,
-        )
+        ) | ({} if self.chargers is None else self.chargers.stats.summary())
         # Beside the task times, their share of free flow; beside the longest wait, what
         # it may be at most.
         lead = {"lead_ratio_p95": round(percentile(self.lead_ratios(), 95), 3)}
@@ -637,6 +670,7 @@ class Fleet(FleetSourceBase):
     def vehicles(self) -> Sequence[VehicleState]:
         """Every AGV, by id."""
         out = []
+        chargers, now = self.chargers, self.net.now
         for agv_id, agv in sorted(self.agvs.items()):
             pose = agv.vehicle.pose()
             locks, request = agv.areas()
@@ -649,7 +683,7 @@ class Fleet(FleetSourceBase):
                     pose.heading_rad,
                     self.spec.length_m,
                     self.spec.width_m,
-                    agv.display_status(),
+                    self._shown(agv_id, agv),
                     agv.task.id
                     if agv.task
                     else (agv.pending_task.id if agv.pending_task else None),
@@ -660,9 +694,16 @@ class Fleet(FleetSourceBase):
                     agv.vehicle.speed,
                     agv.held,
                     agv.in_service,
+                    None if chargers is None else chargers.state_of_charge(agv_id, now),
                 )
             )
         return out
+
+    def _shown(self, agv_id: str, agv: AgvController) -> str:
+        """The dashboard's status: ``charging``, ``to-charger`` or ``empty`` when the
+        battery says so, else the AGV's own."""
+        by_battery = None if self.chargers is None else self.chargers.status(agv_id)
+        return by_battery or agv.display_status()
 
     def vehicle_route(self, vehicle_id: str) -> tuple[XY, ...]:
         """The rest of an AGV's route, from where it stands to where it stops; ``()`` at
@@ -725,4 +766,5 @@ def _widest(a: VehicleSpec, b: VehicleSpec) -> VehicleSpec:
         max(a.width_m, b.width_m),
         max(a.max_speed_m_s, b.max_speed_m_s),
         min(a.max_accel_m_s2, b.max_accel_m_s2),
+        a.battery,
     )

@@ -38,6 +38,8 @@ class VehicleState:
     """Whether it holds for an operator's stop (as it reports it)."""
     in_service: bool = True
     """Whether it takes tasks (as it reports it)."""
+    battery: float | None = None
+    """Its state of charge, percent (None: no battery model)."""
 
 
 def area_rings(area: Area | None) -> tuple[tuple[XY, ...], ...]:

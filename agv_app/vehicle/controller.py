@@ -25,7 +25,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 from mypy_extensions import mypyc_attr
 
@@ -52,6 +52,7 @@ from agv_app.traffic.deadlock import (
 from agv_app.traffic.fifo import allows_to_revoke, priority_at, ranks_higher, wait_age
 from agv_app.traffic.lockbook import LockBook, LockEntry, RequestEntry, StaleRecord
 from agv_app.traffic.plausibility import PeerWatch
+from agv_app.vehicle.battery import SimBattery
 from agv_app.vehicle.comeback import HandBack, come_back
 from agv_app.vehicle.driven import DrivenVehicle
 from agv_app.vehicle.driver import VehicleDriver
@@ -61,6 +62,9 @@ from agv_app.vehicle.sim_driver import SimDriver
 from objectplaces import RoleActivator
 from objectplaces.groups import GroupDefinition
 from tuplespace import ANY
+
+if TYPE_CHECKING:
+    from agv_app.vda5050.charging import Battery
 
 __all__ = ["DEFAULT_ADVANCE_M", "AgvConfig", "AgvController"]
 
@@ -288,6 +292,9 @@ class AgvController:
         self._held_route: Polyline | None = None
         self._held_s = 0.0
         """While held: the route the vehicle rests on and the arc length it rests at."""
+        self.battery: Battery | None = None if spec.battery is None else SimBattery(spec.battery)
+        """Its battery, as the vehicle spec declares it (None: no battery model); the
+        simulated fleet drains and charges it (:mod:`agv_app.fleet.chargers`)."""
         self.attach(node)
         if central is not None:
             central.register(self.node_id, lambda: self.book)

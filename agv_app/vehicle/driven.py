@@ -98,6 +98,7 @@ def planning_spec(spec: VehicleSpec, limits: DriverLimits) -> VehicleSpec:
         spec.width_m + 2 * grow,
         limits.max_speed_m_s,
         limits.min_brake_m_s2,
+        spec.battery,
     )
 
 

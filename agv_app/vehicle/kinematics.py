@@ -24,6 +24,7 @@ import math
 from dataclasses import dataclass
 
 from agv_app.geometry import Area, Polyline, Pose, hull
+from agv_app.vehicle.battery import BatterySpec
 
 __all__ = ["Vehicle", "VehicleSpec"]
 
@@ -39,12 +40,14 @@ class VehicleSpec:
         width_m: hull extent across the heading.
         max_speed_m_s: top speed.
         max_accel_m_s2: acceleration limit, also used for braking.
+        battery: its battery (None: no battery model; it never runs empty).
     """
 
     length_m: float = 2.0
     width_m: float = 1.0
     max_speed_m_s: float = 1.5
     max_accel_m_s2: float = 0.5
+    battery: BatterySpec | None = None
 
     def __post_init__(self) -> None:
         for name in ("length_m", "width_m", "max_speed_m_s", "max_accel_m_s2"):

@@ -185,3 +185,13 @@ def test_waits_past_the_limit_point_to_the_task_desk_limit(
     # The demo warehouse's 434 m of one-way lane and 25 m of keep-clear boxes (two-way
     # pieces routes drive through), at one task per 20 m.
     assert ("this floor carries about 22 (one per 20 m of lane)" in err) is (limit != "3")
+
+
+def test_sim_with_batteries_reports_the_state_of_charge(tmp_path: Path) -> None:
+    out = tmp_path / "m.json"
+    args = ["sim", "--agvs", "3", "--minutes", "1", "--batteries", "--quiet", "--json", str(out)]
+    assert main(args) == 0
+    figures = json.loads(out.read_text())
+    assert figures["ran_empty"] == 0
+    assert 90.0 < figures["min_state_of_charge"] < 100.0
+    assert figures["charges"] == 0

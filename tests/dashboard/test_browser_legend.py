@@ -16,6 +16,7 @@ pytestmark = BROWSER_MARKS
 HULL_STATUSES = {
     "idle", "driving", "moving", "waiting", "blocked", "loading", "unloading",
     "charging", "failed", "crashed", "stopping", "stopped", "out-of-service", "other",
+    "to-charger", "empty",
 }  # fmt: skip
 
 

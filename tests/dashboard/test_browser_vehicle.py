@@ -107,6 +107,7 @@ def test_the_panel_shows_a_moving_agvs_route(fleet_page: tuple[Any, Served]) -> 
     assert page.locator("#vehicle-facts dd[data-fact=task]").text_content() == task_id
     assert page.locator("#vehicle-facts dd[data-fact=route]").text_content().endswith(")")
     assert "frames" in page.locator("#vehicle-facts dd[data-fact=sent]").text_content()
+    assert page.locator("#vehicle-facts dd[data-fact=battery]").text_content() == "\u2013"
     assert page.locator("#vehicle-traffic tr").count() > 0
     assert page.evaluate("window.__dashboard.lastTask") is None, "an AGV click adds no task"
 

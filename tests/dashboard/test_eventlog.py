@@ -151,3 +151,12 @@ def test_the_dashboard_serves_the_log_it_is_given(tmp_path: Path, source: Networ
         client = logged_in(create_app(source, events=EventLog(store=store)))
         events = client.get("/api/events").json()["events"]
         assert [(e["severity"], e["text"]) for e in events] == [("alarm", "agv-2 failed")]
+
+
+def test_a_vehicle_that_runs_empty_raises_an_alarm_once() -> None:
+    log, watch = watched()
+    statuses = {"agv-1": "empty", "agv-2": "idle"}
+    watch.observe(5.0, nodes=NODES, statuses=statuses, paused=False)
+    watch.observe(6.0, nodes=NODES, statuses=statuses, paused=False)
+    assert [a.key for a in log.alarms] == ["empty:agv-1"]
+    assert texts(log).count("agv-1 ran empty: stopped where it stands") == 1

@@ -7,13 +7,14 @@ import math
 import pytest
 
 from agv_app.fleet import Fleet, FleetConfig
+from agv_app.vehicle.battery import BatterySpec
 from dashboard.app import create_app
 from tests.dashboard.conftest import TestClient
 from tests.dashboard.login import logged_in
 
 FIELDS = {
     "id", "x", "y", "heading", "length", "width", "status", "task",
-    "hull", "hull_length", "locked", "requested", "speed", "held", "in_service",
+    "hull", "hull_length", "locked", "requested", "speed", "held", "in_service", "battery",
 }  # fmt: skip
 
 
@@ -35,6 +36,24 @@ def test_every_vehicle_is_listed_by_id(fleet: Fleet, fleet_client: TestClient) -
         assert len(listed["hull"]) == 4
         assert all(math.isfinite(c) for c in (listed["x"], listed["y"], listed["heading"]))
         assert fleet_client.get(f"/api/vehicles/{listed['id']}").json() == listed
+        assert listed["battery"] is None  # no battery model
+
+
+def test_the_state_of_charge_is_listed_with_batteries() -> None:
+    fleet = Fleet(config=FleetConfig(agvs=2, seed=3, task_until=0.0, batteries=BatterySpec()))
+    client = logged_in(create_app(fleet))
+    fleet.advance(120.0)
+    vehicles = client.get("/api/vehicles").json()
+    levels = [v["battery"] for v in vehicles]
+    assert all(isinstance(level, float) for level in levels)
+    assert all(99.0 < level < 100.0 for level in levels)  # it drains while standing
+    chargers = fleet.chargers
+    assert chargers is not None
+    chargers.batteries["agv-01"].drain(idle_s=1e9)
+    fleet.advance(0.2)
+    shown = client.get("/api/vehicles/agv-01").json()
+    assert shown["battery"] == 0.0
+    assert shown["status"] == "empty"
 
 
 def test_a_vehicle_with_a_task_shows_it(fleet: Fleet, fleet_client: TestClient) -> None:
