@@ -232,7 +232,10 @@ def checked_definition(definition: object, own: Props) -> DefinitionLike:
         try:
             definition.reach(own, lambda name: 0.0)
         except Exception as exc:
-            raise LocalProtocolError(
+            error = LocalProtocolError(
                 f"group definition {definition!r} cannot resolve a group: {exc!r}"
-            ) from exc
+            )
+            # Set by hand: compiled with mypyc, ``raise ... from exc`` leaves no cause.
+            error.__cause__ = exc
+            raise error from exc
     return definition
