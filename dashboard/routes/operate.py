@@ -13,7 +13,7 @@ changes (``dashboard.guard``); each is logged in the event log with who asked an
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Annotated, Any
 
 from fastapi import APIRouter, HTTPException, Path, Request
@@ -115,21 +115,36 @@ async def resume_fleet(body: SimActionIn, state: State, request: Request) -> Fle
     return fleet_stop_out(fleet, state.source.vehicles())
 
 
+def _act(
+    state: DashboardState,
+    vehicle_id: str,
+    request: Request,
+    body: SimActionIn,
+    act: Callable[[StoppableFleet], None],
+    what: str,
+    *,
+    warning: bool,
+) -> dict[str, Any]:
+    """Do ``act`` for one known vehicle, log ``what`` with who asked and why, and answer
+    with the vehicle's motion as it reports it now."""
+    fleet = _fleet(state)
+    _vehicle(state, vehicle_id)
+    act(fleet)
+    text = f"{vehicle_id} {what} asked by {who_asked(request)}: {body.reason}"
+    _log(state, vehicle_id, text, warning=warning)
+    return _motion(_vehicle(state, vehicle_id), fleet)
+
+
 @router.post("/vehicles/{vehicle_id}/stop", response_model=VehicleMotionOut)
 async def stop_vehicle(
     vehicle_id: VehicleId, body: SimActionIn, state: State, request: Request
 ) -> dict[str, Any]:
     """Stop one vehicle; the answer is its motion as it reports it now."""
-    fleet = _fleet(state)
-    _vehicle(state, vehicle_id)
-    fleet.stop_vehicles([vehicle_id])
-    _log(
-        state,
-        vehicle_id,
-        f"{vehicle_id} stop asked by {who_asked(request)}: {body.reason}",
-        warning=True,
-    )
-    return _motion(_vehicle(state, vehicle_id), fleet)
+
+    def stop(fleet: StoppableFleet) -> None:
+        fleet.stop_vehicles([vehicle_id])
+
+    return _act(state, vehicle_id, request, body, stop, "stop", warning=True)
 
 
 @router.post("/vehicles/{vehicle_id}/resume", response_model=VehicleMotionOut)
@@ -137,19 +152,14 @@ async def resume_vehicle(
     vehicle_id: VehicleId, body: SimActionIn, state: State, request: Request
 ) -> dict[str, Any]:
     """Let one vehicle drive on; 409 while the whole fleet is stopped."""
-    fleet = _fleet(state)
-    _vehicle(state, vehicle_id)
-    try:
-        fleet.resume_vehicles([vehicle_id])
-    except ValueError as exc:
-        raise HTTPException(409, str(exc)) from exc
-    _log(
-        state,
-        vehicle_id,
-        f"{vehicle_id} resume asked by {who_asked(request)}: {body.reason}",
-        warning=False,
-    )
-    return _motion(_vehicle(state, vehicle_id), fleet)
+
+    def resume(fleet: StoppableFleet) -> None:
+        try:
+            fleet.resume_vehicles([vehicle_id])
+        except ValueError as exc:
+            raise HTTPException(409, str(exc)) from exc
+
+    return _act(state, vehicle_id, request, body, resume, "resume", warning=False)
 
 
 @router.post("/vehicles/{vehicle_id}/out-of-service", response_model=VehicleMotionOut)
@@ -158,12 +168,11 @@ async def take_out_of_service(
 ) -> dict[str, Any]:
     """Take one vehicle out of service: it finishes the task it holds, drives home and
     parks there, taking no more (its status ``out-of-service`` once parked)."""
-    fleet = _fleet(state)
-    _vehicle(state, vehicle_id)
-    fleet.set_service([vehicle_id], in_service=False)
-    text = f"{vehicle_id} out of service, asked by {who_asked(request)}: {body.reason}"
-    _log(state, vehicle_id, text, warning=True)
-    return _motion(_vehicle(state, vehicle_id), fleet)
+
+    def retire(fleet: StoppableFleet) -> None:
+        fleet.set_service([vehicle_id], in_service=False)
+
+    return _act(state, vehicle_id, request, body, retire, "out of service,", warning=True)
 
 
 @router.post("/vehicles/{vehicle_id}/in-service", response_model=VehicleMotionOut)
@@ -171,9 +180,8 @@ async def bring_into_service(
     vehicle_id: VehicleId, body: SimActionIn, state: State, request: Request
 ) -> dict[str, Any]:
     """Bring one vehicle back into service: it takes tasks again."""
-    fleet = _fleet(state)
-    _vehicle(state, vehicle_id)
-    fleet.set_service([vehicle_id], in_service=True)
-    text = f"{vehicle_id} back in service, asked by {who_asked(request)}: {body.reason}"
-    _log(state, vehicle_id, text, warning=False)
-    return _motion(_vehicle(state, vehicle_id), fleet)
+
+    def restore(fleet: StoppableFleet) -> None:
+        fleet.set_service([vehicle_id], in_service=True)
+
+    return _act(state, vehicle_id, request, body, restore, "back in service,", warning=False)
