@@ -147,10 +147,6 @@ def run(args: argparse.Namespace, *, faults: bool) -> dict[str, Any]:
         }
 
 
-def _verdict(met: bool) -> str:
-    return "met" if met else "missed"
-
-
 def _outage_period(seconds: float) -> float:
     """How often each vehicle's link goes down: every 10 minutes, at least twice a run."""
     return min(OUTAGE_EVERY_S, seconds / 2)
@@ -236,8 +232,8 @@ def main() -> None:
         f"killed at a third, the control process at two thirds"
         + (", and a vehicle killed while it is down" if args.kill_vehicle else "")
         + f".\n\n{table}\n\nGoals: throughput with faults {ratio:.0%} of without "
-        f"(>= 80 %: {_verdict(ratio >= 0.8)}); moving again within 3 s of the link's "
-        f"return, p99 {back:.2f} s ({_verdict(back <= 3.0)}).\n"
+        f"(>= 80 %: {'met' if ratio >= 0.8 else 'missed'}); moving again within 3 s of the link's "
+        f"return, p99 {back:.2f} s ({'met' if back <= 3.0 else 'missed'}).\n"
     )
     name = "netfaults" if args.layout is None else f"netfaults-{args.layout.replace(':', '-')}"
     command = (

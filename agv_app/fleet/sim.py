@@ -527,10 +527,9 @@ class Fleet(FleetSourceBase):
             )
         if self.holds.held(agv_id):
             agv.hold()
-        agv.in_service = self.holds.in_service(agv_id)
         if self.chargers is not None:
             agv.battery = self.chargers.batteries[agv_id]  # the vehicle's, not a fresh one
-            agv.in_service = agv.in_service and self.chargers.takes_tasks(agv_id)
+        agv.in_service = self._takes_tasks(agv_id)
         return agv
 
     # -- holding (an operator's stop) -------------------------------------------------------
@@ -547,9 +546,13 @@ class Fleet(FleetSourceBase):
                 agv.hold()
             else:
                 agv.release()
-            agv.in_service = self.holds.in_service(agv_id) and (
-                chargers is None or chargers.takes_tasks(agv_id)
-            )
+            agv.in_service = self._takes_tasks(agv_id)
+
+    def _takes_tasks(self, agv_id: str) -> bool:
+        """Whether the AGV may take tasks: the operator has it in service and its battery
+        needs no charge."""
+        chargers = self.chargers
+        return self.holds.in_service(agv_id) and (chargers is None or chargers.takes_tasks(agv_id))
 
     def _listen(self, agv_id: str, node: RoleActivator) -> None:
         """A scoped AGV takes the failed AGVs the observer relays into its lock book."""
@@ -603,10 +606,9 @@ class Fleet(FleetSourceBase):
         """Drain and charge the batteries; chargers to the AGVs that need one."""
         chargers = self.chargers
         assert chargers is not None
-        holds = self.holds
         for agv_id, agv in self.agvs.items():
             chargers.step(agv_id, agv, dt, now)
-            agv.in_service = holds.in_service(agv_id) and chargers.takes_tasks(agv_id)
+            agv.in_service = self._takes_tasks(agv_id)
         chargers.grant(self.agvs, now)
 
     def run(self, seconds: float, progress: Callable[[float], None] | None = None) -> None:
