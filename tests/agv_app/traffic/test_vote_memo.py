@@ -9,6 +9,7 @@ from typing import Any
 import pytest
 
 import agv_app.traffic.collision as collision
+import agv_app.traffic.voter as voter_module
 from agv_app.fleet import Fleet, FleetConfig
 from agv_app.traffic.lockbook import LockBook
 
@@ -17,7 +18,7 @@ def run(monkeypatch: pytest.MonkeyPatch, *, memo: bool) -> tuple[dict[str, Any],
     with monkeypatch.context() as patch:
         decided = itertools.count()
         evaluated = itertools.count()
-        plain_decide, plain_evaluate = collision.decide_vote, collision.Voter._evaluate
+        plain_decide, plain_evaluate = voter_module.decide_vote, collision.Voter._evaluate
 
         def decide(*args: Any, **kwargs: Any) -> str:
             next(decided)
@@ -27,7 +28,7 @@ def run(monkeypatch: pytest.MonkeyPatch, *, memo: bool) -> tuple[dict[str, Any],
             next(evaluated)
             plain_evaluate(voter)
 
-        patch.setattr(collision, "decide_vote", decide)
+        patch.setattr(voter_module, "decide_vote", decide)
         patch.setattr(collision.Voter, "_evaluate", evaluate)
         if not memo:
             # The plain path: a book whose version is new at every look.
