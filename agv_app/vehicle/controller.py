@@ -178,6 +178,7 @@ class AgvController:
         self.battery: Battery | None = None if spec.battery is None else SimBattery(spec.battery)
         """Its battery, as the vehicle spec declares it (None: no battery model); the
         simulated fleet drains and charges it (:mod:`agv_app.fleet.chargers`)."""
+        # One object per job, each working on the state above (the module's docstring).
         self.locking = Locking(self)
         self.last_resorts = LastResorts(self)
         self.errands = Errands(self)

@@ -39,7 +39,7 @@ class Errands:
         """Route distance to the pick station, or None if busy or failed.
 
         On the way home it is the distance by way of the point the AGV would stop at
-        if awarded (:meth:`_turn_point`).
+        if awarded (:meth:`turn_point`).
         """
         agv = self._agv
         if agv.failed or agv._held or not agv.in_service or agv.status != "idle":
@@ -56,7 +56,7 @@ class Errands:
 
     def take(self, task: TaskSpec) -> None:
         """Accept an awarded task: go to its pick station as soon as the AGV is at rest
-        (on its way home: at the point :meth:`_turn_point` picks)."""
+        (on its way home: at the point :meth:`turn_point` picks)."""
         agv = self._agv
         agv.pending_task = task
         agv.node.update_node_property("task", task.id)
@@ -104,7 +104,7 @@ class Errands:
         point, s, _ = turn
         agv.vehicle.shorten_route(s)
         agv._plan = agv._plan.cut(s)
-        # The route ends there too: driving on (``_drive_on``) sets out from its points.
+        # The route ends there too: driving on (``LastResorts.drive_on``) sets out from its points.
         points = agv._route.points
         agv._route = agv.layout.route_through(points[: points.index(point) + 1])
         agv._dest = point

@@ -252,7 +252,7 @@ class Locking:
             agv.publish()
 
     def review_request(self, now: float) -> None:
-        """Withdraw the pending request to yield (see ``_must_yield``), take back the
+        """Withdraw the pending request to yield (see ``LastResorts.must_yield``), take back the
         allows that let younger requests over its floor go first, ask for less while a
         lock holds it up, or ask again if it would now rank higher (an inherited age, or
         an allow that ranked it lower ended: agv_app.traffic.fifo).
