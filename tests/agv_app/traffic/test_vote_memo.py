@@ -9,7 +9,6 @@ from typing import Any
 import pytest
 
 import agv_app.traffic.collision as collision
-import agv_app.traffic.voter as voter_module
 from agv_app.fleet import Fleet, FleetConfig
 from agv_app.traffic.lockbook import LockBook
 
@@ -18,7 +17,7 @@ def run(monkeypatch: pytest.MonkeyPatch, *, memo: bool) -> tuple[dict[str, Any],
     with monkeypatch.context() as patch:
         decided = itertools.count()
         evaluated = itertools.count()
-        plain_decide, plain_evaluate = voter_module.decide_vote, collision.Voter._evaluate
+        plain_decide, plain_evaluate = collision.decide_vote, collision.Voter._evaluate
 
         def decide(*args: Any, **kwargs: Any) -> str:
             next(decided)
@@ -28,7 +27,7 @@ def run(monkeypatch: pytest.MonkeyPatch, *, memo: bool) -> tuple[dict[str, Any],
             next(evaluated)
             plain_evaluate(voter)
 
-        patch.setattr(voter_module, "decide_vote", decide)
+        patch.setattr("agv_app.traffic.voter.decide_vote", decide)  # where Voter looks it up
         patch.setattr(collision.Voter, "_evaluate", evaluate)
         if not memo:
             # The plain path: a book whose version is new at every look.
