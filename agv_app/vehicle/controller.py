@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 from mypy_extensions import mypyc_attr
 
 from agv_app.geometry import Area, Polyline, Pose, hull_length, hull_projection, projection_ahead
+from agv_app.layout.blocked import OpenWays
 from agv_app.layout.elements import NoRouteError, Route
 from agv_app.layout.graph import Layout
 from agv_app.protocol import AGV_KIND, MessageTally
@@ -53,6 +54,7 @@ from agv_app.traffic.fifo import allows_to_revoke, priority_at, ranks_higher, wa
 from agv_app.traffic.lockbook import LockBook, LockEntry, RequestEntry, StaleRecord
 from agv_app.traffic.plausibility import PeerWatch
 from agv_app.vehicle.battery import SimBattery
+from agv_app.vehicle.closures import serves, wait_for_way, ways_changed
 from agv_app.vehicle.comeback import HandBack, come_back
 from agv_app.vehicle.driven import DrivenVehicle
 from agv_app.vehicle.driver import VehicleDriver
@@ -295,6 +297,12 @@ class AgvController:
         self.battery: Battery | None = None if spec.battery is None else SimBattery(spec.battery)
         """Its battery, as the vehicle spec declares it (None: no battery model); the
         simulated fleet drains and charges it (:mod:`agv_app.fleet.chargers`)."""
+        self.ways: OpenWays | None = None
+        """The open ways while part of the floor is closed (None: all open); the fleet
+        sets them (:mod:`agv_app.vehicle.closures`)."""
+        self._ways_seen: OpenWays | None = None
+        self.blocked_to: str | None = None
+        """Where the AGV is going and no open way leads (it stands and waits)."""
         self.attach(node)
         if central is not None:
             central.register(self.node_id, lambda: self.book)
@@ -544,7 +552,7 @@ class AgvController:
             return "out-of-service"
         if self.phase in ("at_pick", "at_drop") or self.node.now() < self._hold_until:
             return "loading"
-        if self._dest is not None and self.vehicle.speed == 0.0:
+        if self.blocked_to is not None or (self._dest is not None and self.vehicle.speed == 0.0):
             return "waiting"
         if self._dest is not None:
             return "driving"
@@ -612,14 +620,16 @@ class AgvController:
         """
         if self.failed or self._held or not self.in_service or self.status != "idle":
             return None
+        if self.blocked_to is not None or not serves(self, task):
+            return None
         pick = self.layout.station(task.pick).point
         if self._dest is None:
-            distance = self.layout.distance(self.point, pick)
+            distance = self._distance(self.point, pick)
             return None if math.isinf(distance) else distance
         turn = self._turn_point(pick)
         if turn is not None:
             return turn[2]
-        distance = self.layout.distance(self._dest, pick)
+        distance = self._distance(self._dest, pick)
         return None if math.isinf(distance) else self.vehicle.remaining() + distance
 
     def take(self, task: TaskSpec) -> None:
@@ -647,13 +657,13 @@ class AgvController:
         pending = book.request()
         if pending is not None:
             reach = max(reach, pending.end_s)
-        home_cost = vehicle.remaining() + self.layout.distance(dest, pick)
+        home_cost = vehicle.remaining() + self._distance(dest, pick)
         best: tuple[str, float, float] | None = None
         for point, offset in zip(route.points[:-1], route.offsets[:-1], strict=True):
             s = offset + self._route_shift
             if s < reach - 1e-9 or any(lo - 1e-6 <= s <= hi + 1e-6 for lo, hi in plan.zones):
                 continue
-            cost = s - vehicle.s + self.layout.distance(point, pick)
+            cost = s - vehicle.s + self._distance(point, pick)
             if cost < home_cost - 1e-6 and (best is None or cost < best[2]):
                 best = (point, s, cost)
         return best
@@ -683,6 +693,7 @@ class AgvController:
             Whether the AGV drives off: False for None or the point it rests on.
         """
         self._dest = dest
+        self.blocked_to = None
         self._stalled = False
         self._first_try = None
         self._route_started_at = self.node.now()
@@ -690,7 +701,12 @@ class AgvController:
             self._plan = None
             self._dest = None
             return False
-        route = self._route_for(dest)
+        try:
+            route = self._route_for(dest)
+        except NoRouteError:
+            if self.ways is None:
+                raise
+            return wait_for_way(self, dest)
         self._route = route
         heading = self.vehicle.pose().heading_rad
         ahead = route.polyline.piece_heading(0)
@@ -738,13 +754,24 @@ class AgvController:
     def _route_for(self, dest: str) -> Route:
         """The route from the point we rest on to ``dest``: the shortest one (an order
         from a master control names its own)."""
-        return self.layout.route(self.point, dest)
+        return self._way(self.point, dest)
+
+    def _way(self, a: str, b: str) -> Route:
+        """The shortest route ``a -> b`` over the open ways."""
+        return self.layout.route(a, b) if self.ways is None else self.ways.route(a, b)
+
+    def _distance(self, a: str, b: str) -> float:
+        """The shortest driving distance ``a -> b`` over the open ways."""
+        return self.layout.distance(a, b) if self.ways is None else self.ways.distance(a, b)
 
     def step(self, dt: float) -> None:
         """Advance the AGV by ``dt`` seconds of simulated time."""
         if self.failed:
             self.vehicle.coast(dt)  # told to stop, it brakes on
             return
+        if self.ways is not self._ways_seen:
+            self._ways_seen = self.ways
+            ways_changed(self)
         now = self.node.now()
         vehicle = self.vehicle
         if self._done_later is not None and now >= self._hold_until:
@@ -776,7 +803,7 @@ class AgvController:
         else:
             self._stalled = False
             vehicle.stand(dt)
-            if not self._held:
+            if not self._held and self.blocked_to is None:
                 self._idle(now)
         self._rest_when_parked()
         if vehicle.fault is not None:
@@ -1081,6 +1108,8 @@ class AgvController:
         self._no_detour_until = self.node.now() + self.config.detour_after
         ahead = self._next_point(route)
         avoid = {route.segments[ahead], *route.segments[ahead - 1 : ahead]}
+        if self.ways is not None:
+            avoid |= self.ways.closed.segments
         try:
             onward = self.layout.route_avoiding(route.points[ahead], dest, avoid)
         except NoRouteError:
@@ -1125,7 +1154,7 @@ class AgvController:
         if place is None or place in (via, dest):
             return None
         try:
-            onward = self.layout.route(via, place)
+            onward = self._way(via, place)
         except NoRouteError:
             return None
         return None if dest in onward.points else (ahead, onward)
@@ -1160,7 +1189,7 @@ class AgvController:
         if self._resume is not None:
             resume = self._resume
             self._resume = None
-            if self._route_to(resume):
+            if self._route_to(resume) or self.blocked_to is not None:
                 self.publish()
                 return
         if self.phase in ("to_pick", "to_drop"):
@@ -1216,7 +1245,7 @@ class AgvController:
             self._start_pending()
         elif self.phase != "home" or self.point != self.home:
             self._go_home()
-        if self._dest is None and self.phase in ("to_pick", "to_drop"):
+        if self._dest is None and self.blocked_to is None and self.phase in ("to_pick", "to_drop"):
             self._dwell(now)  # already standing there
         self.publish()
 
@@ -1255,5 +1284,5 @@ class AgvController:
     def _go_home(self) -> None:
         self.phase = "to_home"
         self._route_to(self.home)
-        if self._dest is None:
+        if self._dest is None and self.blocked_to is None:
             self.phase = "home"
