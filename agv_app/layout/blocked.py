@@ -144,13 +144,14 @@ class OpenWays:
         closed: what is closed.
     """
 
-    __slots__ = ("_all", "_cache", "_open", "closed", "layout")
+    __slots__ = ("_cache", "_inside", "_open", "closed", "layout")
 
     def __init__(self, layout: Layout, closed: Closed) -> None:
         self.layout = layout
         self.closed = closed
         points, segments = closed.points, closed.segments
-        self._all: dict[str, list[Arc]] = {pid: [] for pid in layout.points}
+        # The ways out: every arc leaving a closed point (a vehicle there may drive out).
+        self._inside: dict[str, list[Arc]] = {pid: [] for pid in layout.points}
         self._open: dict[str, list[Arc]] = {pid: [] for pid in layout.points}
         for pid in layout.points:
             for target in layout.successors(pid):
@@ -160,7 +161,8 @@ class OpenWays:
                 if layout.segments[sid].start != pid:
                     coords = coords[::-1]
                 arc = Arc(sid, target, layout.segment_length(sid), coords)
-                self._all[pid].append(arc)
+                if pid in points:
+                    self._inside[pid].append(arc)
                 if sid not in segments and target not in points and pid not in points:
                     self._open[pid].append(arc)
         self._cache: dict[str, tuple[dict[str, float], dict[str, tuple[str, str]]]] = {}
@@ -177,46 +179,55 @@ class OpenWays:
 
     def distance(self, a: str, b: str) -> float:
         """Shortest open driving distance ``a -> b`` (``math.inf``: none); from a closed
-        point by its way out."""
+        point by a way out."""
         if b in self.closed.points:
             return math.inf
-        start, out = a, 0.0
-        if a in self.closed.points:
-            way = self.way_out(a)
-            if way is None:
-                return math.inf
-            start, out = way.end, way.length
-        return out + self._search(start)[0].get(b, math.inf)
+        if a not in self.closed.points:
+            return self._search(a)[0].get(b, math.inf)
+        best = self._best_out(a, b)
+        return math.inf if best is None else best[0]
+
+    def _best_out(self, a: str, b: str) -> tuple[float, tuple[str, ...]] | None:
+        """The shortest route from the closed point ``a`` to ``b``, out by the way that
+        makes the whole route shortest: its length and points; None if there is none."""
+        best: tuple[float, tuple[str, ...]] | None = None
+        for out, exit_, way in self._exits(a):
+            dist, prev = self._search(exit_)
+            if b in dist and (best is None or out + dist[b] < best[0] - 1e-9):
+                best = (out + dist[b], (*way[:-1], *_path(exit_, b, prev)))
+        return best
+
+    def _exits(self, a: str) -> list[tuple[float, str, tuple[str, ...]]]:
+        """The open points next to the closed area around ``a``: ``(distance, point,
+        way there)``, nearest first (ties: the lowest point id)."""
+        dist, prev = shortest_paths(self._inside, a)
+        exits = sorted((d, pid) for pid, d in dist.items() if pid not in self.closed.points)
+        return [(d, pid, _path(a, pid, prev)) for d, pid in exits]
 
     def way_out(self, a: str) -> Route | None:
         """The shortest way from the closed point ``a`` to an open point (over closed
-        paths; ties: the lowest point id), or None where there is none."""
-        dist, prev = shortest_paths(self._all, a)
-        exits = sorted((d, pid) for pid, d in dist.items() if pid not in self.closed.points)
-        if not exits:
-            return None
-        return self.layout.route_through(_path(a, exits[0][1], prev))
+        paths), or None where there is none."""
+        exits = self._exits(a)
+        return self.layout.route_through(exits[0][2]) if exits else None
 
     def route(self, a: str, b: str) -> Route:
-        """The shortest open route ``a -> b``; from a closed point ``a``, its way out
-        first.
+        """The shortest open route ``a -> b``; from a closed point ``a``, out of the
+        closed area first, by the way out that makes the whole route shortest.
 
         Raises:
             NoRouteError: ``b`` is closed, or no open way leads there.
         """
         if b in self.closed.points:
             raise NoRouteError(f"point {b!r} is closed")
-        lead: tuple[str, ...] = ()
-        start = a
-        if a in self.closed.points:
-            way = self.way_out(a)
-            if way is None:
-                raise NoRouteError(f"no way out of the closed point {a!r}")
-            lead, start = way.points[:-1], way.end
-        dist, prev = self._search(start)
-        if b not in dist:
-            raise NoRouteError(f"no open route from point {start!r} to point {b!r}")
-        return self.layout.route_through((*lead, *_path(start, b, prev)))
+        if a not in self.closed.points:
+            dist, prev = self._search(a)
+            if b not in dist:
+                raise NoRouteError(f"no open route from point {a!r} to point {b!r}")
+            return self.layout.route_through(_path(a, b, prev))
+        best = self._best_out(a, b)
+        if best is None:
+            raise NoRouteError(f"no open route from the closed point {a!r} to point {b!r}")
+        return self.layout.route_through(best[1])
 
     def components(self) -> dict[str, int]:
         """The strongly connected component number of every point, over open ways."""
