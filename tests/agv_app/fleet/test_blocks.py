@@ -83,7 +83,8 @@ def test_a_vehicle_parked_in_a_closed_area_leaves_it_waits_and_comes_back() -> N
 
     fleet.blocks.reopen(block.id)
     fleet.run(30.0)
-    assert (agv.point, agv.phase, agv.blocked_to) == (home, "home", None)
+    assert (agv.point, agv.phase) == (home, "home")
+    assert not agv.blocked_to
     with pytest.raises(UnknownBlock, match=r"unknown block 'b1' \(known: none\)"):
         fleet.blocks.reopen(block.id)
 
@@ -97,13 +98,13 @@ def test_an_order_that_needs_a_closed_path_waits_saying_why_and_goes_on_when_reo
     fleet.run(60.0)
     record = fleet.desk.book.get(task)
     assert record is not None
-    assert record.state == "created", "no vehicle takes it"
+    assert str(record.state) == "created", "no vehicle takes it"
     assert fleet.blocks.waits("pick-A1-1", "dock-out-1") == "waits: path A1-1>A1-1e closed"
 
     fleet.blocks.reopen(block.id)
     assert fleet.blocks.waits("pick-A1-1", "dock-out-1") is None
     for _ in range(round(300.0 / fleet.config.dt)):
         fleet.step()
-        if record.state == "done":
+        if str(record.state) == "done":
             break
-    assert record.state == "done"
+    assert str(record.state) == "done"
