@@ -44,6 +44,9 @@ class BlockOut(BaseModel):
     what: str | list[list[float]]
     points: list[str] = Field(description="the points it closes, sorted")
     segments: list[str] = Field(description="the segments it closes, sorted")
+    positions: list[list[float]] = Field(
+        description="the closed points' [x, y], in the order of points, for drawing"
+    )
     polylines: list[list[list[float]]] = Field(
         description="the closed segments' lines [[x, y], ...], for drawing"
     )
@@ -57,6 +60,7 @@ class BlocksOut(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
+    closable: bool = Field(description="whether this fleet can close parts of its floor")
     blocks: list[BlockOut]
     points: list[str] = Field(description="every closed point, sorted")
     segments: list[str] = Field(description="every closed segment, sorted")

@@ -45,13 +45,14 @@ def _blocks(state: DashboardState) -> FloorBlocks:
 def block_out(blocks: FloorBlocks, block: Block) -> BlockOut:
     """One block as the API shows it."""
     layout = blocks.layout
-    segments = sorted(block.closed.segments)
+    points, segments = sorted(block.closed.points), sorted(block.closed.segments)
     return BlockOut(
         id=block.id,
         kind=block.kind,
         what=block.what if isinstance(block.what, str) else [list(v) for v in block.what],
-        points=sorted(block.closed.points),
+        points=points,
         segments=segments,
+        positions=[list(layout.point(p).xy) for p in points],
         polylines=[[list(xy) for xy in layout.segment_coords(s)] for s in segments],
         reason=block.reason,
         by=block.by,
@@ -62,6 +63,7 @@ def block_out(blocks: FloorBlocks, block: Block) -> BlockOut:
 def _all(blocks: FloorBlocks) -> BlocksOut:
     ways = blocks.ways
     return BlocksOut(
+        closable=True,
         blocks=[block_out(blocks, b) for b in blocks.blocks()],
         points=[] if ways is None else sorted(ways.closed.points),
         segments=[] if ways is None else sorted(ways.closed.segments),
@@ -80,8 +82,12 @@ def _named(block: Block) -> str:
 
 @router.get("", response_model=BlocksOut)
 async def list_blocks(state: State) -> BlocksOut:
-    """The blocks in force, oldest first, and every point and segment they close."""
-    return _all(_blocks(state))
+    """The blocks in force, oldest first, and every point and segment they close
+    (none, and ``closable`` false, for a fleet that cannot close any)."""
+    blocks = blocks_of(state.source)
+    if blocks is None:
+        return BlocksOut(closable=False, blocks=[], points=[], segments=[])
+    return _all(blocks)
 
 
 @router.post("", response_model=BlockOut, status_code=201)

@@ -30,7 +30,12 @@ def test_only_the_operator_closes_and_reopens() -> None:
     assert anonymous(app).post("/api/blocks", json=body).status_code == 401
     viewer = logged_in(app, "viewer")
     assert viewer.post("/api/blocks", json=body).status_code == 403
-    assert viewer.get("/api/blocks").json() == {"blocks": [], "points": [], "segments": []}
+    assert viewer.get("/api/blocks").json() == {
+        "closable": True,
+        "blocks": [],
+        "points": [],
+        "segments": [],
+    }
 
 
 def test_a_segment_is_closed_listed_logged_and_reopened() -> None:
@@ -136,3 +141,10 @@ def test_an_order_that_needs_a_closed_path_says_why_it_waits() -> None:
     assert client.get(f"/api/tasks/{task}").json()["waits"] == f"waits: path {SPUR} closed"
     client.delete("/api/blocks/b1")
     assert client.get(f"/api/tasks/{task}").json()["waits"] is None
+
+
+def test_a_fleet_that_cannot_close_says_so(client: TestClient) -> None:
+    assert client.get("/api/blocks").json()["closable"] is False
+    r = client.post("/api/blocks", json={"kind": "segment", "what": LANE})
+    assert r.status_code == 409
+    assert client.delete("/api/blocks/b1").status_code == 409
