@@ -17,6 +17,7 @@ from typing import Protocol
 
 from agv_app.geometry import XY
 from agv_app.layout.blocked import (
+    CLOSURE_KINDS,
     Closed,
     ClosureKind,
     OpenWays,
@@ -27,7 +28,7 @@ from agv_app.layout.blocked import (
 from agv_app.layout.elements import LayoutError
 from agv_app.layout.graph import Layout
 
-__all__ = ["Block", "CutsOff", "FloorBlocks", "Routed", "UnknownBlock"]
+__all__ = ["Block", "CutsOff", "FloorBlocks", "Routed", "UnknownBlock", "parse_closure"]
 
 
 class Routed(Protocol):
@@ -179,3 +180,26 @@ class FloorBlocks:
         if not named:
             return f"waits: no open way from {pick} to {drop}"
         return f"waits: {known_list(named, 3)} closed"
+
+
+def parse_closure(text: str) -> tuple[ClosureKind, str | list[XY]]:
+    """``segment:ID``, ``point:ID`` or ``polygon:X,Y;X,Y;X,Y`` as ``(kind, what)``.
+
+    Raises:
+        ValueError: none of these.
+    """
+    kind, _, what = text.partition(":")
+    for known in CLOSURE_KINDS:
+        if kind == known and what:
+            if known != "polygon":
+                return known, what
+            try:
+                return known, [_vertex(v) for v in what.split(";")]
+            except ValueError:
+                break
+    raise ValueError(f"expected segment:ID, point:ID or polygon:X,Y;X,Y;X,Y, got {text!r}")
+
+
+def _vertex(text: str) -> XY:
+    x, y = text.split(",")
+    return (float(x), float(y))
