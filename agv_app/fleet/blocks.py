@@ -11,7 +11,7 @@ leaves everything as it was.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -91,13 +91,22 @@ class FloorBlocks:
 
     Args:
         layout: the floor plan.
-        agvs: the fleet's AGV components by id (a live mapping: AGVs built later are
-            given the open ways by the fleet, from :attr:`ways`).
+        agvs: the fleet's AGV components by id, in this process (a live mapping: AGVs
+            built later are given the open ways by the fleet, from :attr:`ways`).
+        on_change: told the open ways on every change (a fleet of AGV processes
+            publishes them: :mod:`agv_app.fleet.closed_listener`).
     """
 
-    def __init__(self, layout: Layout, agvs: Mapping[str, Routed]) -> None:
+    def __init__(
+        self,
+        layout: Layout,
+        agvs: Mapping[str, Routed] | None = None,
+        *,
+        on_change: Callable[[OpenWays | None], None] | None = None,
+    ) -> None:
         self.layout = layout
-        self._agvs = agvs
+        self._agvs: Mapping[str, Routed] = agvs or {}
+        self._on_change = on_change
         self._blocks: dict[str, Block] = {}
         self._count = 0
         self.ways: OpenWays | None = None
@@ -162,6 +171,8 @@ class FloorBlocks:
         self.ways = ways
         for agv in self._agvs.values():
             agv.ways = ways
+        if self._on_change is not None:
+            self._on_change(ways)
 
     def waits(self, pick: str, drop: str) -> str | None:
         """Why an order from station ``pick`` to station ``drop`` waits for a closed part
