@@ -105,7 +105,7 @@ class FloorBlocks:
         on_change: Callable[[OpenWays | None], None] | None = None,
     ) -> None:
         self.layout = layout
-        self._agvs: Mapping[str, Routed] = agvs or {}
+        self._agvs: Mapping[str, Routed] = {} if agvs is None else agvs
         self._on_change = on_change
         self._blocks: dict[str, Block] = {}
         self._count = 0

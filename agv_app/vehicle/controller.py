@@ -620,7 +620,7 @@ class AgvController:
         """
         if self.failed or self._held or not self.in_service or self.status != "idle":
             return None
-        if self.blocked_to is not None or not serves(self, task):
+        if not serves(self, task):
             return None
         pick = self.layout.station(task.pick).point
         if self._dest is None:
@@ -803,8 +803,8 @@ class AgvController:
         else:
             self._stalled = False
             vehicle.stand(dt)
-            if not self._held and self.blocked_to is None:
-                self._idle(now)
+            if not self._held and (self.blocked_to is None or self.pending_task is not None):
+                self._idle(now)  # waiting for a way home, it may set off with a task
         self._rest_when_parked()
         if vehicle.fault is not None:
             self.fail()  # its runner takes the node off the network

@@ -108,3 +108,26 @@ def test_an_order_that_needs_a_closed_path_waits_saying_why_and_goes_on_when_reo
         if str(record.state) == "done":
             break
     assert str(record.state) == "done"
+
+
+def test_a_vehicle_waiting_for_its_closed_home_still_takes_orders() -> None:
+    fleet = Fleet(demo_warehouse(), FleetConfig(agvs=1, seed=3, task_until=0.0))
+    agv = fleet.agvs["agv-01"]
+    p = fleet.layout.point(agv.home)
+    square = [(p.x - 0.5, p.y - 0.5), (p.x + 0.5, p.y - 0.5), (p.x + 0.5, p.y + 0.5)]
+    fleet.blocks.close("polygon", square, force=True)
+    fleet.run(30.0)
+    assert agv.blocked_to == agv.home
+    waiting_at = agv.point
+    task = fleet.create_task("pick-A1-1", "dock-out-1")
+    record = fleet.desk.book.get(task)
+    assert record is not None
+    for _ in range(round(600.0 / fleet.config.dt)):
+        fleet.step()
+        if str(record.state) == "done":
+            break
+    assert str(record.state) == "done"
+    fleet.run(120.0)
+    assert agv.blocked_to == agv.home, "done, it waits for its home again"
+    assert agv.point != agv.home
+    assert waiting_at != agv.home
