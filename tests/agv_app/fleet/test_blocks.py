@@ -131,3 +131,28 @@ def test_a_vehicle_waiting_for_its_closed_home_still_takes_orders() -> None:
     assert agv.blocked_to == agv.home, "done, it waits for its home again"
     assert agv.point != agv.home
     assert waiting_at != agv.home
+
+
+def test_a_vehicle_on_a_path_as_it_closes_drives_on_off_it_and_never_comes_back() -> None:
+    fleet = _fleet(task_interval=15.0, task_until=400.0)
+    on: set[str] = set()
+    for _ in range(round(200.0 / fleet.config.dt)):
+        fleet.step()
+        on = _inside(fleet, SEGMENT)
+        if any(fleet.agvs[a].vehicle.speed > 0.5 for a in on):
+            break
+    assert on, "some vehicle drives on the segment"
+    fleet.blocks.close("segment", SEGMENT)
+    end = fleet.layout.point(fleet.layout.segment(SEGMENT).end).xy
+    left: dict[str, tuple[float, float]] = {}
+    for _ in range(round(120.0 / fleet.config.dt)):
+        before = {a: fleet.agvs[a].vehicle.pose() for a in on if a not in left}
+        fleet.step()
+        inside = _inside(fleet, SEGMENT)
+        assert inside <= on - left.keys(), f"entered {SEGMENT} at t={fleet.now:.1f}"
+        for a, pose in before.items():
+            if a not in inside:
+                left[a] = (pose.x, pose.y)
+    assert left.keys() == on, "each drove off it"
+    for a, (x, y) in left.items():
+        assert abs(x - end[0]) + abs(y - end[1]) < 1.0, f"{a} left by the segment's end"
