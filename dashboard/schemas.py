@@ -214,6 +214,11 @@ class TaskRecordOut(_Out):
     created: float = Field(description="simulated seconds")
     started: float | None = Field(description="when its vehicle last set off with it")
     finished: float | None = Field(description="when it was delivered or cancelled")
+    waits: str | None = Field(
+        default=None,
+        description="why an open order waits for a closed part of the floor "
+        "(e.g. 'waits: path P closed'); None when it need not",
+    )
 
 
 class SimOut(_Out):

@@ -51,6 +51,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from agv_app.fleet.closed_listener import ClosedListener
 from agv_app.fleet.display_feed import DISPLAY_ROLE, DisplayFeed
 from agv_app.fleet.holding import HoldListener
 from agv_app.fleet.liveness import (
@@ -676,6 +677,7 @@ async def run(args: argparse.Namespace, credentials: Credentials) -> int:
             StaleRelay(node)
             StaleListener(node, lambda: agv.book)
         HoldListener(node, agv)  # the control's stop: from the observer alone
+        ClosedListener(node, agv, layout)  # closed parts of the floor: the same
         serve_space(node, readers=[OBSERVER_ID])  # the dashboard shows its locks
         display = DisplayPublisher(agv, traffic_interval_s=args.introspection_interval)
         display.publish()

@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING
 from mypy_extensions import mypyc_attr
 
 from agv_app.geometry import Area, Pose
+from agv_app.layout.blocked import OpenWays
 from agv_app.layout.elements import Route
 from agv_app.layout.graph import Layout
 from agv_app.protocol import MessageTally
@@ -38,6 +39,7 @@ from agv_app.traffic.lockbook import LockBook
 from agv_app.traffic.plausibility import PeerWatch
 from agv_app.vehicle.battery import SimBattery
 from agv_app.vehicle.binding import NodeBinding
+from agv_app.vehicle.closures import ways_changed
 from agv_app.vehicle.comeback import HandBack, come_back
 from agv_app.vehicle.config import DEFAULT_ADVANCE_M, AgvConfig
 from agv_app.vehicle.driven import DrivenVehicle
@@ -178,6 +180,12 @@ class AgvController:
         self.battery: Battery | None = None if spec.battery is None else SimBattery(spec.battery)
         """Its battery, as the vehicle spec declares it (None: no battery model); the
         simulated fleet drains and charges it (:mod:`agv_app.fleet.chargers`)."""
+        self.ways: OpenWays | None = None
+        """The open ways while part of the floor is closed (None: all open); the fleet
+        sets them (:mod:`agv_app.vehicle.closures`)."""
+        self._ways_seen: OpenWays | None = None
+        self.blocked_to: str | None = None
+        """Where the AGV is going and no open way leads (it stands and waits)."""
         # One object per job, each working on the state above (the module's docstring).
         self.locking = Locking(self)
         self.last_resorts = LastResorts(self)
@@ -331,13 +339,24 @@ class AgvController:
     def _route_for(self, dest: str) -> Route:
         """The route from the point we rest on to ``dest``: the shortest one (an order
         from a master control names its own)."""
-        return self.layout.route(self.point, dest)
+        return self.way(self.point, dest)
+
+    def way(self, a: str, b: str) -> Route:
+        """The shortest route ``a -> b`` over the open ways."""
+        return self.layout.route(a, b) if self.ways is None else self.ways.route(a, b)
+
+    def distance(self, a: str, b: str) -> float:
+        """The shortest driving distance ``a -> b`` over the open ways."""
+        return self.layout.distance(a, b) if self.ways is None else self.ways.distance(a, b)
 
     def step(self, dt: float) -> None:
         """Advance the AGV by ``dt`` seconds of simulated time."""
         if self.failed:
             self.vehicle.coast(dt)  # told to stop, it brakes on
             return
+        if self.ways is not self._ways_seen:
+            self._ways_seen = self.ways
+            ways_changed(self)
         now = self.node.now()
         vehicle = self.vehicle
         if self._done_later is not None and now >= self._hold_until:
@@ -355,8 +374,8 @@ class AgvController:
         else:
             self._stalled = False
             vehicle.stand(dt)
-            if not self._held:
-                self._idle(now)
+            if not self._held and (self.blocked_to is None or self.pending_task is not None):
+                self._idle(now)  # waiting for a way home, it may set off with a task
         self.binding.rest_when_parked()
         if vehicle.fault is not None:
             self.fail()  # its runner takes the node off the network

@@ -15,6 +15,7 @@ import math
 from typing import TYPE_CHECKING
 
 from agv_app.tasks.auction import TaskSpec
+from agv_app.vehicle.closures import serves
 from tuplespace import ANY
 
 if TYPE_CHECKING:
@@ -44,14 +45,16 @@ class Errands:
         agv = self._agv
         if agv.failed or agv._held or not agv.in_service or agv.status != "idle":
             return None
+        if not serves(agv, task):
+            return None
         pick = agv.layout.station(task.pick).point
         if agv._dest is None:
-            distance = agv.layout.distance(agv.point, pick)
+            distance = agv.distance(agv.point, pick)
             return None if math.isinf(distance) else distance
         turn = self.turn_point(pick)
         if turn is not None:
             return turn[2]
-        distance = agv.layout.distance(agv._dest, pick)
+        distance = agv.distance(agv._dest, pick)
         return None if math.isinf(distance) else agv.vehicle.remaining() + distance
 
     def take(self, task: TaskSpec) -> None:
@@ -81,13 +84,13 @@ class Errands:
         pending = book.request()
         if pending is not None:
             reach = max(reach, pending.end_s)
-        home_cost = vehicle.remaining() + agv.layout.distance(dest, pick)
+        home_cost = vehicle.remaining() + agv.distance(dest, pick)
         best: tuple[str, float, float] | None = None
         for point, offset in zip(route.points[:-1], route.offsets[:-1], strict=True):
             s = offset + agv._route_shift
             if s < reach - 1e-9 or any(lo - 1e-6 <= s <= hi + 1e-6 for lo, hi in plan.zones):
                 continue
-            cost = s - vehicle.s + agv.layout.distance(point, pick)
+            cost = s - vehicle.s + agv.distance(point, pick)
             if cost < home_cost - 1e-6 and (best is None or cost < best[2]):
                 best = (point, s, cost)
         return best
@@ -121,7 +124,7 @@ class Errands:
         if agv._resume is not None:
             resume = agv._resume
             agv._resume = None
-            if agv.routing.route_to(resume):
+            if agv.routing.route_to(resume) or agv.blocked_to is not None:
                 agv.publish()
                 return
         if agv.phase in ("to_pick", "to_drop"):
@@ -181,7 +184,7 @@ class Errands:
             self.start_pending()
         elif agv.phase != "home" or agv.point != agv.home:
             self.go_home()
-        if agv._dest is None and agv.phase in ("to_pick", "to_drop"):
+        if agv._dest is None and agv.blocked_to is None and agv.phase in ("to_pick", "to_drop"):
             self.dwell(now)  # already standing there
         agv.publish()
 
@@ -227,5 +230,5 @@ class Errands:
         agv = self._agv
         agv.phase = "to_home"
         agv.routing.route_to(agv.home)
-        if agv._dest is None:
+        if agv._dest is None and agv.blocked_to is None:
             agv.phase = "home"

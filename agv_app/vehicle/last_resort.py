@@ -158,6 +158,8 @@ class LastResorts:
         self._no_detour_until = agv.node.now() + agv.config.detour_after
         ahead = self.next_point(route)
         avoid = {route.segments[ahead], *route.segments[ahead - 1 : ahead]}
+        if agv.ways is not None:
+            avoid |= agv.ways.closed.segments
         try:
             onward = agv.layout.route_avoiding(route.points[ahead], dest, avoid)
         except NoRouteError:
@@ -205,7 +207,7 @@ class LastResorts:
         if place is None or place in (via, dest):
             return None
         try:
-            onward = agv.layout.route(via, place)
+            onward = agv.way(via, place)
         except NoRouteError:
             return None
         return None if dest in onward.points else (ahead, onward)

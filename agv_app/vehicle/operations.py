@@ -72,7 +72,7 @@ class Operations:
             return "out-of-service"
         if agv.phase in ("at_pick", "at_drop") or agv.node.now() < agv._hold_until:
             return "loading"
-        if agv._dest is not None and agv.vehicle.speed == 0.0:
+        if agv.blocked_to is not None or (agv._dest is not None and agv.vehicle.speed == 0.0):
             return "waiting"
         if agv._dest is not None:
             return "driving"

@@ -10,9 +10,10 @@ import math
 from typing import TYPE_CHECKING
 
 from agv_app.geometry import Polyline
-from agv_app.layout.elements import Route
+from agv_app.layout.elements import NoRouteError, Route
 from agv_app.traffic.deadlock import StopPlan, followable_segments, merge_branches, turn_offs
 from agv_app.traffic.lockbook import LockEntry
+from agv_app.vehicle.closures import wait_for_way
 
 if TYPE_CHECKING:
     from agv_app.vehicle.controller import AgvController
@@ -47,6 +48,7 @@ class Routing:
         """
         agv = self._agv
         agv._dest = dest
+        agv.blocked_to = None
         agv._stalled = False
         agv._first_try = None
         agv._route_started_at = agv.node.now()
@@ -54,7 +56,12 @@ class Routing:
             agv._plan = None
             agv._dest = None
             return False
-        route = agv._route_for(dest)
+        try:
+            route = agv._route_for(dest)
+        except NoRouteError:
+            if agv.ways is None:
+                raise
+            return wait_for_way(agv, dest)
         agv._route = route
         heading = agv.vehicle.pose().heading_rad
         ahead = route.polyline.piece_heading(0)
