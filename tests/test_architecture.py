@@ -117,17 +117,6 @@ def test_core_parts_import_only_lower_layers() -> None:
 
 MAX_MODULE_LINES = 400
 
-OVER_LENGTH_ALLOWED = frozenset(
-    {
-        "agv_app/fleet/agv_process.py",
-        "agv_app/fleet/mesh.py",
-        "agv_app/fleet/sim.py",
-        "agv_app/tasks/desk.py",
-    }
-)
-"""The modules of agv_app still over MAX_MODULE_LINES, each to be split by job; the list
-only shrinks (test_the_allowance_names_only_modules_still_over_the_limit)."""
-
 
 def _lines(path: Path) -> int:
     return len(path.read_text().splitlines())
@@ -142,17 +131,10 @@ def _relative(path: Path) -> str:
     [
         *modules("objectplaces"),
         *modules("dashboard"),
-        *(p for p in modules("agv_app") if _relative(p) not in OVER_LENGTH_ALLOWED),
+        *modules("agv_app"),
     ],
     ids=lambda p: _relative(p),
 )
 def test_modules_stay_small(path: Path) -> None:
     lines = _lines(path)
     assert lines <= MAX_MODULE_LINES, f"{_relative(path)} has {lines} lines; split it by job"
-
-
-@pytest.mark.parametrize("name", sorted(OVER_LENGTH_ALLOWED))
-def test_the_allowance_names_only_modules_still_over_the_limit(name: str) -> None:
-    path = ROOT / name
-    assert path.exists(), f"{name} is gone: take it off OVER_LENGTH_ALLOWED"
-    assert _lines(path) > MAX_MODULE_LINES, f"{name} is small now: take it off OVER_LENGTH_ALLOWED"

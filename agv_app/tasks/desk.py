@@ -16,12 +16,11 @@ floor carries"); held at the desk, they wait without taking a lane. ``max_open="
 lets the limit follow the floor (:class:`~agv_app.tasks.admission.AdaptiveLimit`): the
 fleet tells the desk of every long wait (:meth:`TaskDesk.long_wait`).
 
-The desk follows who holds each task it handed out (:mod:`agv_app.tasks.custody`): from
-what its base node hears of the vehicles it closes a task a vehicle reports done
+The desk follows who holds each task it handed out (:mod:`agv_app.tasks.custody`, fed
+by :mod:`agv_app.tasks.custody_watch`): it closes a task a vehicle reports done
 (``last_done``) and has the station give back one its vehicle no longer holds (the
 vehicle says ``returned``, or has not named it as its ``task`` for ``hand_back_after``
-seconds). A task is auctioned again only then, or when its vehicle's node fails (the
-station's rule).
+seconds). A task is auctioned again only then, or when its vehicle's node fails.
 
 With a durable store (``store``, :class:`~agv_app.tasks.store.OrderStore`) every state a
 task enters is written through, and a new desk on the same store resumes every open task:
@@ -36,11 +35,9 @@ import random
 from collections import deque
 from collections.abc import Callable, Iterable
 
-from mypy_extensions import mypyc_attr
-
 from agv_app.layout.graph import Layout
 from agv_app.protocol import BASE_KIND, MessageTally
-from agv_app.tasks.admission import CROWDED, AdaptiveLimit, carried_tasks
+from agv_app.tasks.admission import AdaptiveLimit, carried_tasks
 from agv_app.tasks.auction import TaskSpec
 from agv_app.tasks.book import DEFAULT_HISTORY, HELD_STATES, TaskBook, TaskRecord
 from agv_app.tasks.custody import (
@@ -49,8 +46,11 @@ from agv_app.tasks.custody import (
     Delivered,
     Verdict,
 )
+from agv_app.tasks.custody_watch import CustodyWatch
 from agv_app.tasks.journal import TaskJournal
+from agv_app.tasks.limits import BACKLOG_LIMIT, BacklogFull, check_max_open, parse_max_open
 from agv_app.tasks.station import Station
+from agv_app.tasks.stations import BASE_ID, drop_stations, pick_stations, require_task_stations
 from objectplaces import RoleActivator
 
 __all__ = [
@@ -66,99 +66,8 @@ __all__ = [
 ]
 
 
-BASE_ID = "base"
-
-BACKLOG_LIMIT = 10_000
-"""Open tasks a desk holds at most: waiting at the desk, at their stations or on an AGV.
-Orders from outside (the dashboard's API, a master control) come as fast as a client
-sends them, and each open task keeps a record and, at its station, an auction: the bound
-keeps a burst from growing memory and work without end. A fleet at its load never comes
-near it (tasks are done as fast as they come)."""
-
-
-# Not a native class when compiled (objectplaces.compiled): mypyc builds no native
-# subclass of a built-in exception.
-@mypyc_attr(native_class=False)
-class BacklogFull(RuntimeError):
-    """The desk holds its limit of open tasks: a new one is refused (and counted) until
-    some are done or cancelled."""
-
-
-"""Node id of a fleet's transport base.
-
-One node for the stations, not one per station: every node hears every AGV it may
-auction a task to (all of them, once the range widens) and every winner until its task
-is done, so each station node heard every AGV, and at 50 AGVs on the demo warehouse the
-18 stations were more than a quarter of the listeners of every AGV's moves and beats
-(docs/fleet.md, "The transport base")."""
-
-
-def pick_stations(layout: Layout) -> list[str]:
-    """Ids of the usable stations where loads are picked up (``pick``, ``pickdrop``)."""
-    return [s for s in layout.usable_stations() if layout.station(s).kind in ("pick", "pickdrop")]
-
-
-def drop_stations(layout: Layout) -> list[str]:
-    """Ids of the usable stations where loads are dropped (``drop``, ``pickdrop``)."""
-    return [s for s in layout.usable_stations() if layout.station(s).kind in ("drop", "pickdrop")]
-
-
-def require_task_stations(layout: Layout) -> None:
-    """Check that tasks can be made on ``layout``: a pick station and a drop station
-    apart from it, both among the stations that reach each other.
-
-    Raises:
-        ValueError: there are none; the message names the usable stations and the ones
-            that cannot reach them.
-    """
-    picks, drops = pick_stations(layout), drop_stations(layout)
-    if any(d != p for p in picks for d in drops):
-        return
-
-    def named(ids: Iterable[str]) -> str:
-        return ", ".join(f"{s!r} ({layout.station(s).kind})" for s in ids) or "none"
-
-    cut_off = layout.unreachable_stations()
-    raise ValueError(
-        f"layout {layout.name!r} cannot host a fleet: a task needs a pick station and "
-        "another drop station that reach each other; the largest group of stations that "
-        f"reach each other is {named(layout.usable_stations())}"
-        + (f", cut off from it: {named(cut_off)}" if cut_off else "")
-    )
-
-
 _UNLIMITED = 1_000_000
 """The first automatic limit of a floor without lanes to measure: none, until a cut."""
-
-
-def check_max_open(max_open: object) -> None:
-    """Check a desk's ``max_open``: None, ``"auto"`` or a whole number >= 1.
-
-    Raises:
-        ValueError: it is none of these.
-    """
-    if max_open is None or max_open == "auto":
-        return
-    if isinstance(max_open, bool) or not isinstance(max_open, int) or max_open < 1:
-        raise ValueError(f"max_open must be a whole number >= 1, 'auto' or None, got {max_open!r}")
-
-
-def parse_max_open(text: str) -> int | str | None:
-    """A command line's limit on open tasks: ``"auto"``, ``"crowded"``
-    (:data:`~agv_app.tasks.admission.CROWDED`), ``"none"`` (no limit: None) or a whole
-    number (checked to be at least 1 with :func:`check_max_open`).
-
-    Raises:
-        ValueError: none of them.
-    """
-    if text in ("auto", CROWDED):
-        return text
-    if text == "none":
-        return None
-    try:
-        return int(text)
-    except ValueError:
-        raise ValueError(f"a whole number, 'auto', 'crowded' or 'none', got {text!r}") from None
 
 
 class TaskDesk:
@@ -238,12 +147,10 @@ class TaskDesk:
         """Tasks created while ``max_open`` were open, oldest first."""
         self.custody = CustodyMachine(grace=hand_back_after)
         """Who holds each task handed out, and when one comes back."""
+        self.watch = CustodyWatch(self.custody, clock, self._settle)
+        """What the base hears of the vehicles that hold tasks (``custody_watch``)."""
         self._adopt: dict[str, list[TaskRecord]] = {}
         """Tasks restored as held by a vehicle, by pick station, until it opens."""
-        self._heard_on: set[str] = set()
-        """The nodes whose views the desk follows."""
-        self._node: RoleActivator | None = None
-        self._timer_at: float | None = None
         self.store = store
         if store is not None:
             self._restore(store)
@@ -301,12 +208,12 @@ class TaskDesk:
             wait_for_drop=self.wait_for_drop,
         )
         self.stations[station_id] = station
-        self._follow(node)
+        self.watch.follow(node)
         for record in self._adopt.pop(station_id, []):
             vehicle = self.custody.holder(record.id)
             if vehicle is not None:  # still held
                 station.adopt(record.task, vehicle)
-        self._arm()
+        self.watch.arm()
         self._hand_out()  # tasks restored for this station wait no longer for it
         return station
 
@@ -466,42 +373,11 @@ class TaskDesk:
         now = self.clock()
         self.book.assign(task.id, agv, now=now)
         self.custody.hold(task.id, agv, now=now)
-        self._arm()
+        self.watch.arm()
 
     def _returned(self, task: TaskSpec, agv: str) -> None:
         self.custody.release(task.id)
         self.book.fail(task.id, now=self.clock())
-
-    # -- custody: what the base hears of the vehicles that hold tasks ---------------------
-
-    def _follow(self, node: RoleActivator) -> None:
-        """Hear the vehicles through ``node`` (once per node)."""
-        if self._node is None:
-            self._node = node
-        if node.node_id in self._heard_on:
-            return
-        self._heard_on.add(node.node_id)
-        node.register_node_property_observer(
-            lambda vehicle, name, value: self._heard(node, vehicle, name, value),
-            names=("task", "last_done", "returned"),
-        )
-        node.register_node_departure_observer(lambda vehicle, _: self.custody.departed(vehicle))
-
-    def _heard(self, node: RoleActivator, vehicle: str, name: str, value: object) -> None:
-        now = self.clock()
-        verdicts: list[Verdict] = []
-        if name == "task":
-            self.custody.named(vehicle, value, now=now)
-        elif name == "last_done":
-            verdicts.extend(self.custody.done(vehicle, value))
-        elif name == "returned":
-            # The task it names now, not the one an older update named.
-            self.custody.named(vehicle, node.view().get(vehicle, {}).get("task"), now=now)
-            verdicts.extend(self.custody.returned(vehicle, value))
-        self._arm()
-        if verdicts:
-            # Not from inside the view's update: the vehicle's other properties may follow.
-            node.call_later(0.0, lambda: self._settle(verdicts))
 
     def _settle(self, verdicts: list[Verdict]) -> None:
         """Act on what the custody rule concluded."""
@@ -520,19 +396,4 @@ class TaskDesk:
                 self._open.discard(verdict.task_id)
                 self.book.fail(verdict.task_id, now=self.clock())
                 self._waiting.appendleft(record.task)
-        self._arm()
-
-    def _arm(self) -> None:
-        """Have the base's clock wake the desk when a held task may be due back."""
-        node, deadline = self._node, self.custody.next_deadline()
-        if node is None or deadline is None:
-            return
-        if self._timer_at is not None and self._timer_at <= deadline:
-            return
-        self._timer_at = deadline
-        node.call_later(max(0.0, deadline - self.clock()), self._expire)
-
-    def _expire(self) -> None:
-        self._timer_at = None
-        verdicts: list[Verdict] = list(self.custody.tick(now=self.clock()))
-        self._settle(verdicts)
+        self.watch.arm()

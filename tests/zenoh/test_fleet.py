@@ -118,7 +118,7 @@ def test_the_poll_interval_of_an_agv_process_is_bounded() -> None:
 def test_the_areas_of_a_display_are_worked_out_again_only_when_they_change() -> None:
     from shapely.geometry import box
 
-    from agv_app.fleet.agv_process import _AreaCoords
+    from agv_app.fleet.agv_display import _AreaCoords
     from agv_app.geometry import Area
 
     coords = _AreaCoords()

@@ -211,7 +211,7 @@ async def test_parked_agv_processes_beat_at_rest_and_stay_in_the_fleet() -> None
         # (plus the three after a republication, every 60 s).
         for agv in resting.agv_ids:
             assert rest_frames[agv] <= awake_frames[agv] - 6, (rest_frames, awake_frames)
-        assert resting.roster.failed() == []
+        assert resting.seen.roster.failed() == []
         assert resting.missing() == []
         for sid, station in resting.desk.stations.items():
             assert set(resting.agv_ids) <= set(station.node.view()), sid

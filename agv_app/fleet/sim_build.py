@@ -1,0 +1,135 @@
+"""The parts a simulated fleet is built from: where its AGVs stand at first, its task
+rate, its task desk and the nodes that run the desk's stations.
+"""
+
+from __future__ import annotations
+
+import random
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+from agv_app.fleet.parking import home_heading
+from agv_app.fleet.sim_config import FleetConfig
+from agv_app.geometry import Pose
+from agv_app.layout.graph import Layout
+from agv_app.protocol import MessageTally
+from agv_app.tasks.admission import limit_for
+from agv_app.tasks.auction import TaskSpec
+from agv_app.tasks.desk import BASE_ID, TaskDesk, pick_stations
+from agv_app.tasks.journal import TaskJournal
+from agv_app.tasks.load import task_interval_for_load
+from agv_app.vehicle.comeback import hand_back
+from agv_app.vehicle.controller import AgvController
+from agv_app.vehicle.kinematics import VehicleSpec
+from objectplaces.sim import SimulatedNetwork
+
+__all__ = [
+    "Placement",
+    "fleet_desk",
+    "fleet_task_interval",
+    "open_bases",
+    "place_agvs",
+    "pose_at",
+    "take_over",
+]
+
+
+@dataclass(frozen=True, slots=True)
+class Placement:
+    """Where each AGV of a fleet stands at first, in the order of ``ids``.
+
+    Attributes:
+        ids: the AGVs' ids (``agv-01`` ...).
+        starts: the layout point each stands on.
+        poses: its pose there.
+    """
+
+    ids: list[str]
+    starts: list[str]
+    poses: list[Pose]
+
+
+def pose_at(layout: Layout, point: str, heading: float | None) -> Pose:
+    """A vehicle's pose on ``point``, heading ``heading`` (None: along the way into the
+    spot, ``home_heading``)."""
+    p = layout.point(point)
+    return Pose(p.x, p.y, home_heading(layout, point) if heading is None else heading)
+
+
+def place_agvs(
+    layout: Layout,
+    homes: Sequence[str],
+    agvs: int,
+    *,
+    starts: Sequence[str] | None,
+    headings: Sequence[float] | None,
+) -> Placement:
+    """An id for the AGV of each home (as wide as ``agvs`` needs), and where it stands at
+    first: on ``starts`` (default: its home), heading ``headings`` (default: along the
+    way into its spot)."""
+    width = max(2, len(str(agvs)))
+    ids = [f"agv-{i + 1:0{width}d}" for i in range(len(homes))]
+    firsts = [home if starts is None else starts[i] for i, home in enumerate(homes)]
+    poses = [
+        pose_at(layout, point, None if headings is None else headings[i])
+        for i, point in enumerate(firsts)
+    ]
+    return Placement(ids, firsts, poses)
+
+
+def fleet_task_interval(cfg: FleetConfig, layout: Layout, spec: VehicleSpec) -> float | None:
+    """Mean seconds between new tasks: ``cfg.task_interval``, else from the load and the
+    layout (None: the layout has no stations to make any)."""
+    if cfg.task_interval is None and pick_stations(layout):
+        return task_interval_for_load(
+            layout,
+            agvs=cfg.agvs,
+            load=cfg.load,
+            speed_m_s=spec.max_speed_m_s,
+            dwell_s=cfg.dwell,
+        )
+    return cfg.task_interval
+
+
+def fleet_desk(
+    cfg: FleetConfig,
+    layout: Layout,
+    *,
+    rng: random.Random,
+    clock: Callable[[], float],
+    tally: MessageTally,
+    on_created: Callable[[TaskSpec, float], None],
+    store: TaskJournal | None,
+) -> TaskDesk:
+    """The fleet's task desk, as ``cfg`` says (its stations not open yet)."""
+    return TaskDesk(
+        layout,
+        rng=rng,
+        clock=clock,
+        station_range=cfg.station_range,
+        tally=tally,
+        on_created=on_created,
+        max_open=limit_for(cfg.max_open_tasks, layout, cfg.agvs),
+        one_at_a_time=cfg.one_at_a_time,
+        wait_for_drop=cfg.wait_for_drop,
+        store=store,
+    )
+
+
+def open_bases(desk: TaskDesk, net: SimulatedNetwork, *, station_nodes: bool) -> None:
+    """Open the desk's stations on new nodes of ``net``: one transport base
+    (:data:`~agv_app.tasks.desk.BASE_ID`), or with ``station_nodes`` one node per pick
+    station, ``st:<station id>``."""
+    if station_nodes:
+        for sid in pick_stations(desk.layout):
+            desk.open_base(net.add_node(f"st:{sid}"), [sid])
+    else:
+        desk.open_base(net.add_node(BASE_ID))
+
+
+def take_over(old: AgvController, agv: AgvController) -> None:
+    """A restarted AGV's new component takes back the task its old one held, loaded if
+    it was on its way to the drop (:mod:`agv_app.vehicle.comeback`)."""
+    held = old.task or old.pending_task
+    if held is not None:
+        hand_back(agv, held, loaded=old.task is not None and old.phase in ("to_drop", "at_drop"))
