@@ -713,7 +713,7 @@ class MeshFleet(FleetSourceBase):
         if seconds <= 0 or not self.started:
             return
         self._advanced += seconds
-        if self.arrivals is None or self._paused or not self.stations:
+        if self.arrivals is None or not self.automatic_tasks or not self.stations:
             return
         now = self.now
         if self._next_task_at is None:

@@ -48,6 +48,7 @@ from agv_app.vehicle.controller import DEFAULT_ADVANCE_M, AgvConfig, AgvControll
 from agv_app.vehicle.driven import planning_spec
 from agv_app.vehicle.driver import VehicleDriver
 from agv_app.vehicle.kinematics import VehicleSpec
+from agv_app.vehicle.service import send_home
 from objectplaces import RoleActivator
 from objectplaces.core.config import NodeConfig
 from objectplaces.core.spatial import MAX_SCOPE_CELLS, footprint_cells
@@ -546,7 +547,13 @@ class Fleet(FleetSourceBase):
                 agv.hold()
             else:
                 agv.release()
+            if not self.holds.in_service(agv_id):
+                agv.take_out_of_service()  # hands back a task it has not loaded
             agv.in_service = self._takes_tasks(agv_id)
+
+    def _send_home(self, vehicle_id: str) -> str | None:
+        """Send the AGV home at once (it is in this process)."""
+        return send_home(self.agvs[vehicle_id])
 
     def _takes_tasks(self, agv_id: str) -> bool:
         """Whether the AGV may take tasks: the operator has it in service and its battery
@@ -570,7 +577,8 @@ class Fleet(FleetSourceBase):
         now = self.net.now
         self.step_count += 1
         m = self.metrics_raw
-        if (cfg.task_until is None or now < cfg.task_until) and now >= self._next_task_at:
+        due = cfg.task_until is None or now < cfg.task_until
+        if due and self.automatic_tasks and now >= self._next_task_at:
             self.desk.create_random()
             self._next_task_at = self._draw_interval()
         if self.central is not None:

@@ -58,6 +58,7 @@ from agv_app.vehicle.driven import DrivenVehicle
 from agv_app.vehicle.driver import VehicleDriver
 from agv_app.vehicle.isolation import CutOff
 from agv_app.vehicle.kinematics import Vehicle, VehicleSpec
+from agv_app.vehicle.service import take_out_of_service
 from agv_app.vehicle.sim_driver import SimDriver
 from objectplaces import RoleActivator
 from objectplaces.groups import GroupDefinition
@@ -287,8 +288,12 @@ class AgvController:
         """The circle in force: the last position and hull length published, and when."""
         self._held = False
         self.in_service = True
-        """False once taken out of service: it finishes the task it holds, goes home and
-        bids for no task until brought back (:meth:`take_out_of_service`)."""
+        """False once taken out of service: it hands back a task it has not loaded,
+        delivers a loaded one, goes home and bids for no task until brought back
+        (:meth:`take_out_of_service`)."""
+        self.sent_home = False
+        """True from :func:`~agv_app.vehicle.service.send_home` until it parks at home:
+        it bids for no task meanwhile."""
         self._held_route: Polyline | None = None
         self._held_s = 0.0
         """While held: the route the vehicle rests on and the arc length it rests at."""
@@ -502,9 +507,9 @@ class AgvController:
         return self._held
 
     def take_out_of_service(self) -> None:
-        """Take no more tasks: the one it holds (and one awarded while it dwells) it
-        finishes, then it drives home and parks there."""
-        self.in_service = False
+        """Take no more tasks: hand back a task not loaded yet, deliver a loaded one,
+        then drive home and park there (:mod:`agv_app.vehicle.service`)."""
+        take_out_of_service(self)
 
     def return_to_service(self) -> None:
         """Take tasks again."""
@@ -610,7 +615,9 @@ class AgvController:
         On the way home it is the distance by way of the point the AGV would stop at
         if awarded (:meth:`_turn_point`).
         """
-        if self.failed or self._held or not self.in_service or self.status != "idle":
+        if self.failed or self._held or not self.in_service or self.sent_home:
+            return None
+        if self.status != "idle":
             return None
         pick = self.layout.station(task.pick).point
         if self._dest is None:
@@ -792,6 +799,8 @@ class AgvController:
             and self.task is None
             and self.pending_task is None
         )
+        if at_rest:
+            self.sent_home = False  # home: it takes tasks again
         if at_rest != self._at_rest:
             self._at_rest = at_rest
             self.node.set_at_rest(at_rest)
