@@ -18,7 +18,8 @@ status, task, last done), it shows the observer, over the observer's display ses
 (:mod:`agv_app.fleet.display_feed`), what it needs to draw the vehicle, each only when
 it changes: ``position`` and ``heading`` (radians) as it moves, ``state`` (the
 dashboard's finer status), ``speed`` (m/s, 0 only standing), ``held`` (it holds for
-the control's stop, :mod:`agv_app.fleet.holding`), ``in_service``, ``size``
+the control's stop, :mod:`agv_app.fleet.holding`), ``in_service``, ``loaded`` (it
+carries its task's load: it is not sent home, :mod:`agv_app.fleet.sending_home`), ``size``
 (``[length, width]``), ``locked`` and ``requested`` (its projections in the compact form
 of :func:`~agv_app.geometry.polygon_to_coords`) and ``route`` (the vertices ahead); and
 what the dashboard shows of its node:
@@ -40,6 +41,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import contextlib
+import functools
 import json
 import math
 import os
@@ -63,6 +65,7 @@ from agv_app.fleet.liveness import (
 from agv_app.fleet.parking import home_heading
 from agv_app.fleet.remote import roles_wire, sessions_wire, traffic_wire
 from agv_app.fleet.restart_state import TaskKeeper, add_driver_arguments, held_task, vehicle_driver
+from agv_app.fleet.sending_home import SendHomeListener
 from agv_app.fleet.trace import VehicleTrace
 from agv_app.geometry import Area, Pose, polygon_to_coords
 from agv_app.layout.choice import layout_digest, layout_from_argument
@@ -76,6 +79,7 @@ from agv_app.vda5050.process import bridge_for, vehicle_class, vehicle_link
 from agv_app.vehicle.comeback import announce, hand_back
 from agv_app.vehicle.controller import AgvConfig, AgvController
 from agv_app.vehicle.kinematics import VehicleSpec
+from agv_app.vehicle.service import loaded, send_home
 from objectplaces.arguments import POSITIVE, number, whole
 from objectplaces.core.config import NodeConfig
 from objectplaces.core.errors import LocalProtocolError
@@ -253,6 +257,7 @@ class DisplayPublisher:
         feed.set("speed", 0.0 if speed == 0.0 else max(0.1, round(speed, 1)))
         feed.set("held", agv.held)
         feed.set("in_service", agv.in_service)
+        feed.set("loaded", loaded(agv))  # it cannot be sent home while loaded
         locks, request = agv.areas()
         feed.set("locked", self._locked(locks))
         feed.set("requested", self._requested([] if request is None else [request]))
@@ -674,6 +679,7 @@ async def run(args: argparse.Namespace, credentials: Credentials) -> int:
             StaleRelay(node)
             StaleListener(node, lambda: agv.book)
         HoldListener(node, agv)  # the control's stop: from the observer alone
+        SendHomeListener(node, functools.partial(send_home, agv))  # likewise
         display = DisplayPublisher(agv, traffic_interval_s=args.introspection_interval)
         display.publish()
         trace = VehicleTrace(agv, args.trace) if args.trace is not None else None

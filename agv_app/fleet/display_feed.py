@@ -47,6 +47,7 @@ DISPLAY_FIELDS = frozenset(
         "speed",
         "held",
         "in_service",
+        "loaded",
         "task",
         "size",
         "locked",

@@ -46,6 +46,7 @@ from agv_app.fleet.parking import ParkingPlan
 from agv_app.fleet.processes import AgvProcesses
 from agv_app.fleet.remote import RemoteNode
 from agv_app.fleet.roster import AgvRoster
+from agv_app.fleet.sending_home import SEND_HOME_PROPERTY, SENT_HOME_PROPERTY, SendHomeOrders
 from agv_app.fleet.stalls import StallWatch
 from agv_app.fleet.view import OBSERVER_ID, VehicleState
 from agv_app.geometry import XY
@@ -269,6 +270,8 @@ class MeshFleet(FleetSourceBase):
                 store=store,
             ),
         )
+        self.homeward = SendHomeOrders()
+        """Requests to go home the AGV processes have not answered yet."""
         self.processes = AgvProcesses(python=python, capture_output=capture_output)
         self.vda5050 = vda5050
         self.broker_monitor: BrokerMonitor | None = None
@@ -408,7 +411,10 @@ class MeshFleet(FleetSourceBase):
         observer.set_at_rest(True)  # it listens, and says nothing more
         observer.update_node_property(HOLD_PROPERTY, self.holds.wire())  # the operator's stop
         self.observer = observer
-        observer.register_node_property_observer(self._on_property, names=("last_done",))
+        observer.update_node_property(SEND_HOME_PROPERTY, self.homeward.wire())
+        observer.register_node_property_observer(
+            self._on_property, names=("last_done", SENT_HOME_PROPERTY)
+        )
         observer.start_interaction(self.display, display_group(), DISPLAY_ROLE)
         observer.register_node_departure_observer(lambda node_id, _: self._departed(node_id))
         return observer
@@ -492,6 +498,8 @@ class MeshFleet(FleetSourceBase):
     def _on_property(self, node_id: str, name: str, value: Any) -> None:
         if name == "last_done" and isinstance(value, str):
             self.desk.finish(value, now=self.now)
+        elif name == SENT_HOME_PROPERTY and self.homeward.answered(node_id, value):
+            self._publish(SEND_HOME_PROPERTY, self.homeward.wire())
 
     def _on_report(self, node_id: str, report: Mapping[str, Any]) -> None:
         if report.get("state") == "driving":
@@ -582,8 +590,27 @@ class MeshFleet(FleetSourceBase):
 
     def _apply_holds(self) -> None:
         """Publish the stop as the observer's property; every AGV process follows it."""
+        self._publish(HOLD_PROPERTY, self.holds.wire())
+
+    def _send_home(self, vehicle_id: str) -> None:
+        """Ask the AGV process over the observer's property (it acts as it hears it:
+        :mod:`agv_app.fleet.sending_home`).
+
+        Raises:
+            ValueError: it failed, or reports a load on board.
+        """
+        if vehicle_id in self.roster.failed():
+            raise ValueError(f"{vehicle_id} has failed")
+        view = self._agv_view(vehicle_id) or {}
+        if view.get("loaded") is True:
+            raise ValueError(f"{vehicle_id} is loaded: it delivers its load first")
+        self.homeward.ask(vehicle_id)
+        self._publish(SEND_HOME_PROPERTY, self.homeward.wire())
+
+    def _publish(self, name: str, value: Any) -> None:
+        """Set an observer's property, if the observer runs."""
         if self.observer is not None and not self.observer.closed:
-            self.observer.update_node_property(HOLD_PROPERTY, self.holds.wire())
+            self.observer.update_node_property(name, value)
 
     def pause(self) -> None:
         """Stop the fleet: no new automatic tasks, and every vehicle holds."""
