@@ -122,6 +122,9 @@ def send_home_refusal(agv: AgvController) -> str | None:
         return f"{agv.node_id} takes no tasks (out of service or due for a charge)"
     if loaded(agv):
         return f"{agv.node_id} is loaded: it delivers to {agv.task and agv.task.drop} first"
+    orders = getattr(agv, "book_of_orders", None)  # a VDA 5050 master control's vehicle
+    if orders is not None and orders.active:
+        return f"{agv.node_id} drives an order of its master control"
     return None
 
 
@@ -138,4 +141,9 @@ def send_home(agv: AgvController) -> str | None:
     if refusal is not None:
         raise ValueError(refusal)
     agv.sent_home = True
-    return hand_back_unloaded(agv)
+    handed = hand_back_unloaded(agv)
+    if agv._dest is None and agv.task is None and agv.point != agv.home:
+        # Standing away from home with nothing to do: off at once (a vehicle of a master
+        # control would stand there, waiting for its next order).
+        agv._go_home()
+    return handed
