@@ -19,7 +19,8 @@ status, task, last done), it shows the observer, over the observer's display ses
 it changes: ``position`` and ``heading`` (radians) as it moves, ``state`` (the
 dashboard's finer status), ``speed`` (m/s, 0 only standing), ``held`` (it holds for
 the control's stop, :mod:`agv_app.fleet.holding`), ``in_service``, ``loaded`` (it
-carries its task's load: it is not sent home, :mod:`agv_app.fleet.sending_home`), ``size``
+carries its task's load: it is not sent home, :mod:`agv_app.fleet.sending_home`),
+``battery`` (with ``--battery``: its state of charge, percent), ``size``
 (``[length, width]``), ``locked`` and ``requested`` (its projections in the compact form
 of :func:`~agv_app.geometry.polygon_to_coords`) and ``route`` (the vertices ahead); and
 what the dashboard shows of its node:
@@ -76,6 +77,8 @@ from agv_app.traffic.reach import interest_radius
 from agv_app.traffic.stale_relay import StaleListener, StaleRelay
 from agv_app.vda5050.link import BrokerError, MqttLink, check_broker
 from agv_app.vda5050.process import bridge_for, vehicle_class, vehicle_link
+from agv_app.vehicle.battery import BatterySpec
+from agv_app.vehicle.battery_drain import BatteryDrain
 from agv_app.vehicle.comeback import announce, hand_back
 from agv_app.vehicle.controller import AgvConfig, AgvController
 from agv_app.vehicle.kinematics import VehicleSpec
@@ -258,6 +261,8 @@ class DisplayPublisher:
         feed.set("held", agv.held)
         feed.set("in_service", agv.in_service)
         feed.set("loaded", loaded(agv))  # it cannot be sent home while loaded
+        if agv.battery is not None:
+            feed.set("battery", round(agv.battery.state_of_charge(agv.node.now()), 3))
         locks, request = agv.areas()
         feed.set("locked", self._locked(locks))
         feed.set("requested", self._requested([] if request is None else [request]))
@@ -368,6 +373,12 @@ def add_agv_arguments(parser: argparse.ArgumentParser, *, joining: bool = False)
     )
     parser.add_argument(
         "--dwell", type=number(at_least=0), default=5.0, help="seconds at a station"
+    )
+    parser.add_argument(
+        "--battery",
+        action="store_true",
+        help="a battery (BatterySpec's defaults) that drains as the vehicle drives and is "
+        "reported (``battery``, VDA 5050 powerSupply); no charging",
     )
     parser.add_argument(
         "--interest-radius",
@@ -557,6 +568,7 @@ async def _drive(
 ) -> None:
     """Step the AGV every ``dt`` of real time, noting how late each step ran, until its
     vehicle's driver fails."""
+    drain = BatteryDrain(agv)
     loop = asyncio.get_running_loop()
     dt = args.dt
     # Processes started together would otherwise step (and publish) in lockstep.
@@ -567,6 +579,7 @@ async def _drive(
     while True:
         lag.note(loop.time() - next_step, dt)
         agv.step(dt)
+        drain.step(dt)
         if trace is not None:
             trace.step()
         if keeper is not None:
@@ -624,7 +637,11 @@ async def run(args: argparse.Namespace, credentials: Credentials) -> int:
         loop.add_signal_handler(signum, stop.set)
     # From the start: a process still waiting for a router stops by itself too.
     loop.call_later(args.run_seconds, stop.set)
-    spec = VehicleSpec(DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M)
+    spec = VehicleSpec(
+        DEMO_VEHICLE_LENGTH_M,
+        DEMO_VEHICLE_WIDTH_M,
+        battery=BatterySpec() if args.battery else None,
+    )
     config = AgvConfig(t_update=args.t_update, dwell=args.dwell)
     liveness = process_liveness(args.t_update, args.republish_beats, args.rest_beat)
     timing: dict[str, Any] = {

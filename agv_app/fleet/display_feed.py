@@ -48,6 +48,7 @@ DISPLAY_FIELDS = frozenset(
         "held",
         "in_service",
         "loaded",
+        "battery",
         "task",
         "size",
         "locked",

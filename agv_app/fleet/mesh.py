@@ -136,6 +136,9 @@ class MeshFleet(FleetSourceBase):
         run_seconds: every AGV process stops by itself after this long.
         station_range: first auction range of the stations.
         dwell: seconds an AGV spends at a station.
+        batteries: every AGV process drains a battery and reports its state of charge
+            (``battery``, VDA 5050 ``powerSupply``); there is no charging
+            (:mod:`agv_app.vehicle.battery_drain`).
         stop_timeout: how long ``stop`` waits for the processes after SIGTERM before
             it kills them.
         python: the interpreter that runs the AGV processes.
@@ -190,6 +193,7 @@ class MeshFleet(FleetSourceBase):
         run_seconds: float = 86_400.0,
         station_range: float = 30.0,
         dwell: float = 5.0,
+        batteries: bool = False,
         stop_timeout: float = 5.0,
         python: str = sys.executable,
         capture_output: bool = True,
@@ -220,6 +224,7 @@ class MeshFleet(FleetSourceBase):
         self.run_seconds = run_seconds
         self.station_range = station_range
         self.dwell = dwell
+        self.batteries = batteries
         self.stop_timeout = stop_timeout
         self.transport = transport
         if zenoh_mode not in ("client", "peer"):
@@ -397,6 +402,7 @@ class MeshFleet(FleetSourceBase):
                     "--publish-interval", str(self.publish_interval),
                     "--introspection-interval", str(5 * self.publish_interval),
                     "--dwell", str(self.dwell),
+                    *(["--battery"] if self.batteries else []),
                     "--expect-peers", str(peers),
                     *([] if self.vda5050 is None else ["--vda5050", self.vda5050]),
                 ],

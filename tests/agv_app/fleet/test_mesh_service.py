@@ -99,3 +99,27 @@ async def test_agv_processes_hand_back_out_of_service_and_sent_home() -> None:
         assert not fleet.homeward.pending
     finally:
         await fleet.stop()
+
+
+@pytest.mark.timeout(120)
+async def test_agv_processes_with_batteries_report_their_state_of_charge() -> None:
+    fleet = MeshFleet(agvs=1, seed=3, task_interval=None, run_seconds=100.0, batteries=True)
+    await fleet.start()
+    try:
+        async with asyncio.timeout(40):
+            await fleet.wait_ready()
+
+        def full() -> bool:
+            levels = [v.battery for v in fleet.vehicles()]
+            return len(levels) == 1 and levels[0] is not None and levels[0] >= 99.9
+
+        await until(full, within=20)  # standing, it uses a thousandth of a percent a second
+        fleet.create_task(sorted(fleet.stations)[0])
+
+        def drained() -> bool:
+            level = fleet.vehicles()[0].battery
+            return level is not None and level < 99.9  # driven some ten metres
+
+        await until(drained, within=60)
+    finally:
+        await fleet.stop()
