@@ -13,6 +13,7 @@ import sys
 import time
 from pathlib import Path
 
+from agv_app.fleet.blocks import parse_closure
 from agv_app.fleet.compiled import compiled_report, run_compiled
 from agv_app.fleet.liveness import REST_BEAT_S, rest_beat_argument
 from agv_app.fleet.parking import parking_capacity
@@ -156,6 +157,15 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
         "handles loads, charges at the layout's chargers, and stops if it runs empty "
         '(docs/cli.md, "Batteries")',
     )
+    p.add_argument(
+        "--close",
+        action="append",
+        default=[],
+        type=parse_closure,
+        metavar="KIND:WHAT",
+        help="close part of the floor from the start: segment:ID, point:ID or "
+        "polygon:X,Y;X,Y;X,Y (repeatable; one that cuts a station off is refused)",
+    )
     p.add_argument("--json", dest="json_path", help="write the metrics to this JSON file")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument(
@@ -205,6 +215,8 @@ def run_sim(args: argparse.Namespace) -> int:
             batteries=BatterySpec() if args.batteries else None,
         )
         fleet = Fleet(layout, config)
+        for kind, what in args.close:
+            fleet.blocks.close(kind, what, reason="--close", by="the command line")
     except (LayoutError, ValueError, OSError) as exc:
         print(f"objectplaces sim: {exc}", file=sys.stderr)
         return 2

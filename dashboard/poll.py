@@ -12,9 +12,9 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from typing import Any
 
-from dashboard.schemas import json_value
 from objectplaces.core.ids import InitiatorRef, ParticipantRef
 from objectplaces.core.roles import Initiator, Participant
+from objectplaces.json_form import json_value
 
 __all__ = ["POLL_ROLE", "RESPONDER_ROLE", "PollInitiator", "PollResponder", "poll_factory"]
 

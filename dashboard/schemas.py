@@ -1,4 +1,4 @@
-"""Request and response bodies of the REST API (pydantic v2), and a JSON helper.
+"""Request and response bodies of the REST API (pydantic v2).
 
 Every request body is strict (a boolean is never a number, a number never a string),
 refuses unknown fields, and is bounded: names are short, numbers finite and in range,
@@ -7,9 +7,6 @@ refuses unknown fields, and is bounded: names are short, numbers finite and in r
 
 from __future__ import annotations
 
-import base64
-import math
-from collections.abc import Mapping
 from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
@@ -40,7 +37,6 @@ __all__ = [
     "TaskOut",
     "TaskRecordOut",
     "VehicleOut",
-    "json_value",
 ]
 
 Polygon = list[list[float]]
@@ -50,26 +46,6 @@ MAX_PARAMS = 16
 
 MIN_SPEED = 0.01
 """Slowest simulation speed accepted: slower would look frozen while showing as running."""
-
-
-def json_value(value: Any) -> Any:
-    """Turn a property or message value into plain JSON.
-
-    Tuples become lists, bytes become base64 text, non-finite floats become None, and
-    anything else unknown becomes its ``repr`` (a property must never break a response).
-    """
-    if value is None or isinstance(value, bool | int | str):
-        return value
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, bytes | bytearray):
-        return base64.b64encode(bytes(value)).decode("ascii")
-    if isinstance(value, Mapping):
-        return {str(k): json_value(v) for k, v in value.items()}
-    if isinstance(value, list | tuple | frozenset | set):
-        items = sorted(value, key=repr) if isinstance(value, frozenset | set) else value
-        return [json_value(v) for v in items]
-    return repr(value)
 
 
 class _Out(BaseModel):
@@ -238,6 +214,11 @@ class TaskRecordOut(_Out):
     created: float = Field(description="simulated seconds")
     started: float | None = Field(description="when its vehicle last set off with it")
     finished: float | None = Field(description="when it was delivered or cancelled")
+    waits: str | None = Field(
+        default=None,
+        description="why an open order waits for a closed part of the floor "
+        "(e.g. 'waits: path P closed'); None when it need not",
+    )
 
 
 class SimOut(_Out):

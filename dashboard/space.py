@@ -12,9 +12,10 @@ from __future__ import annotations
 
 from typing import Any
 
-from dashboard.schemas import json_value
 from dashboard.source import NodeHandle
-from tuplespace import ANY, TupleSpace
+from objectplaces.json_form import json_value
+from tuplespace import TupleSpace
+from tuplespace.paging import page
 
 __all__ = ["MAX_SPACE_PAGE", "SpacePage", "space_of"]
 
@@ -37,13 +38,5 @@ def space_of(node: NodeHandle, *, offset: int, limit: int) -> SpacePage | None:
     space = getattr(node, "space", None)
     if not isinstance(space, TupleSpace):
         return None
-    total = 0
-    page: list[list[Any]] = []
-    for arity in space.arities():
-        tuples = space.rd_all((ANY,) * arity)
-        start = max(0, offset - total)
-        room = limit - len(page)
-        if room > 0 and start < len(tuples):
-            page.extend([json_value(f) for f in tup] for tup in tuples[start : start + room])
-        total += len(tuples)
-    return total, page
+    total, tuples = page(space, offset, limit)
+    return total, [[json_value(f) for f in tup] for tup in tuples]

@@ -75,7 +75,9 @@ function render(tasks) {
     cell(row, 1, task.creator, { "data-creator": task.creator });
     cell(row, 2, task.source);
     cell(row, 3, task.destination);
-    cell(row, 4, task.state, { "data-state": task.state, class: `state ${task.state}` });
+    // Why it waits for a closed part of the floor ("waits: path P closed"), if it does.
+    const state = task.waits ? `${task.state} (${task.waits})` : task.state;
+    cell(row, 4, state, { "data-state": task.state, class: `state ${task.state}`, title: task.waits ?? "" });
     cell(row, 5, task.vehicle ?? "–");
     cancelButton(row, task);
     if (row === ref) ref = ref.nextElementSibling;

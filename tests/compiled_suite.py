@@ -12,7 +12,9 @@ objectplaces and agv_app with the build first on the path; the session refuses t
 start unless every compiled module came from the build. Tests marked ``source_only``
 stay out: they replace a function of a compiled module (compiled callers keep calling
 the original) or check how an argument of the wrong type is refused (a compiled module
-refuses it first, with a TypeError of its own). ``--no-slow`` leaves out the tests
+refuses it first, with a TypeError of its own), and tests marked ``processes``: only
+``sim --compiled`` runs on the build, never an AGV or node process, so a process on
+the build would test what no command runs. ``--no-slow`` leaves out the tests
 marked ``slow`` as well: ``make test`` runs them on the source, and the fleet's figures
 from both builds are compared in the suite itself (tests/agv_app/fleet/test_compiled.py).
 """
@@ -35,7 +37,7 @@ SUITES = ("tests/tuplespace", "tests/objectplaces", "tests/agv_app")
 def main(argv: list[str] | None = None) -> int:
     """Build, then run the suites on the build; pytest's exit status."""
     extra = list(sys.argv[1:] if argv is None else argv)
-    chosen = "not source_only"
+    chosen = "not source_only and not processes"
     if "--no-slow" in extra:
         extra.remove("--no-slow")
         chosen += " and not slow"

@@ -115,11 +115,44 @@ def test_core_parts_import_only_lower_layers() -> None:
                 )
 
 
+MAX_MODULE_LINES = 400
+
+OVER_LENGTH_ALLOWED = frozenset(
+    {
+        "agv_app/fleet/agv_process.py",
+        "agv_app/fleet/mesh.py",
+        "agv_app/fleet/sim.py",
+        "agv_app/tasks/desk.py",
+    }
+)
+"""The modules of agv_app still over MAX_MODULE_LINES, each to be split by job; the list
+only shrinks (test_the_allowance_names_only_modules_still_over_the_limit)."""
+
+
+def _lines(path: Path) -> int:
+    return len(path.read_text().splitlines())
+
+
+def _relative(path: Path) -> str:
+    return path.relative_to(ROOT).as_posix()
+
+
 @pytest.mark.parametrize(
     "path",
-    [*modules("objectplaces"), *modules("dashboard")],
-    ids=lambda p: str(p.relative_to(ROOT)),
+    [
+        *modules("objectplaces"),
+        *modules("dashboard"),
+        *(p for p in modules("agv_app") if _relative(p) not in OVER_LENGTH_ALLOWED),
+    ],
+    ids=lambda p: _relative(p),
 )
-def test_middleware_and_dashboard_modules_stay_small(path: Path) -> None:
-    lines = len(path.read_text().splitlines())
-    assert lines <= 400, f"{path.relative_to(ROOT)} has {lines} lines; split it by job"
+def test_modules_stay_small(path: Path) -> None:
+    lines = _lines(path)
+    assert lines <= MAX_MODULE_LINES, f"{_relative(path)} has {lines} lines; split it by job"
+
+
+@pytest.mark.parametrize("name", sorted(OVER_LENGTH_ALLOWED))
+def test_the_allowance_names_only_modules_still_over_the_limit(name: str) -> None:
+    path = ROOT / name
+    assert path.exists(), f"{name} is gone: take it off OVER_LENGTH_ALLOWED"
+    assert _lines(path) > MAX_MODULE_LINES, f"{name} is small now: take it off OVER_LENGTH_ALLOWED"

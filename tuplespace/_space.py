@@ -832,9 +832,11 @@ class TupleSpace:
         """Call ``callback(kind, tup)`` for every event on a tuple matching ``tmpl``.
 
         Kinds are ``"out"`` (written), ``"in"`` (taken) and ``"expire"`` (lease ended).
-        Callbacks run in the thread that caused the event, outside the space's lock, so
-        they may use the space. A callback that raises is logged (logger
-        ``"tuplespace"``) and the space carries on.
+        A lease's end is noticed at the space's next access or ``expire()`` call, not by
+        a timer: to hear it on time, call ``expire()`` when the lease ends (e.g. with the
+        node's ``call_later``). Callbacks run in the thread that caused the event,
+        outside the space's lock, so they may use the space. A callback that raises is
+        logged (logger ``"tuplespace"``) and the space carries on.
 
         Args:
             tmpl: the template.

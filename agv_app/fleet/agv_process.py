@@ -54,6 +54,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from agv_app.fleet.closed_listener import ClosedListener
 from agv_app.fleet.display_feed import DISPLAY_ROLE, DisplayFeed
 from agv_app.fleet.holding import HoldListener
 from agv_app.fleet.liveness import (
@@ -68,6 +69,7 @@ from agv_app.fleet.remote import roles_wire, sessions_wire, traffic_wire
 from agv_app.fleet.restart_state import TaskKeeper, add_driver_arguments, held_task, vehicle_driver
 from agv_app.fleet.sending_home import SendHomeListener
 from agv_app.fleet.trace import VehicleTrace
+from agv_app.fleet.view import OBSERVER_ID
 from agv_app.geometry import Area, Pose, polygon_to_coords
 from agv_app.layout.choice import layout_digest, layout_from_argument
 from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M
@@ -93,6 +95,7 @@ from objectplaces.security import (
     add_credential_arguments,
     credentials_from_args,
 )
+from objectplaces.space_pages import serve_space
 from objectplaces.zenoh_node import ZenohNode, start_zenoh_node
 
 __all__ = [
@@ -697,6 +700,8 @@ async def run(args: argparse.Namespace, credentials: Credentials) -> int:
             StaleListener(node, lambda: agv.book)
         HoldListener(node, agv)  # the control's stop: from the observer alone
         SendHomeListener(node, functools.partial(send_home, agv))  # likewise
+        ClosedListener(node, agv, layout)  # closed parts of the floor: the same
+        serve_space(node, readers=[OBSERVER_ID])  # the dashboard shows its locks
         display = DisplayPublisher(agv, traffic_interval_s=args.introspection_interval)
         display.publish()
         trace = VehicleTrace(agv, args.trace) if args.trace is not None else None

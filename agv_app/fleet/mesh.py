@@ -37,6 +37,8 @@ from typing import Any
 
 from agv_app.fleet.agv_process import POLL_INTERVAL_S, process_liveness
 from agv_app.fleet.base import FleetSourceBase
+from agv_app.fleet.blocks import FloorBlocks
+from agv_app.fleet.closed_listener import CLOSED_PROPERTY, closed_wire
 from agv_app.fleet.display_feed import DISPLAY_ROLE, DisplayCollector, display_group
 from agv_app.fleet.holding import HOLD_PROPERTY
 from agv_app.fleet.liveness import REPUBLISH_BEATS, REST_BEAT_S, liveness_arguments
@@ -293,6 +295,8 @@ class MeshFleet(FleetSourceBase):
             )
         self._monitor_task: asyncio.Task[None] | None = None
         self.observer: MeshNode | None = None
+        self.blocks = FloorBlocks(self.layout, on_change=lambda _: self._publish_closed())
+        """The parts of the floor the operator closed, published to every AGV process."""
         self.display = DisplayCollector(on_report=self._on_report)
         """What each AGV process shows, reported to the observer (its display session)."""
         self._base: MeshNode | None = None
@@ -418,6 +422,7 @@ class MeshFleet(FleetSourceBase):
         observer.update_node_property(HOLD_PROPERTY, self.holds.wire())  # the operator's stop
         self.observer = observer
         observer.update_node_property(SEND_HOME_PROPERTY, self.homeward.wire())
+        self._publish_closed()
         observer.register_node_property_observer(
             self._on_property, names=("last_done", SENT_HOME_PROPERTY)
         )
@@ -617,6 +622,11 @@ class MeshFleet(FleetSourceBase):
         """Set an observer's property, if the observer runs."""
         if self.observer is not None and not self.observer.closed:
             self.observer.update_node_property(name, value)
+
+    def _publish_closed(self) -> None:
+        """Publish the closed parts as the observer's property; every AGV follows it."""
+        if self.observer is not None and not self.observer.closed:
+            self.observer.update_node_property(CLOSED_PROPERTY, closed_wire(self.blocks.ways))
 
     def pause(self) -> None:
         """Stop the fleet: no new automatic tasks, and every vehicle holds."""

@@ -16,6 +16,7 @@ from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass
 
 from agv_app.fleet.base import FleetSourceBase
+from agv_app.fleet.blocks import FloorBlocks
 from agv_app.fleet.chargers import Chargers
 from agv_app.fleet.liveness import REPUBLISH_BEATS, REST_BEAT_S, fleet_liveness
 from agv_app.fleet.metrics import FleetMetrics
@@ -334,6 +335,8 @@ class Fleet(FleetSourceBase):
         """The AGV nodes' footprint margin (None: they publish in their own cell)."""
         self.central = CentralScheduler() if cfg.traffic == "central" else None
         self.agvs: dict[str, AgvController] = {}
+        self.blocks = FloorBlocks(self.layout, self.agvs)
+        """The parts of the floor the operator closed (:mod:`agv_app.fleet.blocks`)."""
         self._left: set[str] = set()
         for agv_id, home, start, pose, driver in zip(
             ids, self.parking.homes, firsts, poses, built, strict=True
@@ -397,6 +400,7 @@ class Fleet(FleetSourceBase):
         if callable(truth):
             self._truths[agv_id] = truth
         self.agvs[agv_id] = agv
+        agv.ways = self.blocks.ways
         self._listen(agv_id, node)
         return agv
 

@@ -45,10 +45,9 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from types import TracebackType
-from typing import Any, cast
+from typing import Any
 
-from agv_app.tasks.auction import TaskSpec
-from agv_app.tasks.book import FINAL_STATES, TASK_STATES, TaskRecord, TaskState
+from agv_app.tasks.book import FINAL_STATES, TaskRecord
 from agv_app.tasks.journal import StoredTasks
 from agv_app.tasks.store_file import (
     APPLICATION_ID,
@@ -58,6 +57,7 @@ from agv_app.tasks.store_file import (
     lock,
     unlock,
 )
+from agv_app.tasks.store_rows import append_history, row_item, task_number, task_record
 
 __all__ = [
     "APPLICATION_ID",
@@ -74,10 +74,6 @@ DEFAULT_KEEP_FINISHED = 10_000
 
 DEFAULT_KEEP_EVENTS = 50_000
 """Events a store keeps, newest; older ones are pruned."""
-
-_HISTORY_LIMIT = 64
-"""Entries of a task's history kept: the first, then the latest (a task returned over and
-over should not grow its row without end)."""
 
 StoredEvent = tuple[int, float, str, str, str]
 """An event as kept: seq, time (on the store's clock), severity, source, text."""
@@ -300,12 +296,12 @@ class OrderStore:
                         "[]",
                     ),
                 )
-                self._created = max(self._created + 1, _number(record.id))
+                self._created = max(self._created + 1, task_number(record.id))
                 self._execute(
                     "UPDATE meta SET value = ? WHERE key = 'created'", (str(self._created),)
                 )
             else:
-                _append(history, entry)
+                append_history(history, entry)
             closing = None
             if closed:
                 self._closed += 1
@@ -329,7 +325,7 @@ class OrderStore:
         history = self._history.get(task_id)
         if history is None:
             return
-        _append(history, ["queued", self._wall_time(now), None])
+        append_history(history, ["queued", self._wall_time(now), None])
         with self.transaction():
             self._execute(
                 "UPDATE tasks SET history = ? WHERE id = ?", (json.dumps(history), task_id)
@@ -354,8 +350,8 @@ class OrderStore:
             (finished,),
         ).fetchall()
         return StoredTasks(
-            open=tuple(self._record(row, offset) for row in rows),
-            finished=tuple(self._record(row, offset) for row in reversed(done)),
+            open=tuple(task_record(row, offset, self.path) for row in rows),
+            finished=tuple(task_record(row, offset, self.path) for row in reversed(done)),
             created=self._created,
         )
 
@@ -366,24 +362,7 @@ class OrderStore:
             "SELECT id, pick, drop_at, creator, state, vehicle, history, closed FROM tasks "
             "ORDER BY n"
         ).fetchall()
-        keys = ("id", "pick", "drop", "creator", "state", "vehicle", "history", "closed")
-        out = []
-        for row in rows:
-            item = dict(zip(keys, row, strict=True))
-            item["history"] = json.loads(item["history"])
-            out.append(item)
-        return out
-
-    def _record(self, row: tuple[Any, ...], offset: float) -> TaskRecord:
-        task_id, pick, drop, creator, state, vehicle, history = row
-        if state not in TASK_STATES:
-            raise StoreError(f"order store {self.path} is damaged: task {task_id!r} is {state!r}")
-        times: dict[TaskState, float] = {}
-        for entry in json.loads(history):
-            if entry[0] in TASK_STATES:
-                times[cast(TaskState, entry[0])] = float(entry[1]) - offset
-        times.setdefault("created", times.get(state, -offset))
-        return TaskRecord(TaskSpec(task_id, pick, drop), state, vehicle, times, creator)
+        return [row_item(row) for row in rows]
 
     def _wall_time(self, t: float) -> float:
         return round(t + self._offset(), 6)
@@ -414,14 +393,3 @@ class OrderStore:
             (limit,),
         ).fetchall()
         return [(int(s), float(t) - offset, str(v), str(o), str(x)) for s, t, v, o, x in rows][::-1]
-
-
-def _append(history: list[list[Any]], entry: list[Any]) -> None:
-    history.append(entry)
-    if len(history) > _HISTORY_LIMIT:
-        del history[1]
-
-
-def _number(task_id: str) -> int:
-    _, _, digits = task_id.rpartition("-")
-    return int(digits) if digits.isdigit() else 0

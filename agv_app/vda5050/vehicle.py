@@ -330,7 +330,7 @@ class OrderAgv(AgvController):
         if len(points) < 2:
             return
         self._stretch = points
-        self._route_to(points[-1])
+        self.routing.route_to(points[-1])
         if self._dest is None:
             self._stretch = []
             return

@@ -128,8 +128,8 @@ def come_back(agv: AgvController) -> None:
         # Drive on to the segment's end along its route: the plan knows the segment.
         route = agv.layout.route_through([place.back, place.point])
         agv.point = place.back
-        agv._route_to(None)  # a fresh start: no plan, no first try
-        agv._follow(route, route.polyline, shift=0.0, start_s=min(place.s, route.length))
+        agv.routing.route_to(None)  # a fresh start: no plan, no first try
+        agv.routing.follow(route, route.polyline, shift=0.0, start_s=min(place.s, route.length))
         agv._dest = place.point
         agv.phase = "lost"
     announce(agv)

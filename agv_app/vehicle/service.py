@@ -145,5 +145,5 @@ def send_home(agv: AgvController) -> str | None:
     if agv._dest is None and agv.task is None and agv.point != agv.home:
         # Standing away from home with nothing to do: off at once (a vehicle of a master
         # control would stand there, waiting for its next order).
-        agv._go_home()
+        agv.errands.go_home()
     return handed

@@ -6,6 +6,7 @@ from fastapi import APIRouter
 
 from dashboard.routes import (
     access,
+    blocks,
     docs,
     events,
     fleet,
@@ -35,6 +36,7 @@ ROUTERS: tuple[APIRouter, ...] = (
     vehicles.router,
     vehicle_detail.router,
     operate.router,
+    blocks.router,
     tasks.router,
     sim.router,
     log.router,

@@ -15,7 +15,7 @@ from dashboard.errors import ERROR_RESPONSES
 from dashboard.limits import shown
 from dashboard.membership import SessionMembership
 from dashboard.panel_schemas import MembershipOut, MembershipSummaryOut
-from dashboard.schemas import json_value
+from objectplaces.json_form import json_value
 
 __all__ = ["MAX_LISTED", "router"]
 

@@ -10,8 +10,9 @@ from dashboard import introspect
 from dashboard.deps import State
 from dashboard.errors import ERROR_RESPONSES
 from dashboard.routes.views import session_out
-from dashboard.schemas import NodeDetailOut, NodeOut, ParticipationOut, json_value
+from dashboard.schemas import NodeDetailOut, NodeOut, ParticipationOut
 from dashboard.source import NodeHandle
+from objectplaces.json_form import json_value
 
 __all__ = ["node_out", "router"]
 

@@ -13,10 +13,12 @@ from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, HTTPException, Path, Query
 
+from agv_app.fleet.blocks import FloorBlocks
 from agv_app.tasks.desk import BacklogFull
 from dashboard.deps import State
 from dashboard.errors import ERROR_RESPONSES
 from dashboard.limits import shown
+from dashboard.routes.blocks import blocks_of
 from dashboard.schemas import ErrorOut, TaskIn, TaskOut, TaskRecordOut
 from dashboard.source import TaskBookSource, TaskRecordView
 
@@ -30,11 +32,13 @@ TaskStateName = Literal["waiting", "assigned", "driving", "done", "failed", "can
 MAX_TASKS_LISTED = 2000
 """Most tasks one ``GET /api/tasks`` answers."""
 
+_FINISHED = frozenset({"done", "failed", "cancelled"})
+
 TaskId = Annotated[str, Path(min_length=1, max_length=128)]
 
 
-def task_out(record: TaskRecordView) -> dict[str, Any]:
-    """One book record as ``TaskRecordOut``."""
+def task_out(record: TaskRecordView, blocks: FloorBlocks | None = None) -> dict[str, Any]:
+    """One book record as ``TaskRecordOut`` (``waits`` from ``blocks``, if given)."""
     times = record.times
     finished = (
         times.get("done", times.get("cancelled")) if record.state in ("done", "cancelled") else None
@@ -49,6 +53,9 @@ def task_out(record: TaskRecordView) -> dict[str, Any]:
         "created": times["created"],
         "started": times.get("driving"),
         "finished": finished,
+        "waits": None
+        if blocks is None or record.state in _FINISHED
+        else blocks.waits(record.task.pick, record.task.drop),
     }
 
 
@@ -70,7 +77,8 @@ async def list_tasks(
     book = _book(state)
     if book is None:
         return []
-    tasks = sorted((task_out(r) for r in book.task_records()), key=lambda t: t["created"])
+    blocks = blocks_of(state.source)
+    tasks = sorted((task_out(r, blocks) for r in book.task_records()), key=lambda t: t["created"])
     if task_state is not None:
         tasks = [t for t in tasks if t["state"] == task_state]
     return tasks[-limit:]
@@ -83,7 +91,7 @@ async def get_task(task_id: TaskId, state: State) -> dict[str, Any]:
     record = book.task_record(task_id) if book is not None else None
     if record is None:
         raise HTTPException(404, f"unknown task {shown(task_id)} (or finished long ago)")
-    return task_out(record)
+    return task_out(record, blocks_of(state.source))
 
 
 @router.post(

@@ -8,8 +8,8 @@ from fastapi import HTTPException
 
 from dashboard.capture import SessionRecord
 from dashboard.limits import shown
-from dashboard.schemas import json_value
 from dashboard.state import DashboardState
+from objectplaces.json_form import json_value
 
 __all__ = ["session_detail", "session_out"]
 

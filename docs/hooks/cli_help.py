@@ -18,8 +18,19 @@ def _help(name: str) -> str:
     os.environ["COLUMNS"] = "100"  # argparse wraps to the terminal: fix the width
     parser = build_parser()
     out = io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.suppress(SystemExit):
+    err = io.StringIO()
+    with (
+        contextlib.redirect_stdout(out),
+        contextlib.redirect_stderr(err),
+        contextlib.suppress(SystemExit),
+    ):
         parser.parse_args([name, "--help"] if name else ["--help"])
+    if not out.getvalue():
+        # A command of a missing extra: a page without its options would pass for whole.
+        raise RuntimeError(
+            f"no help for `objectplaces {name}`: {err.getvalue().strip()} "
+            "(build the docs with every extra installed: pip install -e '.[all,docs]')"
+        )
     return out.getvalue().rstrip()
 
 

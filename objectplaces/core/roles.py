@@ -131,7 +131,9 @@ class Role:
 
 @mypyc_attr(allow_interpreted_subclasses=True)
 class Initiator(Role):
-    """Starts and owns a session; sees all participants. Subclass and override callbacks."""
+    """Starts and owns a session; sees all participants. Subclass and override callbacks.
+
+    One object plays in one session, once: start each session with a fresh one."""
 
     def started(self) -> None:
         """The session started (called once, before any ``in_group``)."""

@@ -40,11 +40,15 @@ def check_secret(secret: object, *, what: str = "secret") -> bytes:
         CredentialError: not bytes, or too short (the message says how to make one).
     """
     if not isinstance(secret, bytes):
-        raise CredentialError(f"{what} must be bytes, got {type(secret).__name__}")
+        raise CredentialError(
+            f"{what} must be bytes, got {type(secret).__name__} "
+            "(in Python: secrets.token_bytes(32); a text secret: its .encode())"
+        )
     if len(secret) < MIN_SECRET_BYTES:
         raise CredentialError(
             f"{what} is {len(secret)} bytes; at least {MIN_SECRET_BYTES} are needed "
-            "(make one with: python -c 'import secrets; print(secrets.token_hex(32))')"
+            "(in Python: secrets.token_bytes(32); for a secret file: "
+            "python -c 'import secrets; print(secrets.token_hex(32))')"
         )
     return secret
 

@@ -195,3 +195,17 @@ def test_sim_with_batteries_reports_the_state_of_charge(tmp_path: Path) -> None:
     assert figures["ran_empty"] == 0
     assert 90.0 < figures["min_state_of_charge"] < 100.0
     assert figures["charges"] == 0
+
+
+def test_sim_closes_parts_of_the_floor_from_the_start(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "m.json"
+    args = ["sim", "--agvs", "3", "--minutes", "1", "--seed", "2", "--json", str(out)]
+    code = main([*args, "--close", "segment:M4550>M3925", "--close", "polygon:30,8;31,8;31,10"])
+    assert code == 0
+    assert json.loads(out.read_text())["collisions"] == 0
+    assert main([*args, "--close", "segment:A1-1>A1-1e"]) == 2
+    assert "every way out of station(s) pick-A1-1" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main([*args, "--close", "lane:X"])

@@ -57,11 +57,11 @@ def test_bad_pages_are_422_and_an_unknown_node_is_named() -> None:
     assert "observer" in detail
 
 
-def test_a_node_in_another_process_says_its_space_is_out_of_reach() -> None:
+def test_a_node_in_another_process_that_serves_no_space_says_so() -> None:
     source = NetworkSource()
     source._nodes["agv-9"] = RemoteNode("agv-9", lambda: {"kind": "agv"})  # type: ignore[assignment]
     client = logged_in(create_app(source), "viewer")
     r = client.get("/api/nodes/agv-9/space")
     assert r.status_code == 409
-    assert "runs in its own process" in r.json()["detail"]
+    assert r.json()["detail"] == "node agv-9 does not serve its tuplespace"
     assert client.get("/api/nodes/dashboard/space").json()["node"] == "dashboard"

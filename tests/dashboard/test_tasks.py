@@ -22,6 +22,7 @@ TASK_FIELDS = {
     "created",
     "started",
     "finished",
+    "waits",
 }
 
 

@@ -87,6 +87,13 @@ def test_agvs_are_nodes_vehicles_and_session_initiators_of_the_api() -> None:
         locks = {lock["vehicle"]: lock for lock in client.get("/api/locks").json()}
         assert set(locks) == set(agvs)
         assert all(lock["locked"] for lock in locks.values())
+        # Its tuplespace, read from its process by the observer (objectplaces.space_pages).
+        space = client.get(f"/api/nodes/{taker}/space", params={"limit": 100})
+        assert space.status_code == 200, space.text
+        held = space.json()
+        assert held["node"] == taker
+        assert held["total"] >= len(held["tuples"]) >= 1
+        assert "lock" in {t[0] for t in held["tuples"]}, held
 
         def route() -> list[Any]:
             reply = client.get(f"/api/vehicles/{taker}/detail")

@@ -59,7 +59,7 @@ def test_an_agv_keeps_the_announcement_only_asking_again_for_no_more() -> None:
     _, agv = one_agv()
     small = strip(0.0, 2.5)
     prior: tuple[float, Area, frozenset[tuple[str, int]]] = (3.0, strip(0.0, 5.0), frozenset())
-    assert agv._announced_at(10.0, small, frozenset(), prior) == 3.0
-    assert agv._announced_at(10.0, strip(0.0, 6.0), frozenset(), prior) == 10.0  # more
-    assert agv._announced_at(10.0, small, frozenset({("x", 1)}), prior) == 10.0  # claims
-    assert agv._announced_at(10.0, small, frozenset(), None) == 10.0  # a new request
+    assert agv.locking.announced_at(10.0, small, frozenset(), prior) == 3.0
+    assert agv.locking.announced_at(10.0, strip(0.0, 6.0), frozenset(), prior) == 10.0  # more
+    assert agv.locking.announced_at(10.0, small, frozenset({("x", 1)}), prior) == 10.0  # claims
+    assert agv.locking.announced_at(10.0, small, frozenset(), None) == 10.0  # a new request

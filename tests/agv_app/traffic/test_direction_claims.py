@@ -163,7 +163,7 @@ def test_a_follower_leaving_a_dead_end_spur_never_waits_across_the_lane_it_joins
     )
     agv = fleet.agvs["agv-01"]
     route = agv._route_for("N5300n")
-    plan = agv._plan_for(route)
+    plan = agv.routing.plan_for(route)
     assert route.points[:2] == ("A3-3e", "A3-3")
     spur_clear = route.offsets[1] + plan.clearance
     assert plan.through[0]

@@ -32,7 +32,7 @@ def _plan(floor: str, pick: int, drop: int) -> StopPlan:
     stations = agv.layout.usable_stations()
     a = agv.layout.station(stations[pick % len(stations)]).point
     b = agv.layout.station(stations[drop % len(stations)]).point
-    return agv._plan_for(agv.layout.route(a, b))
+    return agv.routing.plan_for(agv.layout.route(a, b))
 
 
 @settings(max_examples=300, deadline=None)

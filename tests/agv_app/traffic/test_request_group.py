@@ -13,7 +13,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from shapely.geometry import Polygon
 
-import agv_app.vehicle.controller as controller_module
+import agv_app.vehicle.locking as locking_module
 from agv_app.fleet import Fleet, FleetConfig
 from agv_app.geometry import Area, hull_length
 from agv_app.protocol import AGV_KIND
@@ -79,7 +79,7 @@ def test_a_fleet_asks_fewer_voters_than_the_circle_group_and_stays_safe(
     boxed = _run()
     with monkeypatch.context() as patch:
         # The paper's group for every request, as before request_group.
-        patch.setattr(controller_module, "request_group", lambda *_: collision_group())
+        patch.setattr(locking_module, "request_group", lambda *_: collision_group())
         circled = _run()
     for figures in (boxed, circled):
         assert figures["collisions"] == figures["lock_overlaps"] == figures["deadlocks"] == 0

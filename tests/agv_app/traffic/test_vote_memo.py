@@ -27,7 +27,7 @@ def run(monkeypatch: pytest.MonkeyPatch, *, memo: bool) -> tuple[dict[str, Any],
             next(evaluated)
             plain_evaluate(voter)
 
-        patch.setattr(collision, "decide_vote", decide)
+        patch.setattr("agv_app.traffic.voter.decide_vote", decide)  # where Voter looks it up
         patch.setattr(collision.Voter, "_evaluate", evaluate)
         if not memo:
             # The plain path: a book whose version is new at every look.

@@ -34,7 +34,7 @@ def _drive_one_task(fleet: Fleet, agv: AgvController) -> tuple[int, int, int]:
         fleet.step()
         circle = agv._circle
         assert circle is not None
-        assert agv._reach_from(circle.x, circle.y) <= circle.radius + 1e-9
+        assert agv.publication.reach_from(circle.x, circle.y) <= circle.radius + 1e-9
         entry = agv.book.request()
         if entry is not None and entry.key != seen:
             seen = entry.key
@@ -74,4 +74,4 @@ def test_a_request_beyond_the_circle_publishes_a_new_one_around_the_agv() -> Non
     assert (circle.x, circle.y) == (pose.x, pose.y)
     assert circle.since == fleet.now
     assert agv.node.properties["hull_length"] == circle.radius
-    assert agv._covered_since() == fleet.now
+    assert agv.publication.covered_since() == fleet.now
