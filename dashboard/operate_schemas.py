@@ -1,8 +1,8 @@
 """Response bodies of the operating endpoints: stopping and resuming vehicles.
 
 ``/api/fleet/stop`` and ``/api/fleet/resume`` (``FleetStopOut``), and
-``/api/vehicles/{id}/stop``, ``/resume``, ``/out-of-service`` and ``/in-service``
-(``VehicleMotionOut``). Every figure is
+``/api/vehicles/{id}/stop``, ``/resume``, ``/out-of-service``, ``/in-service`` and
+``/send-home`` (``VehicleMotionOut``). Every figure is
 what the vehicles report; ``asked`` alone is what the operator asked.
 """
 
@@ -38,5 +38,8 @@ class FleetStopOut(_Out):
         description="stopped only once every vehicle reports standing"
     )
     asked: bool = Field(description="a fleet stop is in force (asked, not done)")
+    automatic_tasks: bool = Field(
+        description="the fleet creates its automatic tasks (never while a stop is in force)"
+    )
     moving: list[str] = Field(description="vehicles that do not report standing yet")
     vehicles: list[VehicleMotionOut]

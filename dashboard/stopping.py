@@ -63,6 +63,16 @@ class StoppableFleet(Protocol):
         """Whether ``vehicle_id`` is to be in service (what was asked)."""
         ...
 
+    def send_home(self, vehicle_id: str) -> None:
+        """Send ``vehicle_id`` home (it hands back a task not loaded); KeyError names an
+        unknown one, ValueError says why it cannot go now."""
+        ...
+
+    @property
+    def automatic_tasks(self) -> bool:
+        """Whether the fleet creates its automatic tasks now (not while stopped)."""
+        ...
+
 
 def fleet_stop_asked(source: object) -> bool:
     """Whether ``source`` is a fleet that was told to stop (False for any other)."""

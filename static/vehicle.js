@@ -3,7 +3,7 @@
 // wait, sessions and traffic; the rest of its route is drawn on the map while selected.
 // Opened, #vehicle-space-box lists what the AGV's tuplespace holds (its locks live
 // there): GET /api/nodes/{id}/space, the first SPACE_LIMIT tuples, with each refresh.
-// The buttons of #vehicle-actions (Stop, Resume, Out of service, In service) POST to
+// The buttons of #vehicle-actions (Stop, Resume, Out of service, In service, Send home) POST to
 // /api/vehicles/{id}/<action>; the facts show what the vehicle then reports.
 // Hooks: #vehicle-panel, #vehicle-id, #vehicle-facts dd[data-fact], #vehicle-initiated,
 // #vehicle-participating, #vehicle-traffic, #vehicle-close, #vehicle-status,

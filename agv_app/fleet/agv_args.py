@@ -164,6 +164,12 @@ def add_agv_arguments(parser: argparse.ArgumentParser, *, joining: bool = False)
         "--dwell", type=number(at_least=0), default=5.0, help="seconds at a station"
     )
     parser.add_argument(
+        "--battery",
+        action="store_true",
+        help="a battery (BatterySpec's defaults) that drains as the vehicle drives and is "
+        "reported (``battery``, VDA 5050 powerSupply); no charging",
+    )
+    parser.add_argument(
         "--interest-radius",
         default="auto",
         help="scoped dissemination radius, m; 'auto' (default): from the layout's largest "

@@ -10,6 +10,7 @@ from agv_app.fleet.display_feed import DISPLAY_ROLE, DisplayFeed
 from agv_app.fleet.remote import roles_wire, sessions_wire, traffic_wire
 from agv_app.geometry import Area, polygon_to_coords
 from agv_app.vehicle.controller import AgvController
+from agv_app.vehicle.service import loaded
 
 __all__ = ["DisplayPublisher"]
 
@@ -100,6 +101,9 @@ class DisplayPublisher:
         feed.set("speed", 0.0 if speed == 0.0 else max(0.1, round(speed, 1)))
         feed.set("held", agv.held)
         feed.set("in_service", agv.in_service)
+        feed.set("loaded", loaded(agv))  # it cannot be sent home while loaded
+        if agv.battery is not None:
+            feed.set("battery", round(agv.battery.state_of_charge(agv.node.now()), 3))
         locks, request = agv.areas()
         feed.set("locked", self._locked(locks))
         feed.set("requested", self._requested([] if request is None else [request]))

@@ -13,6 +13,7 @@ from agv_app.fleet.agv_display import DisplayPublisher
 from agv_app.fleet.agv_events import emit
 from agv_app.fleet.restart_state import TaskKeeper
 from agv_app.fleet.trace import VehicleTrace
+from agv_app.vehicle.battery_drain import BatteryDrain
 from agv_app.vehicle.controller import AgvController
 
 __all__ = ["MAX_LAG_S", "StepLag", "drive_steps"]
@@ -54,6 +55,7 @@ async def drive_steps(
 ) -> None:
     """Step the AGV every ``dt`` of real time, noting how late each step ran, until its
     vehicle's driver fails."""
+    drain = BatteryDrain(agv)
     loop = asyncio.get_running_loop()
     dt = args.dt
     # Processes started together would otherwise step (and publish) in lockstep.
@@ -64,6 +66,7 @@ async def drive_steps(
     while True:
         lag.note(loop.time() - next_step, dt)
         agv.step(dt)
+        drain.step(dt)
         if trace is not None:
             trace.step()
         if keeper is not None:

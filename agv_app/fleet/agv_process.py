@@ -18,7 +18,9 @@ status, task, last done), it shows the observer, over the observer's display ses
 (:mod:`agv_app.fleet.display_feed`), what it needs to draw the vehicle, each only when
 it changes: ``position`` and ``heading`` (radians) as it moves, ``state`` (the
 dashboard's finer status), ``speed`` (m/s, 0 only standing), ``held`` (it holds for
-the control's stop, :mod:`agv_app.fleet.holding`), ``in_service``, ``size``
+the control's stop, :mod:`agv_app.fleet.holding`), ``in_service``, ``loaded`` (it
+carries its task's load: it is not sent home, :mod:`agv_app.fleet.sending_home`),
+``battery`` (with ``--battery``: its state of charge, percent), ``size``
 (``[length, width]``), ``locked`` and ``requested`` (its projections in the compact form
 of :func:`~agv_app.geometry.polygon_to_coords`) and ``route`` (the vertices ahead); and
 what the dashboard shows of its node:
@@ -45,6 +47,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import functools
 import os
 import signal
 import sys
@@ -71,6 +74,7 @@ from agv_app.fleet.holding import HoldListener
 from agv_app.fleet.liveness import liveness_arguments
 from agv_app.fleet.parking import home_heading
 from agv_app.fleet.restart_state import TaskKeeper, held_task, vehicle_driver
+from agv_app.fleet.sending_home import SendHomeListener
 from agv_app.fleet.trace import VehicleTrace
 from agv_app.fleet.view import OBSERVER_ID
 from agv_app.geometry import Pose
@@ -80,9 +84,11 @@ from agv_app.layout.elements import LayoutError
 from agv_app.traffic.stale_relay import StaleListener, StaleRelay
 from agv_app.vda5050.link import BrokerError, MqttLink, check_broker
 from agv_app.vda5050.process import bridge_for, vehicle_class, vehicle_link
+from agv_app.vehicle.battery import BatterySpec
 from agv_app.vehicle.comeback import announce, hand_back
 from agv_app.vehicle.controller import AgvConfig
 from agv_app.vehicle.kinematics import VehicleSpec
+from agv_app.vehicle.service import send_home
 from objectplaces.core.errors import LocalProtocolError
 from objectplaces.mesh import MeshNode, start_node
 from objectplaces.security import CredentialError, Credentials, credentials_from_args
@@ -147,7 +153,11 @@ async def run(args: argparse.Namespace, credentials: Credentials) -> int:
         loop.add_signal_handler(signum, stop.set)
     # From the start: a process still waiting for a router stops by itself too.
     loop.call_later(args.run_seconds, stop.set)
-    spec = VehicleSpec(DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M)
+    spec = VehicleSpec(
+        DEMO_VEHICLE_LENGTH_M,
+        DEMO_VEHICLE_WIDTH_M,
+        battery=BatterySpec() if args.battery else None,
+    )
     config = AgvConfig(t_update=args.t_update, dwell=args.dwell)
     liveness = process_liveness(args.t_update, args.republish_beats, args.rest_beat)
     timing: dict[str, Any] = {
@@ -202,6 +212,7 @@ async def run(args: argparse.Namespace, credentials: Credentials) -> int:
             StaleRelay(node)
             StaleListener(node, lambda: agv.book)
         HoldListener(node, agv)  # the control's stop: from the observer alone
+        SendHomeListener(node, functools.partial(send_home, agv))  # likewise
         ClosedListener(node, agv, layout)  # closed parts of the floor: the same
         serve_space(node, readers=[OBSERVER_ID])  # the dashboard shows its locks
         display = DisplayPublisher(agv, traffic_interval_s=args.introspection_interval)

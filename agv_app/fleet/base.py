@@ -90,6 +90,12 @@ class FleetSourceBase:
         """True between ``pause()`` and ``resume()``."""
         return self._paused
 
+    @property
+    def automatic_tasks(self) -> bool:
+        """Whether the fleet creates its automatic tasks now: not while paused, nor
+        while a fleet stop is in force (tasks asked for by name are still taken)."""
+        return not self._paused and not self.holds.fleet
+
     def stop_vehicles(self, vehicle_ids: Collection[str] | None = None) -> None:
         """Stop ``vehicle_ids`` (None: the whole fleet): each brakes to a standstill
         within its braking distance and stands, locks kept (:mod:`agv_app.fleet.holding`).
@@ -113,8 +119,9 @@ class FleetSourceBase:
         self._apply_holds()
 
     def set_service(self, vehicle_ids: Collection[str], *, in_service: bool) -> None:
-        """Take ``vehicle_ids`` out of service (each finishes the task it holds, parks at
-        home and takes no more), or bring them back.
+        """Take ``vehicle_ids`` out of service (each hands back a task it has not loaded,
+        delivers a loaded one, parks at home and takes no more), or bring them back
+        (:mod:`agv_app.vehicle.service`).
 
         Raises:
             KeyError: a vehicle is not in the fleet.
@@ -122,6 +129,19 @@ class FleetSourceBase:
         self._check_known(vehicle_ids)
         self.holds.set_service(vehicle_ids, in_service=in_service)
         self._apply_holds()
+
+    def send_home(self, vehicle_id: str) -> None:
+        """Send ``vehicle_id`` home: it hands back a task it has not loaded, drives to
+        its home and takes tasks again once there (:mod:`agv_app.vehicle.service`).
+
+        Raises:
+            KeyError: the vehicle is not in the fleet.
+            ValueError: it cannot go now: out of service, failed, or loaded.
+        """
+        self._check_known([vehicle_id])
+        if not self.holds.in_service(vehicle_id):
+            raise ValueError(f"{vehicle_id} is out of service: it parks at its home already")
+        self._send_home(vehicle_id)
 
     def service_asked(self, vehicle_id: str) -> bool:
         """Whether ``vehicle_id`` is to be in service (what was asked)."""
@@ -138,6 +158,10 @@ class FleetSourceBase:
 
     def vehicle_ids(self) -> Collection[str]:
         """The ids of the fleet's vehicles."""
+        raise NotImplementedError
+
+    def _send_home(self, vehicle_id: str) -> object:
+        """Tell the known, in-service ``vehicle_id`` to go home (ValueError: it cannot)."""
         raise NotImplementedError
 
     def _apply_holds(self) -> None:

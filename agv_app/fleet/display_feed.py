@@ -47,6 +47,8 @@ DISPLAY_FIELDS = frozenset(
         "speed",
         "held",
         "in_service",
+        "loaded",
+        "battery",
         "task",
         "size",
         "locked",

@@ -1,8 +1,9 @@
 """An operator's stop: which vehicles are told to stand, and how a vehicle hears it.
 
 What was asked is kept in :class:`HoldOrders`: the whole fleet stopped, single
-vehicles stopped on their own, and vehicles out of service (they finish the task they
-hold, park at home and take no more). A vehicle is held while the fleet's stop or its
+vehicles stopped on their own, and vehicles out of service (they hand back a task they
+have not loaded, deliver a loaded one, park at home and take no more:
+:mod:`agv_app.vehicle.service`). A vehicle is held while the fleet's stop or its
 own says so (:meth:`HoldOrders.held`). The fleet acts on it:
 
 * the simulated fleet holds its controllers directly
@@ -67,7 +68,7 @@ class Holdable(Protocol):
         ...
 
     def take_out_of_service(self) -> None:
-        """Finish the task held, park at home, take no more."""
+        """Hand back a task not loaded (deliver a loaded one), park at home, take no more."""
         ...
 
     def return_to_service(self) -> None:

@@ -30,13 +30,11 @@ from collections.abc import Collection, Mapping, Sequence
 
 from agv_app.fleet.agv_args import POLL_INTERVAL_S
 from agv_app.fleet.base import FleetSourceBase
-from agv_app.fleet.blocks import FloorBlocks
-from agv_app.fleet.closed_listener import CLOSED_PROPERTY, closed_wire
-from agv_app.fleet.holding import HOLD_PROPERTY
 from agv_app.fleet.liveness import REPUBLISH_BEATS, REST_BEAT_S
 from agv_app.fleet.mesh_figures import link_traffic
 from agv_app.fleet.mesh_nodes import LocalNodes, vda5050_monitor
 from agv_app.fleet.mesh_options import POSES_PER_SECOND, AgvLaunch, Joining, pose_interval_for
+from agv_app.fleet.mesh_orders import OperatorOrders
 from agv_app.fleet.mesh_run import MeshRun
 from agv_app.fleet.mesh_tasks import AutoTasks
 from agv_app.fleet.mesh_watch import ObservedAgvs
@@ -63,8 +61,7 @@ __all__ = ["POSES_PER_SECOND", "Joining", "MeshFleet", "pose_interval_for"]
 
 
 class MeshFleet(FleetSourceBase):
-    """A ``FleetSource`` over the WebSocket mesh: AGV processes, a transport base, an
-    observer.
+    """A ``FleetSource`` over the WebSocket mesh: AGV processes, a base, an observer.
 
     ``pause()`` stops the fleet: no new automatic tasks, and every AGV process brakes
     to a standstill and stands, locks kept (:mod:`agv_app.fleet.holding`); ``resume()``
@@ -80,7 +77,7 @@ class MeshFleet(FleetSourceBase):
         start_tasks: tasks created at once when every AGV is first seen (with automatic
             tasks only), so the fleet is at its load from the start.
         t_update, run_seconds, dwell, transport, zenoh_mode, republish_beats, rest_beat,
-        poll_interval: how the AGV processes run and link, as the fields of these names
+        poll_interval, batteries: how the AGV processes run and link, as the fields of these names
             of :class:`~agv_app.fleet.mesh_options.AgvLaunch` (the seed too).
         publish_interval: seconds between two pose reports of a moving AGV to the
             observer (None: by the fleet's size, :func:`pose_interval_for`).
@@ -121,6 +118,7 @@ class MeshFleet(FleetSourceBase):
         run_seconds: float = 86_400.0,
         station_range: float = 30.0,
         dwell: float = 5.0,
+        batteries: bool = False,
         stop_timeout: float = 5.0,
         python: str = sys.executable,
         capture_output: bool = True,
@@ -164,6 +162,7 @@ class MeshFleet(FleetSourceBase):
             rest_beat,
             poll_interval,
             vda5050,
+            batteries,
         )
         """How the AGV processes run and link."""
         spec = VehicleSpec(DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M)
@@ -206,11 +205,12 @@ class MeshFleet(FleetSourceBase):
         )
         """The AGVs as the observer hears them: views, failures, safety and stalls."""
         self.monitor, self.stalls = self.seen.monitor, self.seen.stalls
-        self.blocks = FloorBlocks(
-            self.layout, on_change=lambda w: self.own_nodes.publish(CLOSED_PROPERTY, closed_wire(w))
+        self.orders = OperatorOrders(
+            self.layout, self.holds, lambda n, v: self.own_nodes.publish(n, v), self.seen
         )
-        """The parts of the floor the operator closed, published to every AGV process."""
-        self.own_nodes = LocalNodes(shared_pki, self.seen, self._orders)
+        """What the operator told the AGV processes (the observer's properties)."""
+        self.blocks = self.orders.blocks
+        self.own_nodes: LocalNodes = LocalNodes(shared_pki, self.seen, self.orders)
         self.lifecycle = MeshRun(
             self.own_nodes,
             self.processes,
@@ -327,11 +327,11 @@ class MeshFleet(FleetSourceBase):
         """The AGVs spawned, or, joining a fleet, every AGV heard so far."""
         return self.seen.vehicle_ids()
 
-    def _orders(self) -> dict[str, object]:
-        return {HOLD_PROPERTY: self.holds.wire(), CLOSED_PROPERTY: closed_wire(self.blocks.ways)}
-
     def _apply_holds(self) -> None:
-        self.own_nodes.publish(HOLD_PROPERTY, self.holds.wire())  # every AGV follows it
+        self.orders.publish_holds()
+
+    def _send_home(self, vehicle_id: str) -> None:
+        self.orders.send_home(vehicle_id)  # ValueError: failed, or loaded
 
     def pause(self) -> None:
         """Stop the fleet: no new automatic tasks, and every vehicle holds."""
@@ -395,6 +395,6 @@ class MeshFleet(FleetSourceBase):
         """Bookkeeping only (the processes run themselves): issue automatic tasks."""
         if seconds <= 0 or not self.started:
             return
-        if self.arrivals is None or self._paused or not self.stations:
+        if self.arrivals is None or not self.automatic_tasks or not self.stations:
             return
         self.auto_tasks.tick(self.now)

@@ -7,11 +7,12 @@ elsewhere (:class:`~agv_app.fleet.mesh_options.Joining`).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from typing import Any
 
 from agv_app.fleet.display_feed import DISPLAY_ROLE, display_group
 from agv_app.fleet.mesh_options import HOST, AgvLaunch, Joining
+from agv_app.fleet.mesh_orders import ANSWERS, OperatorOrders
 from agv_app.fleet.mesh_watch import ObservedAgvs
 from agv_app.fleet.view import OBSERVER_ID
 from agv_app.protocol import OBSERVER_KIND
@@ -55,14 +56,14 @@ class LocalNodes:
         seen: what the observer hears goes there: its display session, every AGV's
             ``last_done`` and every node that departs.
         orders: the operator's orders, the observer's properties every AGV process
-            follows: the stop (``HoldOrders.wire``) and the closed parts of the floor.
+            follows, and what the processes answer them (:mod:`agv_app.fleet.mesh_orders`).
     """
 
     def __init__(
         self,
         shared_pki: TemporaryPki | None,
         seen: ObservedAgvs,
-        orders: Callable[[], Mapping[str, object]],
+        orders: OperatorOrders,
     ) -> None:
         self.shared_pki = shared_pki
         self.seen = seen
@@ -85,8 +86,9 @@ class LocalNodes:
         observer.update_node_property("kind", OBSERVER_KIND)
         observer.set_at_rest(True)  # it listens, and says nothing more
         self.observer = observer
-        for name, value in self.orders().items():
+        for name, value in self.orders.wire().items():
             self.publish(name, value)
+        observer.register_node_property_observer(self.orders.answer, names=ANSWERS)
         seen = self.seen
         observer.register_node_property_observer(seen.on_property, names=("last_done",))
         observer.start_interaction(seen.display, display_group(), DISPLAY_ROLE)

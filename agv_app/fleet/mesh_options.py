@@ -78,6 +78,9 @@ class AgvLaunch:
         poll_interval: on Zenoh, the AGV processes hand received frames on every this
             many seconds (0: each at once; ``agv_app.fleet.agv_process``).
         vda5050: ``mqtts://HOST:PORT`` of a broker every AGV process speaks VDA 5050 over.
+        batteries: every AGV process drains a battery and reports its state of charge
+            (``battery``, VDA 5050 ``powerSupply``); there is no charging
+            (:mod:`agv_app.vehicle.battery_drain`).
 
     Raises:
         ValueError: an unknown ``zenoh_mode``, or a ``rest_beat`` that is not a positive
@@ -96,6 +99,7 @@ class AgvLaunch:
     rest_beat: float | None
     poll_interval: float
     vda5050: str | None
+    batteries: bool = False
 
     def __post_init__(self) -> None:
         if self.zenoh_mode not in ("client", "peer"):
@@ -127,6 +131,7 @@ class AgvLaunch:
             "--publish-interval", str(self.publish_interval),
             "--introspection-interval", str(5 * self.publish_interval),
             "--dwell", str(self.dwell),
+            *(["--battery"] if self.batteries else []),
             "--expect-peers", str(peers),
             *([] if self.vda5050 is None else ["--vda5050", self.vda5050]),
         ]  # fmt: skip

@@ -69,9 +69,13 @@ class ObservedAgvs:
         self.roster = AgvRoster(
             agv_ids,
             self.views,
-            lambda agv_id: agv_view(self.observer(), self.display, agv_id),
+            self.view,
             clock_offset=clock_offset,
         )
+
+    def view(self, agv_id: str) -> Mapping[str, Any] | None:
+        """One AGV, its display over its properties (None: not heard)."""
+        return agv_view(self.observer(), self.display, agv_id)
 
     def on_property(self, node_id: str, name: str, value: Any) -> None:
         """An AGV's ``last_done``: its task is delivered."""

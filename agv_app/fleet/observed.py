@@ -34,6 +34,12 @@ def _number(value: Any, default: float = 0.0) -> float:
     return default
 
 
+def _percent(value: Any) -> float | None:
+    """A state of charge as reported (None: none reported, or not a percentage)."""
+    number = _number(value, math.nan)
+    return number if 0.0 <= number <= 100.0 else None
+
+
 def _decode(coords: Any) -> Area:
     """An area from its wire form; empty when absent or malformed (a peer sent it)."""
     if not coords:
@@ -103,6 +109,7 @@ def vehicle_state(agv_id: str, props: Mapping[str, Any], seen: ObservedAgv) -> V
         _number(props.get("speed")),
         props.get("held") is True,
         props.get("in_service") is not False,
+        _percent(props.get("battery")),
     )
 
 

@@ -5,12 +5,9 @@ after every step, creates transport tasks at random pick stations, and keeps the
 metrics. It also implements the dashboard's ``FleetSource`` protocol (structurally:
 the dashboard imports us, never the other way round).
 
-The fleet is put together from parts with one job each: its configuration
-(:mod:`~agv_app.fleet.sim_config`), its network and who hears whom
-(:mod:`~agv_app.fleet.sim_network`), the parts it is built from
-(:mod:`~agv_app.fleet.sim_build`), its AGV components and their nodes
-(:mod:`~agv_app.fleet.sim_agvs`), what a step does to the AGVs
-(:mod:`~agv_app.fleet.sim_step`) and what it shows (:mod:`~agv_app.fleet.sim_view`).
+Its parts, in agv_app.fleet: sim_config (its configuration), sim_network (who hears
+whom), sim_build (what it is built from), sim_agvs (the AGV components and their
+nodes), sim_step (what a step does to the AGVs) and sim_view (what it shows).
 """
 
 from __future__ import annotations
@@ -63,6 +60,7 @@ from agv_app.traffic.stale_relay import StaleRelay
 from agv_app.traffic.wait_bound import WaitBound
 from agv_app.vehicle.controller import AgvConfig, AgvController
 from agv_app.vehicle.kinematics import VehicleSpec
+from agv_app.vehicle.service import send_home
 from objectplaces import RoleActivator
 from objectplaces.runtime.sim import collections_spaced
 
@@ -256,6 +254,9 @@ class Fleet(FleetSourceBase):
         """Bring a crashed AGV back on a fresh node."""
         self.agv_nodes.recover(agv_id)
 
+    def _send_home(self, vehicle_id: str) -> str | None:
+        return send_home(self.agvs[vehicle_id])  # at once: it is in this process
+
     def reboot(self, agv_id: str) -> AgvController:
         """Restart a crashed AGV's process: a new component on a fresh node, its vehicle
         where the driver (asked anew, ``drivers``) says it stands, the task it held
@@ -296,7 +297,8 @@ class Fleet(FleetSourceBase):
         self.net.run_for(dt)
         now = self.net.now
         self.step_count += 1
-        if (cfg.task_until is None or now < cfg.task_until) and now >= self._next_task_at:
+        due = cfg.task_until is None or now < cfg.task_until
+        if due and self.automatic_tasks and now >= self._next_task_at:
             self.desk.create_random()
             self._next_task_at = self._draw_interval()
         if self.central is not None:

@@ -98,6 +98,8 @@ def apply_holds(
             agv.hold()
         else:
             agv.release()
+        if not holds.in_service(agv_id):
+            agv.take_out_of_service()  # hands back a task it has not loaded
         agv.in_service = takes_tasks(holds, chargers, agv_id)
 
 

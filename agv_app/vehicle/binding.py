@@ -151,6 +151,8 @@ class NodeBinding:
             and agv.task is None
             and agv.pending_task is None
         )
+        if at_rest:
+            agv.sent_home = False  # home: it takes tasks again
         if at_rest != self.at_rest:
             self.at_rest = at_rest
             agv.node.set_at_rest(at_rest)

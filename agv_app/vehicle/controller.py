@@ -52,6 +52,7 @@ from agv_app.vehicle.locking import Announced, Locking
 from agv_app.vehicle.operations import Operations
 from agv_app.vehicle.publication import Circle, Publication
 from agv_app.vehicle.routing import Routing
+from agv_app.vehicle.service import take_out_of_service
 from agv_app.vehicle.sim_driver import SimDriver
 from objectplaces import RoleActivator
 
@@ -175,8 +176,12 @@ class AgvController:
         """The circle in force: the last position and hull length published, and when."""
         self._held = False
         self.in_service = True
-        """False once taken out of service: it finishes the task it holds, goes home and
-        bids for no task until brought back (:meth:`take_out_of_service`)."""
+        """False once taken out of service: it hands back a task it has not loaded,
+        delivers a loaded one, goes home and bids for no task until brought back
+        (:meth:`take_out_of_service`)."""
+        self.sent_home = False
+        """True from :func:`~agv_app.vehicle.service.send_home` until it parks at home:
+        it bids for no task meanwhile."""
         self.battery: Battery | None = None if spec.battery is None else SimBattery(spec.battery)
         """Its battery, as the vehicle spec declares it (None: no battery model); the
         simulated fleet drains and charges it (:mod:`agv_app.fleet.chargers`)."""
@@ -268,9 +273,9 @@ class AgvController:
         return self._held
 
     def take_out_of_service(self) -> None:
-        """Take no more tasks: the one it holds (and one awarded while it dwells) it
-        finishes, then it drives home and parks there."""
-        self.in_service = False
+        """Take no more tasks: hand back a task not loaded yet, deliver a loaded one,
+        then drive home and park there (:mod:`agv_app.vehicle.service`)."""
+        take_out_of_service(self)
 
     def return_to_service(self) -> None:
         """Take tasks again."""

@@ -43,7 +43,9 @@ class Errands:
         if awarded (:meth:`turn_point`).
         """
         agv = self._agv
-        if agv.failed or agv._held or not agv.in_service or agv.status != "idle":
+        if agv.failed or agv._held or not agv.in_service or agv.sent_home:
+            return None
+        if agv.status != "idle":
             return None
         if not serves(agv, task):
             return None

@@ -1,11 +1,15 @@
-"""Operating the vehicles: stop and resume the fleet, or one vehicle; out of service.
+"""Operating the vehicles: stop and resume the fleet, or one vehicle; out of service;
+send home.
 
 ``POST /api/fleet/stop`` and ``/api/fleet/resume``, ``GET /api/fleet/stop``,
-``POST /api/vehicles/{id}/stop`` and ``/resume``, and ``POST
-/api/vehicles/{id}/out-of-service`` and ``/in-service`` (it finishes the task it holds,
-parks at home and takes no more, until brought back). A stopped vehicle brakes to a
-standstill within its braking distance and stands with its locks; resumed, its order
-goes on (:mod:`agv_app.fleet.holding`). The answers show what the vehicles report, so a
+``POST /api/vehicles/{id}/stop`` and ``/resume``, ``POST
+/api/vehicles/{id}/out-of-service`` and ``/in-service`` (it hands back a task it has
+not loaded, delivers a loaded one, parks at home and takes no more, until brought
+back), and ``POST /api/vehicles/{id}/send-home`` (it hands back a task it has not
+loaded and drives home, taking tasks again once there; :mod:`agv_app.vehicle.service`).
+A stopped vehicle brakes to a standstill within its braking distance and stands with
+its locks; resumed, its order goes on (:mod:`agv_app.fleet.holding`). While the fleet
+is stopped it creates no automatic tasks. The answers show what the vehicles report, so a
 stop answers ``stopping`` until every vehicle stands. Only the operator may call the
 changes (``dashboard.guard``); each is logged in the event log with who asked and why.
 """
@@ -68,6 +72,7 @@ def fleet_stop_out(fleet: StoppableFleet, vehicles: Sequence[VehicleView]) -> Fl
     return FleetStopOut(
         state=stop_state(fleet.fleet_stopped, vehicles),
         asked=fleet.fleet_stopped,
+        automatic_tasks=fleet.automatic_tasks,
         moving=[v.id for v in ordered if not stands(v)],
         vehicles=[VehicleMotionOut(**r) for r in rows],
     )
@@ -96,8 +101,9 @@ async def get_fleet_stop(state: State) -> FleetStopOut:
 
 @router.post("/fleet/stop", response_model=FleetStopOut)
 async def stop_fleet(body: SimActionIn, state: State, request: Request) -> FleetStopOut:
-    """Stop every vehicle: each brakes to a standstill and stands, locks kept. The
-    answer is ``stopping`` until every vehicle reports standing (poll ``GET``)."""
+    """Stop every vehicle: each brakes to a standstill and stands, locks kept, and the
+    fleet creates no automatic tasks until resumed. The answer is ``stopping`` until
+    every vehicle reports standing (poll ``GET``)."""
     fleet = _fleet(state)
     fleet.stop_vehicles(None)
     _log(state, "fleet", f"fleet stop asked by {who_asked(request)}: {body.reason}", warning=True)
@@ -106,7 +112,8 @@ async def stop_fleet(body: SimActionIn, state: State, request: Request) -> Fleet
 
 @router.post("/fleet/resume", response_model=FleetStopOut)
 async def resume_fleet(body: SimActionIn, state: State, request: Request) -> FleetStopOut:
-    """Let the vehicles drive on (one stopped on its own stays stopped)."""
+    """Let the vehicles drive on (one stopped on its own stays stopped) and create
+    automatic tasks again."""
     fleet = _fleet(state)
     fleet.resume_vehicles(None)
     _log(
@@ -166,8 +173,9 @@ async def resume_vehicle(
 async def take_out_of_service(
     vehicle_id: VehicleId, body: SimActionIn, state: State, request: Request
 ) -> dict[str, Any]:
-    """Take one vehicle out of service: it finishes the task it holds, drives home and
-    parks there, taking no more (its status ``out-of-service`` once parked)."""
+    """Take one vehicle out of service: it hands back a task it has not loaded (another
+    vehicle does it), delivers a loaded one, drives home and parks there, taking no more
+    (its status ``out-of-service`` once parked)."""
 
     def retire(fleet: StoppableFleet) -> None:
         fleet.set_service([vehicle_id], in_service=False)
@@ -185,3 +193,20 @@ async def bring_into_service(
         fleet.set_service([vehicle_id], in_service=True)
 
     return _act(state, vehicle_id, request, body, restore, "back in service,", warning=False)
+
+
+@router.post("/vehicles/{vehicle_id}/send-home", response_model=VehicleMotionOut)
+async def send_home(
+    vehicle_id: VehicleId, body: SimActionIn, state: State, request: Request
+) -> dict[str, Any]:
+    """Send one vehicle home: it hands back a task it has not loaded (another vehicle
+    does it) and drives to its home, taking tasks again once there. 409 while it is
+    loaded, out of service or failed."""
+
+    def home(fleet: StoppableFleet) -> None:
+        try:
+            fleet.send_home(vehicle_id)
+        except ValueError as exc:
+            raise HTTPException(409, str(exc)) from exc
+
+    return _act(state, vehicle_id, request, body, home, "sent home,", warning=False)

@@ -109,6 +109,13 @@ def test_the_vehicle_panel_stops_and_resumes_an_agv_and_shows_what_it_reports() 
             ".textContent === 'in service'",
             timeout=10_000,
         )
+        page.get_by_test_id("vehicle-home").click()  # at home already: asked and logged
+        page.wait_for_function(
+            "document.querySelector('#vehicle-status').textContent === 'agv-02: send home asked'",
+            timeout=10_000,
+        )
+        events = served.get("/api/events").json()["events"]
+        assert any(e["text"].startswith("agv-02 sent home, asked by operator") for e in events)
         # Its tuplespace, where its locks live, opened on the card.
         page.locator("#vehicle-space-box summary").click()
         page.locator("#vehicle-space li").first.wait_for(timeout=10_000)

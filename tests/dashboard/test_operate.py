@@ -166,3 +166,80 @@ def test_a_vehicle_goes_out_of_service_and_back_over_rest() -> None:
     assert client.get("/api/vehicles/agv-02").json()["in_service"] is True
     assert _events(client)[-1]["text"].startswith("agv-02 back in service, asked by operator")
     assert client.post("/api/vehicles/agv-99/out-of-service", json={}).status_code == 404
+
+
+def _bound_for_pick(fleet: Fleet, client: TestClient) -> tuple[str, str]:
+    """Create a task and advance until its vehicle drives to the pick station: the
+    vehicle's id and the task's."""
+    r = client.post("/api/tasks", json={"station": "pick-A1-1"})
+    assert r.status_code == 201
+    for _ in range(3000):
+        fleet.advance(fleet.config.dt)
+        agv = next((a for a in fleet.agvs.values() if a.phase == "to_pick"), None)
+        if agv is not None and agv.task is not None and agv.vehicle.speed > 0:
+            return agv.node_id, agv.task.id
+    pytest.fail("no vehicle drove to the pick station")
+
+
+def test_a_vehicle_sent_home_over_rest_hands_back_its_task_and_is_logged() -> None:
+    fleet = _fleet()
+    app = create_app(fleet)
+    client = logged_in(app)
+    agv_id, task_id = _bound_for_pick(fleet, client)
+    assert (
+        logged_in(app, "viewer").post(f"/api/vehicles/{agv_id}/send-home", json={}).status_code
+        == 403
+    )
+    r = client.post(f"/api/vehicles/{agv_id}/send-home", json={"reason": "end of shift"})
+    assert r.status_code == 200, r.text
+    assert r.json()["in_service"] is True, "sent home, it stays in service"
+    assert _events(client)[-1]["text"] == (
+        f"{agv_id} sent home, asked by operator at testclient: end of shift"
+    )
+    assert fleet.agvs[agv_id].task is None
+    fleet.advance(240.0)
+    task = client.get(f"/api/tasks/{task_id}").json()
+    assert task["state"] == "done"
+    assert task["vehicle"] != agv_id, "another vehicle did it"
+    assert fleet.agvs[agv_id].point == fleet.agvs[agv_id].home
+    r = client.post("/api/vehicles/agv-99/send-home", json={})
+    assert r.status_code == 404
+    assert "known: agv-01" in r.json()["detail"]
+
+
+def test_send_home_is_409_for_a_loaded_or_out_of_service_vehicle() -> None:
+    fleet = _fleet()
+    client = logged_in(create_app(fleet))
+    agv_id, _ = _bound_for_pick(fleet, client)
+    agv = fleet.agvs[agv_id]
+    for _ in range(6000):
+        fleet.advance(fleet.config.dt)
+        if agv.phase == "to_drop":
+            break
+    else:
+        pytest.fail(f"{agv_id} never loaded")
+    r = client.post(f"/api/vehicles/{agv_id}/send-home", json={})
+    assert r.status_code == 409
+    assert "is loaded" in r.json()["detail"]
+    other = next(a for a in sorted(fleet.agvs) if a != agv_id)
+    client.post(f"/api/vehicles/{other}/out-of-service", json={})
+    r = client.post(f"/api/vehicles/{other}/send-home", json={})
+    assert r.status_code == 409
+    assert "out of service" in r.json()["detail"]
+    assert not _events(client)[-1]["text"].startswith(f"{other} sent home"), "refused: not logged"
+
+
+def test_a_fleet_stop_over_rest_pauses_automatic_tasks_until_resumed() -> None:
+    fleet = Fleet(config=FleetConfig(agvs=4, seed=3, task_interval=5.0))
+    client = logged_in(create_app(fleet))
+    fleet.advance(30.0)
+    created = fleet.summary()["tasks_created"]
+    assert created > 0
+    r = client.post("/api/fleet/stop", json={"reason": "inspection"})
+    assert r.json()["automatic_tasks"] is False
+    fleet.advance(120.0)
+    assert fleet.summary()["tasks_created"] == created, "no automatic task while stopped"
+    r = client.post("/api/fleet/resume", json={})
+    assert r.json()["automatic_tasks"] is True
+    fleet.advance(60.0)
+    assert fleet.summary()["tasks_created"] > created

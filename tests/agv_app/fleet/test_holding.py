@@ -58,7 +58,7 @@ def test_a_fleet_stop_stands_every_vehicle_within_its_braking_time_and_keeps_its
         fleet.step()
     locks = {a: agv.book.lock_areas() for a, agv in fleet.agvs.items()}
 
-    for _ in range(round(300.0 / dt)):  # five minutes stopped, tasks still arriving
+    for _ in range(round(300.0 / dt)):  # five minutes stopped
         fleet.step()
         assert not any(agv.stalled for agv in fleet.agvs.values()), "held is no stall"
         for agv in fleet.agvs.values():
@@ -113,12 +113,13 @@ def test_unknown_vehicles_are_named_and_a_vehicle_does_not_resume_a_stopped_flee
         fleet.resume_vehicles(["agv-01"])
 
 
-def test_a_vehicle_out_of_service_finishes_its_task_parks_at_home_and_takes_no_more() -> None:
+def test_a_vehicle_out_of_service_parks_at_home_and_takes_no_more() -> None:
     fleet = _fleet()
     _run_until_fast(fleet)
     agv_id, agv = next((a, o) for a, o in fleet.agvs.items() if o.task is not None)
     task = agv.task
     assert task is not None
+    loaded = agv.phase in ("to_drop", "at_drop")
     fleet.set_service([agv_id], in_service=False)
     assert not fleet.service_asked(agv_id)
     for _ in range(round(600.0 / fleet.config.dt)):
@@ -129,8 +130,8 @@ def test_a_vehicle_out_of_service_finishes_its_task_parks_at_home_and_takes_no_m
         pytest.fail(f"{agv_id} never parked out of service")
     record = fleet.desk.book.get(task.id)
     assert record is not None
-    assert record.state == "done", "it finished the order it held"
-    assert record.vehicle == agv_id
+    if loaded:  # one not loaded it hands back (tests/agv_app/fleet/test_service.py)
+        assert (record.state, record.vehicle) == ("done", agv_id), "it delivered its load"
     done_before = fleet.summary()["tasks_completed"]
     parked = agv.vehicle.pose()
     fleet.run(600.0)
