@@ -818,8 +818,9 @@ class AgvController:
         if isinstance(requester, Requester):
             # Allows given to younger requests over our floor let them go first: take
             # them back, but not those of the AGVs whose locks are in our way.
+            entry = requester.entry
             for session in allows_to_revoke(
-                self._age(), self.node_id, requester.entry.area, self.book, requester.blocked_by
+                self._age(), self.node_id, entry.area, self.book, requester.blocked_by, entry.claims
             ):
                 self.book.revoke(session, lease=2 * self.config.t_update)
         if requester.blocked_by:
@@ -899,7 +900,7 @@ class AgvController:
         if self._first_try is None or self._first_try[0] != lock_end:
             self._first_try = (lock_end, now)
         age = self._age()
-        priority = priority_at(age, self.node_id, area, book)
+        priority = priority_at(age, self.node_id, area, book, claims)
         entry = RequestEntry(self._key, end, area, priority, claims, age)
         book.add_request(entry)
         # A request inside the circle in force needs no new one: the others have had
@@ -1158,7 +1159,9 @@ class AgvController:
         self._plan = None
         self._route = None
         if self._resume is not None:
-            resume = self._resume
+            # Bound home, it goes to the home it has now: a yield may have moved it to
+            # the place it just reached, and the old one is someone else's to take.
+            resume = self.home if self.phase == "to_home" else self._resume
             self._resume = None
             if self._route_to(resume):
                 self.publish()
