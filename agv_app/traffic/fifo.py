@@ -18,15 +18,16 @@ then moves on that request's behalf. Ages order every conflict (docs/traffic.md,
   note_blocking``), not the priority it was asked with, which may rank lower; its AGV's
   requests then carry that age (:func:`wait_age`).
 * **An allow given to a younger request is taken back.** Safety ranks a request below
-  every pending request its node allowed over the same floor
-  (``LockBook.next_priority``): a voter that allowed a request must not win a conflict
-  with it. An allow given before the AGV's own wait became older than the request it
-  allowed (the AGV inherited an older age, or asked for that floor only later) would
-  let that younger request go first; so the AGV takes it back (:func:`allows_to_revoke`):
-  its voter asks the requester to count the allow no more (``revoke``), and ranks below
-  it until the requester says it did (``revoked``) or that the request ended (``end``),
-  after which the request cannot lock with that allow. An allow given to the owner of a
-  lock in the way (stepping aside) is kept: that AGV must move first.
+  every pending request its node allowed that conflicts with it, over the same floor
+  or the other way through the same two-way run (``LockBook.next_priority``): a voter
+  that allowed a request must not win a conflict with it. An allow given before the
+  AGV's own wait became older than the request it allowed (the AGV inherited an older
+  age, or asked for that floor only later) would let that younger request go first;
+  so the AGV takes it back (:func:`allows_to_revoke`): its voter asks the requester to
+  count the allow no more (``revoke``), and ranks below it until the requester says it
+  did (``revoked``) or that the request ended (``end``), after which the request cannot
+  lock with that allow. An allow given to the owner of a lock in the way (stepping
+  aside) is kept: that AGV must move first.
 * **A priority that fell below its age rises again.** When an allow that ranked the
   pending request lower ends, or the request allowed inherits an older age, the pending
   request is asked again at once with the priority its age now gives
@@ -40,8 +41,9 @@ from __future__ import annotations
 
 from collections.abc import Collection
 
-from agv_app.geometry import Area, overlaps
-from agv_app.traffic.lockbook import LockBook, Priority, RequestEntry
+from agv_app.geometry import Area
+from agv_app.traffic.deadlock import Claim
+from agv_app.traffic.lockbook import LockBook, Priority, RequestEntry, conflicts
 
 __all__ = [
     "AGE_FIELD",
@@ -74,25 +76,37 @@ def wait_age(started: float, book: LockBook) -> float:
     return started
 
 
-def priority_at(age: float, node_id: str, area: Area, book: LockBook) -> Priority:
-    """The priority a request of age ``age`` over ``area`` is asked with: its age,
-    ranked below every pending request this node allowed over the same floor."""
-    return book.next_priority(age, node_id, area)
+def priority_at(
+    age: float,
+    node_id: str,
+    area: Area,
+    book: LockBook,
+    claims: frozenset[Claim] = frozenset(),
+) -> Priority:
+    """The priority a request of age ``age`` over ``area`` (with direction ``claims``)
+    is asked with: its age, ranked below every pending request this node allowed that
+    conflicts with it (over the same floor, or the other way through the same run)."""
+    return book.next_priority(age, node_id, area, claims)
 
 
 def ranks_higher(entry: RequestEntry, age: float, node_id: str, book: LockBook) -> bool:
     """True if the pending request ``entry``, asked again now at ``age``, would rank
     higher than it was asked (an inherited age, or an allow that ended)."""
-    return priority_at(age, node_id, entry.area, book) < entry.priority
+    return priority_at(age, node_id, entry.area, book, entry.claims) < entry.priority
 
 
 def allows_to_revoke(
-    age: float, node_id: str, area: Area, book: LockBook, keep: Collection[str] = ()
+    age: float,
+    node_id: str,
+    area: Area,
+    book: LockBook,
+    keep: Collection[str] = (),
+    claims: frozenset[Claim] = frozenset(),
 ) -> list[str]:
     """The allows this node should take back for its request of age ``age`` over
-    ``area``: those of pending requests younger than it that overlap ``area``, except
-    the requests of the AGVs in ``keep`` (whose locks hold the request up: stepping
-    aside let them go first on purpose).
+    ``area`` with direction ``claims``: those of pending requests younger than it that
+    conflict with it, except the requests of the AGVs in ``keep`` (whose locks hold the
+    request up: stepping aside let them go first on purpose).
 
     Returns:
         The sessions (``LockBook`` records) of those allows, oldest record first.
@@ -100,6 +114,6 @@ def allows_to_revoke(
     mine: Priority = (age, node_id)
     return [
         session
-        for session, allowed, priority in book.allowed()
-        if mine < priority and priority[1] not in keep and overlaps(area, allowed)
+        for session, allowed, priority, theirs in book.allowed()
+        if mine < priority and priority[1] not in keep and conflicts(area, claims, allowed, theirs)
     ]

@@ -14,9 +14,9 @@ node's tuplespace (:class:`LockBook` is typed access to these tuples):
   nobody may lock into;
 * ``("in_the_way", requester)``: a voter deferred a request because of a lock
   (leased), so an idle AGV knows to move off;
-* ``("allowed", session, area, priority)``: a request this node's voter allowed,
-  kept until its requester says it ended, or ``keep_allowed`` seconds after the voter
-  left its session;
+* ``("allowed", session, area, priority, claims)``: a request this node's voter
+  allowed, with its direction claims, kept until its requester says it ended, or
+  ``keep_allowed`` seconds after the voter left its session;
 * ``("revoke", session)``: this node's AGV wants the allow of ``session`` back (leased):
   the voter that gave it asks its requester to count it no more
   (:mod:`agv_app.traffic.fifo`);
@@ -34,10 +34,18 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from agv_app.geometry import Area, overlaps
-from agv_app.traffic.deadlock import Claim
+from agv_app.traffic.deadlock import Claim, claims_conflict
 from tuplespace import ANY, TupleSpace
 
-__all__ = ["LockBook", "LockEntry", "Priority", "RequestEntry", "StaleRecord", "stale_area"]
+__all__ = [
+    "LockBook",
+    "LockEntry",
+    "Priority",
+    "RequestEntry",
+    "StaleRecord",
+    "conflicts",
+    "stale_area",
+]
 
 
 Priority = tuple[float, str]
@@ -78,6 +86,15 @@ class StaleRecord:
     x: float
     y: float
     radius: float
+
+
+def conflicts(
+    area: Area, claims: frozenset[Claim], other: Area, other_claims: frozenset[Claim]
+) -> bool:
+    """True if two requests may not both be granted: their areas overlap, or their
+    direction claims conflict (opposite ways through one two-way run, whose stretches
+    need not overlap)."""
+    return overlaps(area, other) or claims_conflict(claims, other_claims)
 
 
 def stale_area(record: StaleRecord) -> Area:
@@ -193,12 +210,19 @@ class LockBook:
         self.space.in_all(("claims", ANY, ANY))
         self.space.in_all(("age", ANY, ANY))
 
-    def note_allowed(self, session_id: str, area: Area, priority: Priority) -> None:
-        """Remember that this node allowed a request, as long as our vote may count:
-        until its requester says it ended (:meth:`forget_allowed`), or a while after
-        the voter left the session (:meth:`keep_allowed`)."""
-        self.space.in_all(("allowed", session_id, ANY, ANY))
-        self.space.out(("allowed", session_id, area, priority))
+    def note_allowed(
+        self,
+        session_id: str,
+        area: Area,
+        priority: Priority,
+        claims: frozenset[Claim] = frozenset(),
+    ) -> None:
+        """Remember that this node allowed a request (its area and direction claims), as
+        long as our vote may count: until its requester says it ended
+        (:meth:`forget_allowed`), or a while after the voter left the session
+        (:meth:`keep_allowed`)."""
+        self.space.in_all(("allowed", session_id, ANY, ANY, ANY))
+        self.space.out(("allowed", session_id, area, priority, claims))
 
     def keep_allowed(self, session_id: str, keep: float) -> None:
         """Remember the allowed request of ``session_id`` for ``keep`` seconds more.
@@ -207,13 +231,15 @@ class LockBook:
         merely stopped counting, or its requester has not yet heard that we left), and
         remembering too long only lowers our own priority, which is always safe.
         """
-        for t in self.space.in_all(("allowed", session_id, ANY, ANY)):
+        for t in self.space.in_all(("allowed", session_id, ANY, ANY, ANY)):
             self.space.out(t, lease=keep)
 
-    def allowed(self) -> list[tuple[str, Area, Priority]]:
+    def allowed(self) -> list[tuple[str, Area, Priority, frozenset[Claim]]]:
         """The requests this node allowed and still ranks below: ``(session, area,
-        priority)``, oldest record first."""
-        return [(t[1], t[2], t[3]) for t in self.space.rd_all(("allowed", ANY, ANY, ANY))]
+        priority, claims)``, oldest record first."""
+        return [
+            (t[1], t[2], t[3], t[4]) for t in self.space.rd_all(("allowed", ANY, ANY, ANY, ANY))
+        ]
 
     def revoke(self, session_id: str, *, lease: float) -> None:
         """Ask, for ``lease`` seconds, that the allow of ``session_id`` be taken back
@@ -225,14 +251,14 @@ class LockBook:
         """Forget every request of session ``session`` this node allowed (records named
         ``"<session>/<key>"``): its requester counts none of those allows any more."""
         prefix = f"{session}/"
-        for t in self.space.rd_all(("allowed", ANY, ANY, ANY)):
+        for t in self.space.rd_all(("allowed", ANY, ANY, ANY, ANY)):
             if str(t[1]).startswith(prefix):
                 self.space.inp(t)
 
     def forget_allowed(self, session_id: str) -> None:
         """Forget that this node allowed the request of ``session_id``: its requester
         said it is locked or withdrawn, so it no longer outranks our requests."""
-        self.space.in_all(("allowed", session_id, ANY, ANY))
+        self.space.in_all(("allowed", session_id, ANY, ANY, ANY))
 
     def note_blocking(self, session_id: str, age: Priority, *, lease: float) -> None:
         """Remember for ``lease`` seconds that one of our locks holds up a request whose
@@ -245,16 +271,20 @@ class LockBook:
         times = [float(t[2][0]) for t in self.space.rd_all(("blocking", ANY, ANY))]
         return min(times, default=None)
 
-    def next_priority(self, wanted: float, node_id: str, area: Area) -> Priority:
-        """A priority for a new request over ``area``, at time ``wanted`` if it may.
+    def next_priority(
+        self, wanted: float, node_id: str, area: Area, claims: frozenset[Claim] = frozenset()
+    ) -> Priority:
+        """A priority for a new request over ``area`` with direction ``claims``, at time
+        ``wanted`` if it may.
 
-        It is lower than that of every pending request this node allowed that overlaps
-        ``area``.
+        It is lower than that of every pending request this node allowed that conflicts
+        with it (:func:`conflicts`): a voter that allowed a request must not win a
+        conflict with it.
         """
         mine: Priority = (wanted, node_id)
-        for t in self.space.rd_all(("allowed", ANY, ANY, ANY)):
+        for t in self.space.rd_all(("allowed", ANY, ANY, ANY, ANY)):
             theirs: Priority = t[3]
-            if mine <= theirs and overlaps(area, t[2]):
+            if mine <= theirs and conflicts(area, claims, t[2], t[4]):
                 mine = (theirs[0] + 1e-6, node_id)
         return mine
 

@@ -204,7 +204,7 @@ class Voter(Participant):
         if verdict == "allow" or aside:
             self._unwatch()
             self._said = "allow"
-            book.note_allowed(self._record, probe.area, self._priority)
+            book.note_allowed(self._record, probe.area, self._priority, self._claims)
             # Our AGV may want the allow back, once its own wait is older than this
             # request (agv_app.traffic.fifo).
             space_: TupleSpace = self.space

@@ -124,7 +124,9 @@ class Errands:
         agv._plan = None
         agv._route = None
         if agv._resume is not None:
-            resume = agv._resume
+            # Bound home, it goes to the home it has now: a yield may have moved it to
+            # the place it just reached, and the old one is someone else's to take.
+            resume = agv.home if agv.phase == "to_home" else agv._resume
             agv._resume = None
             if agv.routing.route_to(resume) or agv.blocked_to is not None:
                 agv.publish()

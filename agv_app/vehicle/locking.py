@@ -166,7 +166,7 @@ class Locking:
         if agv._first_try is None or agv._first_try[0] != lock_end:
             agv._first_try = (lock_end, now)
         age = self.age()
-        priority = priority_at(age, agv.node_id, area, book)
+        priority = priority_at(age, agv.node_id, area, book, claims)
         entry = RequestEntry(agv._key, end, area, priority, claims, age)
         book.add_request(entry)
         # A request inside the circle in force needs no new one: the others have had
@@ -274,8 +274,9 @@ class Locking:
         if isinstance(requester, Requester):
             # Allows given to younger requests over our floor let them go first: take
             # them back, but not those of the AGVs whose locks are in our way.
+            entry = requester.entry
             for session in allows_to_revoke(
-                self.age(), agv.node_id, requester.entry.area, agv.book, requester.blocked_by
+                self.age(), agv.node_id, entry.area, agv.book, requester.blocked_by, entry.claims
             ):
                 agv.book.revoke(session, lease=2 * agv.config.t_update)
         if requester.blocked_by:

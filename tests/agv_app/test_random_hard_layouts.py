@@ -35,6 +35,23 @@ def test_an_areas_seed_draws_a_lane_between_two_dead_end_areas() -> None:
     _check(run)  # a visit of the other AGV held its wait up: in, dwell, out
 
 
+def test_halls_seed_125_never_sends_two_agvs_head_on_into_the_door() -> None:
+    # Each AGV allowed the other's stretch into the door, the other way (disjoint
+    # areas, conflicting direction claims) and ranked its own above it: both locked,
+    # met inside the door and waited there for good.
+    run = DRAWS["halls"](random.Random(125))
+    assert run.floor.shape == "halls 15 m, door 8 m, stations (3, 2), parking (3, 2)"
+    _check(run)
+
+
+def test_crossing_seed_158_rests_every_agv_at_a_place_of_its_own() -> None:
+    # An AGV that yielded on its way home to a new home went on to the home it had
+    # given up; two AGVs then stood each at the other's dead-end spot, bound for it.
+    run = DRAWS["crossing"](random.Random(158))
+    assert run.floor.shape == "crossing arms [8.0, 8.0, 15.0], parking 2 per arm 5 m on"
+    _check(run)
+
+
 # Six fleet runs of 500 simulated seconds per shape, up to 8 AGVs (a few seconds of
 # CPU each).
 @pytest.mark.slow

@@ -23,7 +23,7 @@ pytestmark = pytest.mark.processes
 
 
 def _view(fleet: MeshFleet, agv_id: str) -> Mapping[str, Any]:
-    return fleet._agv_view(agv_id) or {}
+    return fleet.seen.view(agv_id) or {}
 
 
 async def _held_with(fleet: MeshFleet, task_id: str, *, loaded: bool) -> str:
@@ -87,7 +87,7 @@ async def test_agv_processes_hand_back_out_of_service_and_sent_home() -> None:
         task = fleet.create_task(pick)
         sent = await _held_with(fleet, task, loaded=False)
         fleet.send_home(sent)
-        await until(lambda: not fleet.homeward.pending, within=20)  # it answered
+        await until(lambda: not fleet.orders.homeward.pending, within=20)  # it answered
         await until(lambda: _view(fleet, sent).get("task") is None, within=20)  # handed back
         fleet.resume_vehicles([sent])
         await _taken_by_another(fleet, task, sent)
@@ -96,7 +96,7 @@ async def test_agv_processes_hand_back_out_of_service_and_sent_home() -> None:
         fleet.set_service([sent], in_service=False)
         with pytest.raises(ValueError, match="out of service"):
             fleet.send_home(sent)
-        assert not fleet.homeward.pending
+        assert not fleet.orders.homeward.pending
     finally:
         await fleet.stop()
 

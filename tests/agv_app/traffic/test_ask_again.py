@@ -59,7 +59,7 @@ def _on(node: Node, fn: Callable[[], Any]) -> None:
 
 
 def _allowed(node: Node) -> list[tuple[Any, ...]]:
-    return node.node.space.rd_all(("allowed", ANY, ANY, ANY))
+    return node.node.space.rd_all(("allowed", ANY, ANY, ANY, ANY))
 
 
 def test_a_request_asked_again_keeps_its_session_and_is_voted_anew() -> None:

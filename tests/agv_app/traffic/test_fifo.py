@@ -53,6 +53,19 @@ def test_allows_of_younger_requests_over_our_floor_are_taken_back_but_not_our_bl
     assert allows_to_revoke(2.0, "v", strip(2, 5), book, keep={"c"}) == ["b#1/1"]
 
 
+def test_an_allow_the_other_way_through_a_run_counts_as_a_conflict_without_overlap() -> None:
+    # Two stretches of one two-way run that do not overlap, driven head-on: granted
+    # both, the two AGVs meet inside the run (halls seed 125 of the floor runner).
+    book = _book()
+    west, east = frozenset({("door", -1)}), frozenset({("door", 1)})
+    book.note_allowed("s#1/3", strip(6, 10), (6.0, "x"), west)
+    assert priority_at(2.0, "v", strip(0, 4), book, east) == (6.0 + 1e-6, "v")
+    assert priority_at(2.0, "v", strip(0, 4), book, west) == (2.0, "v")  # following
+    assert priority_at(2.0, "v", strip(0, 4), book) == (2.0, "v")  # outside the run
+    assert allows_to_revoke(2.0, "v", strip(0, 4), book, claims=east) == ["s#1/3"]
+    assert allows_to_revoke(2.0, "v", strip(0, 4), book, claims=west) == []
+
+
 def test_a_voter_defers_a_request_younger_than_its_own_wait_whatever_its_priority() -> None:
     book = _book()
     # Our request ranks at 9.0 (below one we allowed) but serves a wait of age 2.0.
@@ -80,7 +93,7 @@ def test_an_allow_taken_back_counts_no_more_and_its_voter_then_defers() -> None:
     net.run_for(0.2)
     record = f"{rb.session_id}/1"
     assert rb.votes == {"a": True}
-    assert [t[1] for t in a.book.space.rd_all(("allowed", ANY, ANY, ANY))] == [record]
+    assert [t[1] for t in a.book.space.rd_all(("allowed", ANY, ANY, ANY, ANY))] == [record]
     # a now waits for the same floor with an older wait (it inherited one), its
     # priority still below b's request, which it allowed: it takes the allow back.
     a.book.add_request(RequestEntry(1, 6.0, strip(0, 6), (1.0 + 1e-6, "a"), age=0.2))
@@ -108,7 +121,9 @@ def test_a_voter_of_a_new_participation_drops_the_allows_kept_from_the_last() ->
     assert rb.votes == {"a": True, "c": False}
     a.move(60.0, 1.0)  # a leaves b's group: its allow is kept a while (keep_allowed)
     net.run_for(1.5)
-    assert [t[1] for t in a.book.space.rd_all(("allowed", ANY, ANY, ANY))] == [f"{rb.session_id}/1"]
+    assert [t[1] for t in a.book.space.rd_all(("allowed", ANY, ANY, ANY, ANY))] == [
+        f"{rb.session_id}/1"
+    ]
     a.book.add_request(RequestEntry(1, 6.0, strip(0, 6), (0.2, "a")))
     a.move(0.0, 7.0)  # and comes back: b asks it afresh, and it now defers
     net.run_for(1.5)
