@@ -38,7 +38,7 @@ nftables:
 test: $(STAMP) chromium mosquitto nftables compiled
 	$(BIN)/ruff check .
 	$(BIN)/mypy
-	$(BIN)/python -m pytest -n 2
+	$(BIN)/python -m pytest -n 2 --dist worksteal
 	$(BIN)/python -m tests.compiled_suite --no-slow
 
 lint: $(STAMP)

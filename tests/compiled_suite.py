@@ -60,6 +60,8 @@ def main(argv: list[str] | None = None) -> int:
         chosen,
         "-n",
         "2",
+        "--dist",
+        "worksteal",
         *SUITES,
         *extra,
     ]
