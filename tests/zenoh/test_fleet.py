@@ -14,6 +14,7 @@ from agv_app.fleet.agv_process import StepLag, parse_args, process_liveness
 from agv_app.fleet.liveness import REPUBLISH_BEATS, REST_BEAT_S
 from agv_app.tasks import BASE_ID
 from objectplaces.cli import build_parser
+from tests.agv_app.fleet.ready import heard_by_all
 
 pytestmark = pytest.mark.processes
 
@@ -37,11 +38,7 @@ async def test_agv_processes_on_zenoh_take_a_task(mode: str) -> None:
     )
     await fleet.start()
     try:
-        try:
-            async with asyncio.timeout(40):
-                await fleet.wait_ready()
-        except TimeoutError:
-            pytest.fail(f"unheard: {fleet.missing()}; logs: {fleet.child_logs()}")
+        await heard_by_all(fleet)
         assert set(fleet.nodes()) == {OBSERVER_ID, BASE_ID, *AGVS}
         assert fleet.observer is not None
         # A client has no address of its own: it reaches the fleet through the router.

@@ -16,6 +16,7 @@ import pytest
 from agv_app.fleet import OBSERVER_ID, MeshFleet
 from agv_app.tasks import BASE_ID
 from dashboard.app import create_app
+from tests.agv_app.fleet.ready import heard_by_all
 from tests.dashboard.login import logged_in
 
 pytestmark = pytest.mark.processes
@@ -50,11 +51,7 @@ async def test_agv_processes_take_a_task_and_are_reaped() -> None:
         assert stat.S_IMODE(key.stat().st_mode) == 0o600
         assert key.read_bytes() not in _cmdline(pids[0])
         assert not (pki / "private").stat().st_mode & 0o077
-        try:
-            async with asyncio.timeout(40):
-                await fleet.wait_ready()
-        except TimeoutError:
-            pytest.fail(f"unheard: {fleet.missing()}; logs: {fleet.child_logs()}")
+        await heard_by_all(fleet)
         vehicles = {v.id: v for v in fleet.vehicles()}
         assert sorted(vehicles) == AGVS
         for v in vehicles.values():

@@ -6,13 +6,13 @@ Real processes on 127.0.0.1; every wait is for an event, with a generous bound.
 
 from __future__ import annotations
 
-import asyncio
 import math
 
 import pytest
 
 from agv_app.fleet import MeshFleet
 from agv_app.fleet.view import VehicleState
+from tests.agv_app.fleet.ready import heard_by_all
 from tests.waiting import until
 
 pytestmark = pytest.mark.processes
@@ -27,11 +27,7 @@ async def test_an_agv_process_leaves_a_closed_area_and_comes_back_when_it_reopen
     fleet = MeshFleet(agvs=2, seed=4, task_interval=None, run_seconds=100.0)
     await fleet.start()
     try:
-        try:
-            async with asyncio.timeout(40):
-                await fleet.wait_ready()
-        except TimeoutError:
-            pytest.fail(f"unheard: {fleet.missing()}; logs: {fleet.child_logs()}")
+        await heard_by_all(fleet)
         home = fleet.layout.point(fleet.homes[0])
         square = [
             (home.x - 0.5, home.y - 0.5),

@@ -13,6 +13,7 @@ import pytest
 
 from agv_app.fleet import MeshFleet
 from agv_app.fleet.view import VehicleState
+from tests.agv_app.fleet.ready import heard_by_all
 from tests.waiting import until
 
 pytestmark = pytest.mark.processes
@@ -29,11 +30,7 @@ async def test_a_fleet_stop_stands_every_agv_process_and_resume_drives_them_on()
     fleet = MeshFleet(agvs=3, seed=2, task_interval=None, run_seconds=150.0)
     await fleet.start()
     try:
-        try:
-            async with asyncio.timeout(40):
-                await fleet.wait_ready()
-        except TimeoutError:
-            pytest.fail(f"unheard: {fleet.missing()}; logs: {fleet.child_logs()}")
+        await heard_by_all(fleet)
         stations = sorted(fleet.stations)
         for pick in [p for p in PICKS if p in fleet.stations] or stations[:3]:
             fleet.create_task(pick)

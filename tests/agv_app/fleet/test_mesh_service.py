@@ -17,6 +17,7 @@ from typing import Any
 import pytest
 
 from agv_app.fleet import MeshFleet
+from tests.agv_app.fleet.ready import heard_by_all
 from tests.waiting import until
 
 pytestmark = pytest.mark.processes
@@ -68,11 +69,7 @@ async def test_agv_processes_hand_back_out_of_service_and_sent_home() -> None:
     fleet = MeshFleet(agvs=3, seed=2, task_interval=None, run_seconds=170.0, dwell=2.0)
     await fleet.start()
     try:
-        try:
-            async with asyncio.timeout(40):
-                await fleet.wait_ready()
-        except TimeoutError:
-            pytest.fail(f"unheard: {fleet.missing()}; logs: {fleet.child_logs()}")
+        await heard_by_all(fleet)
         pick = sorted(fleet.stations)[0]
 
         task = fleet.create_task(pick)
