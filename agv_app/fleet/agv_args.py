@@ -5,6 +5,7 @@ numbers make of the node: its liveness and its interest radius.
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
 
 from agv_app.fleet.agv_drive import MAX_LAG_S
@@ -17,6 +18,7 @@ from agv_app.fleet.liveness import (
 from agv_app.fleet.restart_state import add_driver_arguments
 from agv_app.layout.graph import Layout
 from agv_app.traffic.reach import interest_radius
+from agv_app.vehicle.battery import BatterySpec
 from agv_app.vehicle.controller import AgvConfig
 from agv_app.vehicle.kinematics import VehicleSpec
 from objectplaces.arguments import POSITIVE, number, whole
@@ -26,6 +28,7 @@ from objectplaces.security import add_credential_arguments
 __all__ = [
     "POLL_INTERVAL_S",
     "add_agv_arguments",
+    "battery_spec",
     "build_parser",
     "check_interest_radius",
     "dissemination_radius",
@@ -39,6 +42,22 @@ POLL_INTERVAL_S = 0.05
 processes beside ten others, same run: 27.7 ms of CPU a second each against 31.5 with
 0.025 s. The frames wait up to this long, well inside the second of delay the interest
 radius allows for (``MAX_LAG_S``)."""
+
+
+def battery_spec(text: str) -> BatterySpec:
+    """``--battery-spec``: a :class:`~agv_app.vehicle.battery.BatterySpec` from a JSON
+    object of its fields.
+
+    Raises:
+        argparse.ArgumentTypeError: not JSON, not an object, or not a valid spec.
+    """
+    try:
+        fields = json.loads(text)
+        if not isinstance(fields, dict):
+            raise ValueError("not a JSON object")
+        return BatterySpec(**fields)
+    except (ValueError, TypeError) as exc:
+        raise argparse.ArgumentTypeError(f"not a battery spec: {exc}") from None
 
 
 def process_liveness(
@@ -166,8 +185,15 @@ def add_agv_arguments(parser: argparse.ArgumentParser, *, joining: bool = False)
     parser.add_argument(
         "--battery",
         action="store_true",
-        help="a battery (BatterySpec's defaults) that drains as the vehicle drives and is "
-        "reported (``battery``, VDA 5050 powerSupply); no charging",
+        help="a battery that drains as the vehicle drives and is reported (``battery``, "
+        "VDA 5050 powerSupply); it charges on a charger the control grants, and at 0 %% "
+        "the vehicle stops (agv_app/fleet/charge_listener.py)",
+    )
+    parser.add_argument(
+        "--battery-spec",
+        type=battery_spec,
+        default=BatterySpec(),
+        help="with --battery, its BatterySpec as a JSON object of fields (default: the defaults)",
     )
     parser.add_argument(
         "--interest-radius",

@@ -5,6 +5,7 @@ shows of its node, over the observer's display session (:mod:`agv_app.fleet.disp
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 from agv_app.fleet.display_feed import DISPLAY_ROLE, DisplayFeed
 from agv_app.fleet.remote import roles_wire, sessions_wire, traffic_wire
@@ -60,12 +61,20 @@ class DisplayPublisher:
         min_move_m: show the pose again when the vehicle moved at least this far.
         traffic_interval_s: least time between two reports of the node's introspection
             (sessions, roles, traffic), which change with every request.
+        shown: the state to show instead of the AGV's own (None from it: its own), e.g.
+            ``charging`` (:meth:`~agv_app.fleet.charge_listener.ChargeListener.status`).
     """
 
     def __init__(
-        self, agv: AgvController, *, min_move_m: float = 0.01, traffic_interval_s: float = 1.0
+        self,
+        agv: AgvController,
+        *,
+        min_move_m: float = 0.01,
+        traffic_interval_s: float = 1.0,
+        shown: Callable[[], str | None] | None = None,
     ) -> None:
         self.agv = agv
+        self.shown = shown
         self.min_move_m = min_move_m
         self.traffic_interval_s = traffic_interval_s
         self.feed = DisplayFeed()
@@ -95,7 +104,8 @@ class DisplayPublisher:
         # The task with the state: the observer learns that the AGV set off with it
         # from one report, whatever the order of the property stream and the channel.
         feed.set("task", agv.node.properties.get("task"))
-        feed.set("state", agv.display_status())
+        by_battery = None if self.shown is None else self.shown()
+        feed.set("state", by_battery or agv.display_status())
         speed = agv.vehicle.speed
         # Standing is exactly 0; any motion shows as at least 0.1 m/s.
         feed.set("speed", 0.0 if speed == 0.0 else max(0.1, round(speed, 1)))

@@ -7,6 +7,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import random
+from collections.abc import Callable
 from typing import Any
 
 from agv_app.fleet.agv_display import DisplayPublisher
@@ -52,10 +53,12 @@ async def drive_steps(
     lag: StepLag,
     trace: VehicleTrace | None = None,
     keeper: TaskKeeper | None = None,
+    battery: Callable[[float], object] | None = None,
 ) -> None:
     """Step the AGV every ``dt`` of real time, noting how late each step ran, until its
-    vehicle's driver fails."""
-    drain = BatteryDrain(agv)
+    vehicle's driver fails; ``battery`` drains (and charges) its battery each step
+    (default: it only drains, :class:`~agv_app.vehicle.battery_drain.BatteryDrain`)."""
+    battery_step = BatteryDrain(agv).step if battery is None else battery
     loop = asyncio.get_running_loop()
     dt = args.dt
     # Processes started together would otherwise step (and publish) in lockstep.
@@ -66,7 +69,7 @@ async def drive_steps(
     while True:
         lag.note(loop.time() - next_step, dt)
         agv.step(dt)
-        drain.step(dt)
+        battery_step(dt)
         if trace is not None:
             trace.step()
         if keeper is not None:

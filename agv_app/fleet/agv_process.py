@@ -20,7 +20,8 @@ it changes: ``position`` and ``heading`` (radians) as it moves, ``state`` (the
 dashboard's finer status), ``speed`` (m/s, 0 only standing), ``held`` (it holds for
 the control's stop, :mod:`agv_app.fleet.holding`), ``in_service``, ``loaded`` (it
 carries its task's load: it is not sent home, :mod:`agv_app.fleet.sending_home`),
-``battery`` (with ``--battery``: its state of charge, percent), ``size``
+``battery`` (with ``--battery``: its state of charge, percent; it charges as the
+control grants, :mod:`agv_app.fleet.charge_listener`), ``size``
 (``[length, width]``), ``locked`` and ``requested`` (its projections in the compact form
 of :func:`~agv_app.geometry.polygon_to_coords`) and ``route`` (the vertices ahead); and
 what the dashboard shows of its node:
@@ -69,6 +70,7 @@ from agv_app.fleet.agv_drive import StepLag, drive_steps
 from agv_app.fleet.agv_events import emit, who
 from agv_app.fleet.agv_joining import AnotherFleet, open_zenoh, settle
 from agv_app.fleet.agv_watch import watch_parent, watch_stdin, watch_twin
+from agv_app.fleet.charge_listener import ChargeListener, ServiceGate
 from agv_app.fleet.closed_listener import ClosedListener
 from agv_app.fleet.holding import HoldListener
 from agv_app.fleet.liveness import liveness_arguments
@@ -84,7 +86,6 @@ from agv_app.layout.elements import LayoutError
 from agv_app.traffic.stale_relay import StaleListener, StaleRelay
 from agv_app.vda5050.link import BrokerError, MqttLink, check_broker
 from agv_app.vda5050.process import bridge_for, vehicle_class, vehicle_link
-from agv_app.vehicle.battery import BatterySpec
 from agv_app.vehicle.comeback import announce, hand_back
 from agv_app.vehicle.controller import AgvConfig
 from agv_app.vehicle.kinematics import VehicleSpec
@@ -156,7 +157,7 @@ async def run(args: argparse.Namespace, credentials: Credentials) -> int:
     spec = VehicleSpec(
         DEMO_VEHICLE_LENGTH_M,
         DEMO_VEHICLE_WIDTH_M,
-        battery=BatterySpec() if args.battery else None,
+        battery=args.battery_spec if args.battery else None,
     )
     config = AgvConfig(t_update=args.t_update, dwell=args.dwell)
     liveness = process_liveness(args.t_update, args.republish_beats, args.rest_beat)
@@ -211,11 +212,17 @@ async def run(args: argparse.Namespace, credentials: Credentials) -> int:
             # did, whether or not the control process runs (traffic/stale_relay.py).
             StaleRelay(node)
             StaleListener(node, lambda: agv.book)
-        HoldListener(node, agv)  # the control's stop: from the observer alone
+        gate = ServiceGate(agv)  # the battery's word on top of the operator's
+        HoldListener(node, gate)  # the control's stop: from the observer alone
+        charging = ChargeListener(node, agv, gate) if args.battery else None  # likewise
         SendHomeListener(node, functools.partial(send_home, agv))  # likewise
         ClosedListener(node, agv, layout)  # closed parts of the floor: the same
         serve_space(node, readers=[OBSERVER_ID])  # the dashboard shows its locks
-        display = DisplayPublisher(agv, traffic_interval_s=args.introspection_interval)
+        display = DisplayPublisher(
+            agv,
+            traffic_interval_s=args.introspection_interval,
+            shown=None if charging is None else charging.status,
+        )
         display.publish()
         trace = VehicleTrace(agv, args.trace) if args.trace is not None else None
         stands = agv.vehicle.pose()
@@ -240,7 +247,8 @@ async def run(args: argparse.Namespace, credentials: Credentials) -> int:
             if driver is not None:
                 announce(agv)  # heard by the peers it has now, before it asks for floor
             emit("driving", peers=node.peers())
-            await drive_steps(agv, display, args, lag, trace, TaskKeeper(args))
+            battery = None if charging is None else charging.step
+            await drive_steps(agv, display, args, lag, trace, TaskKeeper(args), battery)
             emit("fault", reason=agv.vehicle.fault)
             status = 3
             stop.set()

@@ -7,9 +7,11 @@ service: :meth:`Chargers.takes_tasks`) (it finishes the order it holds,
 one awarded while it dwells included) and queues for a charger; chargers go to the
 queue in order of need (first come, first served). The charger is claimed centrally,
 in the fleet's :class:`~agv_app.fleet.parking.ParkingPlan`, as a rest point is: no two
-AGVs own one at a time. The AGV's home becomes the charger, so it drives there through
-the traffic protocol as it would drive home. On it, it charges up to ``charge_to``,
-then gives the charger up for the nearest free rest point and takes tasks again.
+AGVs own one at a time (the rule, shared with a fleet of AGV processes:
+:class:`~agv_app.fleet.charge_rule.ChargeQueue`). The AGV's home becomes the
+charger, so it drives there through the traffic protocol as it would drive home. On
+it, it charges up to ``charge_to``, then gives the charger up for the nearest free rest
+point and takes tasks again.
 
 At 0 % an AGV stops where it is (held: it brakes and keeps its locks), shows ``empty``
 and raises an alarm (:attr:`Chargers.alarms`); it never moves again in the run.
@@ -21,22 +23,12 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
+from agv_app.fleet.charge_rule import ChargeQueue, charger_points
 from agv_app.fleet.parking import ParkingPlan
-from agv_app.layout.graph import Layout
 from agv_app.vehicle.battery import BatterySpec, SimBattery
 from agv_app.vehicle.controller import AgvController
 
-__all__ = ["ChargeStats", "Chargers", "charger_points"]
-
-
-def charger_points(layout: Layout) -> list[str]:
-    """The distinct points of the layout's usable charging stations, in layout order."""
-    usable = set(layout.usable_stations())
-    points: list[str] = []
-    for station in layout.stations_of_kind("charging"):
-        if station.id in usable and station.point not in points:
-            points.append(station.point)
-    return points
+__all__ = ["ChargeStats", "Chargers", "charger_points", "on_charger"]
 
 
 @dataclass(slots=True)
@@ -95,10 +87,9 @@ class Chargers:
     ) -> None:
         self.spec = spec
         self.parking = parking
-        self.points = charger_points(parking.layout)
-        if not self.points:
-            raise ValueError(f"layout {parking.layout.name!r} has no charging station")
-        parking.set_aside(self.points)
+        self.rule = ChargeQueue(spec, parking, agvs)
+        """Who must charge, the queue and the grants (shared with the process fleet)."""
+        self.points = self.rule.points
         self.batteries: dict[str, SimBattery] = {}
         for agv_id, agv in agvs.items():
             level = None if levels is None else levels.get(agv_id)
@@ -109,12 +100,9 @@ class Chargers:
                 battery = SimBattery(spec, state_of_charge=level)
                 agv.battery = battery
             self.batteries[agv_id] = battery
-        self.state = dict.fromkeys(agvs, "work")
         self.stats = ChargeStats()
-        self.alarms: list[tuple[float, str, str]] = []
+        self.alarms = self.rule.alarms
         """``(time, AGV id, message)`` for every AGV that ran empty."""
-        self._queue: list[str] = []
-        self._need_since: dict[str, float] = {}
         self._last_xy: dict[str, tuple[float, float]] = {}
         self._session: dict[str, int] = {}
 
@@ -122,26 +110,21 @@ class Chargers:
 
     def takes_tasks(self, agv_id: str) -> bool:
         """False while the AGV needs, awaits or takes a charge, or ran empty."""
-        return self.state.get(agv_id, "work") == "work"
+        return self.rule.takes_tasks(agv_id)
 
     def stays(self, agv_id: str) -> bool:
         """True while the AGV must not be moved to another rest point (bound for or on a
         charger, or empty)."""
-        return self.state.get(agv_id, "work") in ("to_charger", "charging", "empty")
+        return self.rule.stays(agv_id)
 
     def empty(self, agv_id: str) -> bool:
         """True once the AGV ran empty."""
-        return self.state.get(agv_id) == "empty"
+        return self.rule.empty(agv_id)
 
     def status(self, agv_id: str) -> str | None:
         """``charging``, ``to-charger`` (it finishes its order first, or waits for a
         charger) or ``empty``; None while it works."""
-        state = self.state.get(agv_id, "work")
-        if state == "charging":
-            return "charging"
-        if state in ("needs", "to_charger"):
-            return "to-charger"
-        return "empty" if state == "empty" else None
+        return self.rule.status(agv_id)
 
     def state_of_charge(self, agv_id: str, now: float) -> float | None:
         """The AGV's state of charge now, percent (None: no such AGV)."""
@@ -153,7 +136,8 @@ class Chargers:
     def step(self, agv_id: str, agv: AgvController, dt: float, now: float) -> None:
         """Drain or charge one AGV for the step of ``dt`` that just ended at ``now``."""
         battery = self.batteries[agv_id]
-        state = self.state[agv_id]
+        rule = self.rule
+        state = rule.state[agv_id]
         pose = agv.vehicle.pose()
         last = self._last_xy.get(agv_id)
         self._last_xy[agv_id] = (pose.x, pose.y)
@@ -169,49 +153,27 @@ class Chargers:
         level = battery.drain(metres=metres, load_s=dt if loading else 0.0, idle_s=dt)
         stats = self.stats
         stats.min_state_of_charge = min(stats.min_state_of_charge, level)
-        if level <= 0.0:
-            self._ran_empty(agv_id, agv, now)
-        elif state == "work" and level < self.spec.charge_below:
-            self.state[agv_id] = "needs"
-            self._queue.append(agv_id)
-            self._need_since[agv_id] = now
-        elif state == "to_charger" and self._on_charger(agv):
+        if rule.note(agv_id, level, now):
+            stats.ran_empty += 1
+            agv.hold()  # it stops where it stands, locks kept
+        elif state == "to_charger" and on_charger(agv):
             battery.start_charging(now)
-            self.state[agv_id] = "charging"
+            rule.arrived(agv_id)
             stats.charges += 1
             self._session[agv_id] = len(stats.sessions)
             stats.sessions.append((agv.home, agv_id, now, math.inf))
 
     def grant(self, agvs: Mapping[str, AgvController], now: float) -> None:
         """Hand free chargers to the AGVs that need one, first come first served."""
-        while self._queue:
-            agv_id = self._queue[0]
-            agv = agvs[agv_id]
-            # A charger someone still stands on (about to leave it) is not free yet.
-            standing = {a.point for a in agvs.values()}
-            free = [p for p in self.points if p not in standing]
-            charger = self.parking.relocate(agv_id, agv.home, agv.point, among=free)
-            if charger is None:
-                return  # none free: the first in line gets the next one
-            self._queue.pop(0)
-            agv.home = charger  # it drives there as it drives home, once its order is done
-            self.state[agv_id] = "to_charger"
-            wait = now - self._need_since.pop(agv_id, now)
-            self.stats.max_charger_wait = max(self.stats.max_charger_wait, wait)
+        if not self.rule.queue:
+            return
+        homes = {a: agv.home for a, agv in agvs.items()}
+        standing = {a: agv.point for a, agv in agvs.items()}
+        for agv_id, charger in self.rule.grant(homes, standing, now):
+            agvs[agv_id].home = charger  # it drives there as it drives home, once done
+        self.stats.max_charger_wait = self.rule.max_wait
 
     # -- inside -----------------------------------------------------------------------------
-
-    @staticmethod
-    def _on_charger(agv: AgvController) -> bool:
-        """True once the AGV stands on its charger (its home) with no order."""
-        return (
-            agv.point == agv.home
-            and agv.phase == "home"
-            and agv.task is None
-            and agv.pending_task is None
-            and agv.vehicle.speed == 0.0
-            and agv.vehicle.remaining() < 1e-6
-        )
 
     def _charged(self, agv_id: str, agv: AgvController, battery: SimBattery, now: float) -> None:
         """Stop charging, give the charger up for a free rest point, take tasks again."""
@@ -219,16 +181,18 @@ class Chargers:
         k = self._session.pop(agv_id)
         point, _, start, _ = self.stats.sessions[k]
         self.stats.sessions[k] = (point, agv_id, start, now)
-        rest = self.parking.relocate(agv_id, agv.home, agv.point)
+        rest = self.rule.charged(agv_id, agv.home, agv.point)
         if rest is not None:
             agv.home = rest  # the charger is free once the AGV sets off
-        self.state[agv_id] = "work"
 
-    def _ran_empty(self, agv_id: str, agv: AgvController, now: float) -> None:
-        """The AGV stops where it stands, locks kept, and raises an alarm."""
-        self.state[agv_id] = "empty"
-        if agv_id in self._queue:
-            self._queue.remove(agv_id)
-        self.stats.ran_empty += 1
-        agv.hold()
-        self.alarms.append((now, agv_id, "battery empty: stopped where it stands"))
+
+def on_charger(agv: AgvController) -> bool:
+    """True once the AGV stands on its charger (its home) with no order."""
+    return (
+        agv.point == agv.home
+        and agv.phase == "home"
+        and agv.task is None
+        and agv.pending_task is None
+        and agv.vehicle.speed == 0.0
+        and agv.vehicle.remaining() < 1e-6
+    )

@@ -61,6 +61,7 @@ SIM_MODULES: Final = (
     "objectplaces.runtime.sim",
     "objectplaces.sim",
     "objectplaces.transport.memory",
+    "agv_app.fleet.charge_rule",
     "agv_app.fleet.chargers",
     "agv_app.fleet.metrics",
     "agv_app.fleet.stalls",

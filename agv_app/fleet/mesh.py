@@ -14,8 +14,7 @@ on the links of the nodes here, and a best-effort safety check over the observed
 (views lag the vehicles by the publication interval, so only overlaps that last count).
 
 Its parts, in agv_app.fleet: mesh_options, mesh_nodes (the nodes here), mesh_run,
-mesh_watch and mesh_views (the AGVs as heard), mesh_tasks, mesh_figures.
-
+mesh_watch and mesh_views (the AGVs as heard), mesh_tasks, mesh_figures, mesh_charging.
 ``await fleet.start()`` before use and ``await fleet.stop()`` after (the dashboard's
 app does both in its lifespan); ``stop`` terminates and reaps every child process.
 """
@@ -53,6 +52,7 @@ from agv_app.tasks.free_flow import FreeFlowBound, FreeFlowTimer
 from agv_app.tasks.journal import TaskJournal
 from agv_app.tasks.load import TaskArrivals
 from agv_app.vda5050.link import VdaCredentials
+from agv_app.vehicle.battery import BatterySpec
 from agv_app.vehicle.kinematics import VehicleSpec
 from objectplaces import RoleActivator
 from objectplaces.mesh import MeshNode
@@ -66,7 +66,7 @@ class MeshFleet(FleetSourceBase):
     ``pause()`` stops the fleet: no new automatic tasks, and every AGV process brakes
     to a standstill and stands, locks kept (:mod:`agv_app.fleet.holding`); ``resume()``
     lets them drive on. ``vehicles()`` shows what they report, never what was asked.
-    The operator's orders (the stop, ``blocks``) are the observer's properties.
+    The operator's orders (the stop, ``blocks``, ``charging``) are the observer's properties.
 
     Args:
         agvs: number of AGV processes.
@@ -118,7 +118,7 @@ class MeshFleet(FleetSourceBase):
         run_seconds: float = 86_400.0,
         station_range: float = 30.0,
         dwell: float = 5.0,
-        batteries: bool = False,
+        batteries: bool | BatterySpec = False,
         stop_timeout: float = 5.0,
         python: str = sys.executable,
         capture_output: bool = True,
@@ -145,9 +145,7 @@ class MeshFleet(FleetSourceBase):
         self.seed = seed
         self.task_interval = task_interval
         self.transport = transport
-        self.publish_interval = (
-            pose_interval_for(agvs) if publish_interval is None else publish_interval
-        )
+        self.publish_interval = publish_interval or pose_interval_for(agvs)  # > 0 or None
         self.vda5050 = vda5050
         self.launch = AgvLaunch(
             self.tag,
@@ -167,7 +165,8 @@ class MeshFleet(FleetSourceBase):
         """How the AGV processes run and link."""
         spec = VehicleSpec(DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M)
         require_task_stations(self.layout)
-        self.homes = ParkingPlan(self.layout, spec, agvs, rest_elsewhere=False).homes
+        self.parking = ParkingPlan(self.layout, spec, agvs, rest_elsewhere=False)
+        self.homes = self.parking.homes
         self.free_flow = FreeFlowBound(
             FreeFlowTimer(self.layout, spec.max_speed_m_s, dwell), self.homes
         )
@@ -209,6 +208,7 @@ class MeshFleet(FleetSourceBase):
             self.layout, self.holds, lambda n, v: self.own_nodes.publish(n, v), self.seen
         )
         """What the operator told the AGV processes (the observer's properties)."""
+        self.charging = self.orders.charge(self.launch.battery_spec, self.parking, self.agv_ids)
         self.blocks = self.orders.blocks
         self.own_nodes: LocalNodes = LocalNodes(shared_pki, self.seen, self.orders)
         self.lifecycle = MeshRun(
@@ -297,8 +297,8 @@ class MeshFleet(FleetSourceBase):
         return self.lifecycle.final_logs
 
     def check(self) -> None:
-        """Check the observed hulls and locks (``ObservedAgvs.check``); track stalls."""
-        self.seen.check(self.now)
+        """Check the observed hulls and locks, track stalls, charge (``ObservedAgvs.check``)."""
+        self.seen.check(self.now, self.charging)
 
     def create_task(self, station_id: str, drop: str | None = None) -> str:
         """Create a transport task at a pick station; its station auctions it.

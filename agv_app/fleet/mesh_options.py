@@ -6,6 +6,8 @@ their poses, and how a control process joins a fleet whose vehicles run elsewher
 
 from __future__ import annotations
 
+import dataclasses
+import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -13,6 +15,7 @@ from typing import Any
 
 from agv_app.fleet.agv_args import process_liveness
 from agv_app.fleet.liveness import liveness_arguments
+from agv_app.vehicle.battery import BatterySpec
 
 __all__ = ["HOST", "POSES_PER_SECOND", "AgvLaunch", "Joining", "pose_interval_for"]
 
@@ -78,9 +81,10 @@ class AgvLaunch:
         poll_interval: on Zenoh, the AGV processes hand received frames on every this
             many seconds (0: each at once; ``agv_app.fleet.agv_process``).
         vda5050: ``mqtts://HOST:PORT`` of a broker every AGV process speaks VDA 5050 over.
-        batteries: every AGV process drains a battery and reports its state of charge
-            (``battery``, VDA 5050 ``powerSupply``); there is no charging
-            (:mod:`agv_app.vehicle.battery_drain`).
+        batteries: every AGV process has a battery (True: ``BatterySpec()``; a
+            ``BatterySpec``: that one), reports its state of charge (``battery``, VDA 5050
+            ``powerSupply``) and charges as the control grants
+            (:mod:`agv_app.fleet.mesh_charging`).
 
     Raises:
         ValueError: an unknown ``zenoh_mode``, or a ``rest_beat`` that is not a positive
@@ -99,7 +103,7 @@ class AgvLaunch:
     rest_beat: float | None
     poll_interval: float
     vda5050: str | None
-    batteries: bool = False
+    batteries: bool | BatterySpec = False
 
     def __post_init__(self) -> None:
         if self.zenoh_mode not in ("client", "peer"):
@@ -107,6 +111,13 @@ class AgvLaunch:
         rest = self.rest_beat
         if rest is not None and not (rest > 0 and math.isfinite(rest)):
             raise ValueError(f"rest_beat must be a positive number, got {rest!r}")
+
+    @property
+    def battery_spec(self) -> BatterySpec | None:
+        """The AGV processes' battery (None: none)."""
+        if isinstance(self.batteries, BatterySpec):
+            return self.batteries
+        return BatterySpec() if self.batteries else None
 
     def node_arguments(self) -> dict[str, Any]:
         """The options of the nodes in the fleet's process: liveness, tag, polling."""
@@ -131,7 +142,13 @@ class AgvLaunch:
             "--publish-interval", str(self.publish_interval),
             "--introspection-interval", str(5 * self.publish_interval),
             "--dwell", str(self.dwell),
-            *(["--battery"] if self.batteries else []),
+            *_battery_arguments(self.battery_spec),
             "--expect-peers", str(peers),
             *([] if self.vda5050 is None else ["--vda5050", self.vda5050]),
         ]  # fmt: skip
+
+
+def _battery_arguments(spec: BatterySpec | None) -> list[str]:
+    if spec is None:
+        return []
+    return ["--battery", "--battery-spec", json.dumps(dataclasses.asdict(spec))]

@@ -2,25 +2,29 @@
 
 Every AGV process follows them from the observer alone: the stop and out of service
 (``hold``, :mod:`agv_app.fleet.holding`), the closed parts of the floor (``closed``,
-:mod:`agv_app.fleet.closed_listener`) and requests to go home (``send_home``, answered
-by each process's ``sent_home``, :mod:`agv_app.fleet.sending_home`).
+:mod:`agv_app.fleet.closed_listener`), requests to go home (``send_home``, answered
+by each process's ``sent_home``, :mod:`agv_app.fleet.sending_home`) and, with batteries,
+the charging orders (``charge``, answered by ``charged``, :mod:`agv_app.fleet.mesh_charging`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from agv_app.fleet.blocks import FloorBlocks
 from agv_app.fleet.closed_listener import CLOSED_PROPERTY, closed_wire
 from agv_app.fleet.holding import HOLD_PROPERTY, HoldOrders
+from agv_app.fleet.mesh_charging import CHARGE_PROPERTY, CHARGED_PROPERTY, MeshCharging
 from agv_app.fleet.mesh_watch import ObservedAgvs
+from agv_app.fleet.parking import ParkingPlan
 from agv_app.fleet.sending_home import SEND_HOME_PROPERTY, SENT_HOME_PROPERTY, SendHomeOrders
 from agv_app.layout.graph import Layout
+from agv_app.vehicle.battery import BatterySpec
 
 __all__ = ["ANSWERS", "OperatorOrders"]
 
-ANSWERS = (SENT_HOME_PROPERTY,)
+ANSWERS = (SENT_HOME_PROPERTY, CHARGED_PROPERTY)
 """The AGV processes' properties that answer an order (the observer listens to them)."""
 
 
@@ -50,6 +54,18 @@ class OperatorOrders:
         """The parts of the floor the operator closed."""
         self.homeward = SendHomeOrders()
         """Requests to go home the AGV processes have not answered yet."""
+        self.charging: MeshCharging | None = None
+        """The charging orders (None: no batteries, :meth:`charge`)."""
+
+    def charge(
+        self, spec: BatterySpec | None, parking: ParkingPlan, agv_ids: Sequence[str]
+    ) -> MeshCharging | None:
+        """Charge the AGVs ``agv_ids`` (homes: ``parking.homes``) as ``spec`` says; the
+        control's side of it (None: no ``spec``, or no AGVs of ours to charge)."""
+        if spec is not None and agv_ids:
+            homes = dict(zip(agv_ids, parking.homes, strict=True))
+            self.charging = MeshCharging(spec, parking, homes, self._publish)
+        return self.charging
 
     def wire(self) -> dict[str, object]:
         """Every order, by the observer's property that carries it."""
@@ -57,6 +73,7 @@ class OperatorOrders:
             HOLD_PROPERTY: self._holds.wire(),
             CLOSED_PROPERTY: closed_wire(self.blocks.ways),
             SEND_HOME_PROPERTY: self.homeward.wire(),
+            **({} if self.charging is None else {CHARGE_PROPERTY: self.charging.wire()}),
         }
 
     def publish_holds(self) -> None:
@@ -80,3 +97,5 @@ class OperatorOrders:
         """An AGV process's answer (one of :data:`ANSWERS`): drop what it acted on."""
         if name == SENT_HOME_PROPERTY and self.homeward.answered(node_id, value):
             self._publish(SEND_HOME_PROPERTY, self.homeward.wire())
+        elif name == CHARGED_PROPERTY and self.charging is not None:
+            self.charging.answer(node_id, value)

@@ -11,6 +11,7 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 from agv_app.fleet.display_feed import DisplayCollector
+from agv_app.fleet.mesh_charging import MeshCharging
 from agv_app.fleet.mesh_figures import mesh_figures
 from agv_app.fleet.mesh_views import agv_ids_heard, agv_view, agv_views, reported_route
 from agv_app.fleet.observed import LastingOverlaps
@@ -178,8 +179,9 @@ class ObservedAgvs:
             now=now,
         )
 
-    def check(self, now: float) -> None:
-        """Run the safety monitor over the observed hulls and locks; track stalls.
+    def check(self, now: float, charging: MeshCharging | None = None) -> None:
+        """Run the safety monitor over the observed hulls and locks; track stalls; tell
+        ``charging`` what the AGVs report.
 
         An overlap counts once it has lasted ``min_overlap_s``: the observer hears each
         AGV at a different moment, so a short overlap of two views may be two moments.
@@ -188,3 +190,5 @@ class ObservedAgvs:
         self.overlaps.check(now, vehicles, self.roster.observed())
         for v in vehicles:
             self.stalls.observe(v.id, stalled=v.status == "waiting", now=now)
+        if charging is not None:
+            charging.tick(self.views(), now)

@@ -3,8 +3,8 @@
 The simulated fleet drains every AGV's battery with its chargers
 (:mod:`agv_app.fleet.chargers`); an AGV process has no such fleet around it, so
 :class:`BatteryDrain` drains its own the same way at every control step: the metres its
-pose moved, the seconds it shows ``loading``, and every second. It only reports: there
-is no charging in a fleet of AGV processes, and a vehicle is not stopped at 0 %.
+pose moved, the seconds it shows ``loading``, and every second. Charging, and the stop
+at 0 %, are the process's :class:`~agv_app.fleet.charge_listener.ChargeListener`'s.
 """
 
 from __future__ import annotations
