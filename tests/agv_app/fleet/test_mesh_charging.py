@@ -19,6 +19,7 @@ from agv_app.fleet import MeshFleet
 from agv_app.vehicle.battery import BatterySpec
 from dashboard.eventlog import EventLog
 from dashboard.watch import FleetWatch
+from tests.agv_app.fleet.ready import heard_by_all
 from tests.waiting import until
 
 pytestmark = pytest.mark.processes
@@ -39,20 +40,12 @@ def _view(fleet: MeshFleet, agv_id: str) -> Mapping[str, Any]:
     return fleet.seen.view(agv_id) or {}
 
 
-async def _ready(fleet: MeshFleet) -> None:
-    await fleet.start()
-    try:
-        async with asyncio.timeout(40):
-            await fleet.wait_ready()
-    except TimeoutError:
-        pytest.fail(f"unheard: {fleet.missing()}; logs: {fleet.child_logs()}")
-
-
 @pytest.mark.timeout(180)
 async def test_agv_processes_low_on_charge_charge_at_two_chargers_and_work_again() -> None:
     fleet = MeshFleet(agvs=2, seed=4, task_interval=None, run_seconds=170.0, batteries=FAST)
-    await _ready(fleet)
+    await fleet.start()
     try:
+        await heard_by_all(fleet)
         charging = fleet.charging
         assert charging is not None
         ids = sorted(fleet.vehicle_ids())
@@ -95,8 +88,9 @@ async def test_agv_processes_low_on_charge_charge_at_two_chargers_and_work_again
 async def test_an_agv_process_that_runs_empty_stops_and_the_alarm_shows() -> None:
     never_due = BatterySpec(drain_idle_per_s=1.0, charge_below=0.0, initial=4.0)
     fleet = MeshFleet(agvs=1, seed=5, task_interval=None, run_seconds=100.0, batteries=never_due)
-    await _ready(fleet)
+    await fleet.start()
     try:
+        await heard_by_all(fleet)
         (agv_id,) = fleet.vehicle_ids()
         await until(lambda: _view(fleet, agv_id).get("state") == "empty", within=30)
         assert _view(fleet, agv_id).get("held") is True
