@@ -118,8 +118,9 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
         "--load",
         type=number(above=0, at_most=1),
         default=DEFAULT_LOAD,
-        help="target share of busy AGVs, in (0, 1]; the task rate follows from it and the "
-        f"layout's stations (default: {DEFAULT_LOAD})",
+        help="target share of what the AGVs and the floor carry, in (0, 1]; the task rate "
+        "follows from it, the fleet and the layout's stations and two-way stretches "
+        f"(default: {DEFAULT_LOAD})",
     )
     p.add_argument(
         "--task-interval",

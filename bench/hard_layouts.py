@@ -12,7 +12,8 @@ does:
   each) joined by one 20 m two-way lane, the door;
 * ``lay-by``: a 60 m two-way lane between two such areas, with a 14 m lay-by halfway.
 
-Each runs, at load 0.7 with the default settings, the largest fleet whose wait bound
+Each runs, at load 0.7 (of what the fleet and the floor carry, the less;
+:mod:`agv_app.tasks.load`) with the default settings, the largest fleet whose wait bound
 (``agv_app.traffic.wait_bound``; docs/traffic.md, "Bounded waits") is at most 120 s,
 and, with ``--fleets issue``, the fleets of issue 41 (8, 4, 10 and 4 AGVs); every seed
 twice, with the AGVs' protocol and with the central baseline (``--traffic central``),
@@ -95,7 +96,10 @@ def run_one(
     fleet = Fleet(_layout(name), config)
     started = time.process_time()
     fleet.run(minutes * 60)
-    return fleet.summary(time.process_time() - started)
+    figures = fleet.summary(time.process_time() - started)
+    interval = fleet.task_interval
+    figures["asked_per_hour"] = 0.0 if interval is None else 3600.0 / interval
+    return figures
 
 
 @dataclass(frozen=True, slots=True)
@@ -177,6 +181,7 @@ def _row(name: str, agvs: int, seed: int, mode: str, r: dict[str, float]) -> lis
         seed,
         mode,
         f"{r['tasks_completed']:g} of {r['tasks_created']:g}",
+        round(r["asked_per_hour"], 1),
         r["tasks_per_hour"],
         r["free_flow_tasks_per_hour"],
         f"{share:.0%}",
@@ -249,6 +254,7 @@ def _publish(
         "seed",
         "traffic",
         "tasks done",
+        "tasks asked/h",
         "tasks/h",
         "free-flow tasks/h",
         "of free flow",
@@ -275,7 +281,9 @@ def _publish(
     )
     body = (
         f"Each hard layout (`bench/layouts/`, drawn by `agv_app.layout.shapes`) with {which}, "
-        f"load {args.load:g}, {args.minutes:g} simulated minutes per run, seeds {args.seeds}, "
+        f"load {args.load:g} (of what the fleet and the floor carry, the less: "
+        '"Load" in docs/fleet.md; tasks asked/h is the rate it sets), '
+        f"{args.minutes:g} simulated minutes per run, seeds {args.seeds}, "
         "the default settings (the task desk's limit as `objectplaces sim` sets it). Each "
         "seed runs twice on the same layout, task stream and seed: `protocol` is the AGVs' "
         "own traffic protocol, `central` the baseline (one first-come-first-served "

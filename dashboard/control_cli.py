@@ -104,7 +104,8 @@ def run_control(args: argparse.Namespace) -> int:
     from agv_app.layout.elements import LayoutError
     from agv_app.tasks import OrderStore, StoreError
     from agv_app.tasks.desk import BASE_ID
-    from agv_app.tasks.load import task_interval_for_load
+    from agv_app.tasks.load import standstill_pass, task_interval_for_load
+    from agv_app.vehicle.config import AgvConfig
     from agv_app.vehicle.kinematics import VehicleSpec
     from dashboard.eventlog import EventLog
 
@@ -128,9 +129,14 @@ def run_control(args: argparse.Namespace) -> int:
         return 2
     interval = None
     if args.load is not None:
-        speed = VehicleSpec(DEMO_VEHICLE_LENGTH_M, 1.0).max_speed_m_s
+        spec = VehicleSpec(DEMO_VEHICLE_LENGTH_M, 1.0)
         interval = task_interval_for_load(
-            layout, agvs=args.agvs, load=args.load, speed_m_s=speed, dwell_s=5.0
+            layout,
+            agvs=args.agvs,
+            load=args.load,
+            speed_m_s=spec.max_speed_m_s,
+            dwell_s=5.0,
+            hold_s=standstill_pass(spec, t_update=AgvConfig().t_update),
         )
     try:
         store = OrderStore.open(args.db)

@@ -9,7 +9,14 @@ from agv_app.fleet.mesh import MeshFleet
 from agv_app.fleet.sim import Fleet, FleetConfig
 from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
 from agv_app.tasks.admission import CROWDED
-from agv_app.tasks.load import DEFAULT_LOAD, check_load, initial_tasks, task_interval_for_load
+from agv_app.tasks.load import (
+    DEFAULT_LOAD,
+    check_load,
+    initial_tasks,
+    standstill_pass,
+    task_interval_for_load,
+)
+from agv_app.vehicle.config import AgvConfig
 from agv_app.vehicle.kinematics import VehicleSpec
 
 __all__ = ["DEMO_AGVS", "demo_source"]
@@ -96,7 +103,12 @@ def demo_source(
             seed=seed,
             layout=layout,
             task_interval=task_interval_for_load(
-                layout, agvs=processes, load=load, speed_m_s=spec.max_speed_m_s, dwell_s=dwell
+                layout,
+                agvs=processes,
+                load=load,
+                speed_m_s=spec.max_speed_m_s,
+                dwell_s=dwell,
+                hold_s=standstill_pass(spec, t_update=AgvConfig().t_update),
             ),
             start_tasks=initial_tasks(agvs=processes, load=load),
             dwell=dwell,

@@ -24,7 +24,7 @@ from agv_app.fleet.chargers import Chargers
 from agv_app.fleet.metrics import FleetMetrics
 from agv_app.fleet.parking import ParkingPlan
 from agv_app.fleet.sim_agvs import AgvNodes, DriverFactory
-from agv_app.fleet.sim_build import fleet_desk, fleet_task_interval, open_bases, place_agvs
+from agv_app.fleet.sim_build import fleet_desk, fleet_task_stream, open_bases, place_agvs
 from agv_app.fleet.sim_config import TRAFFIC_MODES, FleetConfig
 from agv_app.fleet.sim_network import (
     fleet_network,
@@ -137,7 +137,7 @@ class Fleet(FleetSourceBase):
         self.free_flow = FreeFlowBound(
             FreeFlowTimer(self.layout, self.spec.max_speed_m_s, cfg.dwell), self.parking.homes
         )
-        self.task_interval = fleet_task_interval(cfg, self.layout, self.spec)
+        self.task_interval, start_tasks = fleet_task_stream(cfg, self.layout, self.spec)
         """Mean seconds between new tasks (None: the layout has no stations to make any)."""
         desk = fleet_desk(
             cfg,
@@ -201,7 +201,7 @@ class Fleet(FleetSourceBase):
         self.observer.set_at_rest(True)  # it listens; it speaks only of failed AGVs
         self.stale_relay = None if self.interest_radius is None else StaleRelay(self.observer)
         """Relays failed AGVs to every AGV when the AGVs are scoped (traffic/stale_relay.py)."""
-        for _ in range(cfg.start_task_count()):
+        for _ in range(start_tasks):
             self.desk.create_random()
         self.arrivals = (
             None if self.task_interval is None else TaskArrivals(self.task_interval, self.rng)

@@ -17,7 +17,7 @@ from agv_app.tasks.admission import limit_for
 from agv_app.tasks.auction import TaskSpec
 from agv_app.tasks.desk import BASE_ID, TaskDesk, pick_stations
 from agv_app.tasks.journal import TaskJournal
-from agv_app.tasks.load import task_interval_for_load
+from agv_app.tasks.load import floor_vehicles, standstill_pass, task_interval_for_load
 from agv_app.vehicle.comeback import hand_back
 from agv_app.vehicle.controller import AgvController
 from agv_app.vehicle.kinematics import VehicleSpec
@@ -26,7 +26,7 @@ from objectplaces.sim import SimulatedNetwork
 __all__ = [
     "Placement",
     "fleet_desk",
-    "fleet_task_interval",
+    "fleet_task_stream",
     "open_bases",
     "place_agvs",
     "pose_at",
@@ -77,18 +77,26 @@ def place_agvs(
     return Placement(ids, firsts, poses)
 
 
-def fleet_task_interval(cfg: FleetConfig, layout: Layout, spec: VehicleSpec) -> float | None:
-    """Mean seconds between new tasks: ``cfg.task_interval``, else from the load and the
-    layout (None: the layout has no stations to make any)."""
-    if cfg.task_interval is None and pick_stations(layout):
-        return task_interval_for_load(
-            layout,
-            agvs=cfg.agvs,
-            load=cfg.load,
-            speed_m_s=spec.max_speed_m_s,
-            dwell_s=cfg.dwell,
-        )
-    return cfg.task_interval
+def fleet_task_stream(
+    cfg: FleetConfig, layout: Layout, spec: VehicleSpec
+) -> tuple[float | None, int]:
+    """``(interval, start)``: mean seconds between new tasks (``cfg.task_interval``,
+    else from the load and the layout; None: the layout has no stations to make any)
+    and the tasks created at the start (``cfg.start_task_count``, at most as many as
+    the layout keeps busy at the load, :func:`floor_vehicles`), a pass over a two-way
+    stretch holding it as :func:`standstill_pass` says."""
+    if not pick_stations(layout):
+        return cfg.task_interval, cfg.start_task_count()
+    hold = standstill_pass(spec, t_update=cfg.t_update, step_s=cfg.dt)
+    speed = spec.max_speed_m_s
+    floor = floor_vehicles(layout, speed_m_s=speed, dwell_s=cfg.dwell, hold_s=hold)
+    start = cfg.start_task_count(floor)
+    if cfg.task_interval is not None:
+        return cfg.task_interval, start
+    interval = task_interval_for_load(
+        layout, agvs=cfg.agvs, load=cfg.load, speed_m_s=speed, dwell_s=cfg.dwell, hold_s=hold
+    )
+    return interval, start
 
 
 def fleet_desk(

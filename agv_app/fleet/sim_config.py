@@ -69,8 +69,9 @@ class FleetConfig:
             one transport base (``BASE_ID``) runs them all, and every AGV's properties
             reach one listener for all the stations (docs/fleet.md, "The transport
             base").
-        load: target share of busy AGVs, in (0, 1]; the task rate follows from it and
-            the layout (:mod:`agv_app.tasks.load`) unless ``task_interval`` is given.
+        load: target share of what the AGVs and the floor carry, in (0, 1]; the task
+            rate follows from it, the fleet and the layout (:mod:`agv_app.tasks.load`)
+            unless ``task_interval`` is given.
         task_interval: mean seconds between new tasks (None: from ``load``).
         start_tasks: tasks created at the start (None: about ``load * agvs`` when the
             rate follows from the load and ``task_until`` is not 0, else none).
@@ -148,11 +149,12 @@ class FleetConfig:
         if self.start_tasks is not None and self.start_tasks < 0:
             raise ValueError(f"start_tasks must be 0 or more, got {self.start_tasks!r}")
 
-    def start_task_count(self) -> int:
+    def start_task_count(self, floor: float = math.inf) -> int:
         """Tasks created at the start: ``start_tasks``, or when that is None about
-        ``load * agvs`` if the rate follows from the load and ``task_until`` is not 0,
-        else none."""
+        ``load * agvs`` (``load * floor`` if the layout keeps fewer than ``agvs``
+        busy, :func:`~agv_app.tasks.load.floor_vehicles`) if the rate follows from the
+        load and ``task_until`` is not 0, else none."""
         if self.start_tasks is not None:
             return self.start_tasks
         by_load = self.task_interval is None and (self.task_until is None or self.task_until > 0)
-        return initial_tasks(agvs=self.agvs, load=self.load) if by_load else 0
+        return initial_tasks(agvs=self.agvs, load=self.load, floor=floor) if by_load else 0

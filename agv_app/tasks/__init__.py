@@ -41,6 +41,11 @@ from agv_app.tasks.desk import (
     pick_stations,
     require_task_stations,
 )
+from agv_app.tasks.floor_capacity import (
+    FloorCapacity,
+    floor_capacity,
+    shared_part_seconds,
+)
 from agv_app.tasks.free_flow import (
     FreeFlowBound,
     FreeFlowTimer,
@@ -78,6 +83,7 @@ __all__ = [
     "Bidder",
     "CustodyMachine",
     "Delivered",
+    "FloorCapacity",
     "FreeFlowBound",
     "FreeFlowTimer",
     "HandBackReason",
@@ -100,9 +106,11 @@ __all__ = [
     "carried_tasks",
     "check_load",
     "drop_stations",
+    "floor_capacity",
     "initial_tasks",
     "mean_task_seconds",
     "pick_stations",
     "require_task_stations",
+    "shared_part_seconds",
     "task_interval_for_load",
 ]

@@ -1,28 +1,39 @@
-"""Task load: how often to create tasks so that a target share of the fleet is busy.
+"""Task load: how often to create tasks so that a target share of what the fleet and its
+floor carry is used.
 
-A fleet of ``N`` vehicles at load ``L`` keeps ``L * N`` of them busy on average. A
-vehicle is busy for a task's time, at least its free-flow time ``T``
-(:func:`~agv_app.tasks.free_flow.mean_task_seconds`), so tasks arrive at
-``L * N / T`` per second: one every ``T / (L * N)`` seconds. Waiting for locks makes
-real tasks longer than ``T``, so the share actually busy comes out a little above ``L``.
-A run starts with about ``L * N`` tasks at once so the fleet is at its load from the
-first seconds, not after the first arrivals.
+A fleet of ``N`` vehicles carries at most ``N / T`` tasks per second, ``T`` a task's
+mean free-flow time (:func:`~agv_app.tasks.free_flow.mean_task_seconds`); its floor at
+most ``C``, what its busiest shared stretch or station lets through
+(:func:`~agv_app.tasks.floor_capacity.floor_capacity`). Load ``L`` makes tasks arrive
+at ``L * min(N / T, C)`` per second. On a floor with room (most one-way floors) that is
+``L * N / T``, and ``L * N`` vehicles are busy on average; on a floor bound by one
+shared stretch (two two-way lanes crossing, a lane between two areas) more vehicles
+would only queue for it, and the load is a share of what the stretch carries. Waiting
+for locks makes real tasks longer than ``T``, so the share actually busy comes out a
+little above ``L``. A run starts with about ``L * min(N, C * T)`` tasks at once (as many
+as are busy at the load) so the fleet is at its load from the first seconds, not after
+the first arrivals.
 """
 
 from __future__ import annotations
 
 import math
 import random
+from collections.abc import Callable
 
 from agv_app.layout.graph import Layout
 from agv_app.tasks.desk import drop_stations, pick_stations
+from agv_app.tasks.floor_capacity import floor_capacity
 from agv_app.tasks.free_flow import FreeFlowTimer, mean_task_seconds
+from agv_app.vehicle.kinematics import VehicleSpec
 
 __all__ = [
     "DEFAULT_LOAD",
     "TaskArrivals",
     "check_load",
+    "floor_vehicles",
     "initial_tasks",
+    "standstill_pass",
     "task_interval_for_load",
 ]
 
@@ -47,10 +58,55 @@ def check_load(load: float) -> float:
     return float(load)
 
 
-def task_interval_for_load(
-    layout: Layout, *, agvs: int, load: float, speed_m_s: float, dwell_s: float
+def standstill_pass(
+    spec: VehicleSpec, *, t_update: float, step_s: float = 0.0
+) -> Callable[[float], float]:
+    """Seconds one pass holds a two-way stretch of so many metres, as a fleet drives
+    it: from a standstill at ``spec``'s top speed and acceleration, then the handover
+    of the floor to the next AGV (a release period ``t_update``, a voter's recheck
+    ``t_update / 2``, a simulation step ``step_s``), as in the wait bound
+    (:mod:`agv_app.traffic.wait_bound`)."""
+    handover = 1.5 * t_update + step_s
+
+    def hold(metres: float) -> float:
+        return spec.travel_time(metres) + handover
+
+    return hold
+
+
+def floor_vehicles(
+    layout: Layout,
+    *,
+    speed_m_s: float,
+    dwell_s: float,
+    hold_s: Callable[[float], float] | None = None,
 ) -> float:
-    """Mean seconds between new tasks that keep ``load`` of ``agvs`` vehicles busy.
+    """How many vehicles ``layout`` keeps busy at most, whatever the fleet: what its
+    busiest shared part carries times a task's mean free-flow time (``inf``: no shared
+    part; ``hold_s``: seconds one pass holds a two-way stretch of that many metres,
+    :func:`~agv_app.tasks.floor_capacity.floor_capacity`).
+
+    Raises:
+        ValueError: a layout without pick and drop stations that reach each other.
+    """
+    timer = FreeFlowTimer(layout, speed_m_s, dwell_s)
+    picks, drops = pick_stations(layout), drop_stations(layout)
+    mean = mean_task_seconds(timer, picks, drops)
+    return mean * floor_capacity(timer, picks, drops, hold_s).tasks_per_second
+
+
+def task_interval_for_load(
+    layout: Layout,
+    *,
+    agvs: int,
+    load: float,
+    speed_m_s: float,
+    dwell_s: float,
+    hold_s: Callable[[float], float] | None = None,
+) -> float:
+    """Mean seconds between new tasks at ``load`` of what ``agvs`` vehicles and
+    ``layout`` carry, the less of the two (module docstring; ``hold_s`` as for
+    :func:`floor_vehicles`).
 
     Raises:
         ValueError: ``load`` outside (0, 1], ``agvs`` < 1, or a layout without
@@ -61,12 +117,16 @@ def task_interval_for_load(
         raise ValueError(f"agvs must be at least 1, got {agvs!r}")
     timer = FreeFlowTimer(layout, speed_m_s, dwell_s)
     mean = mean_task_seconds(timer, pick_stations(layout), drop_stations(layout))
-    return mean / (load * agvs)
+    floor = floor_vehicles(layout, speed_m_s=speed_m_s, dwell_s=dwell_s, hold_s=hold_s)
+    carried = min(float(agvs), floor)
+    return mean / (load * carried)
 
 
-def initial_tasks(*, agvs: int, load: float) -> int:
-    """Tasks to create at the start so that about ``load`` of ``agvs`` are busy at once."""
-    return math.floor(check_load(load) * agvs + 0.5)
+def initial_tasks(*, agvs: int, load: float, floor: float = math.inf) -> int:
+    """Tasks to create at the start so that about ``load`` of ``agvs`` are busy at once,
+    or of the ``floor`` vehicles the layout keeps busy (:func:`floor_vehicles`) if
+    fewer."""
+    return math.floor(check_load(load) * min(agvs, floor) + 0.5)
 
 
 class TaskArrivals:

@@ -12,6 +12,7 @@ import pytest
 from agv_app.fleet import Fleet, FleetConfig, demo_source
 from agv_app.layout import Layout, Point, Segment
 from agv_app.layout.demo import demo_warehouse
+from agv_app.layout.shapes import crossing
 from agv_app.tasks import (
     FreeFlowTimer,
     TaskArrivals,
@@ -120,3 +121,16 @@ def test_free_flow_bound_of_one_task_is_reached_no_later_than_its_delivery() -> 
     figures = fleet.summary()
     assert figures["free_flow_tasks_per_hour"] == round(3600.0 / fleet.now, 2)
     assert figures["free_flow_tasks_per_hour"] >= figures["tasks_per_hour"] > 0
+
+
+def test_on_a_crossing_of_two_way_lanes_the_load_is_a_share_of_what_the_crossing_carries() -> None:
+    # Eight AGVs on one crossing: the floor keeps about one busy, so load 0.7 starts one
+    # task, not six, and tasks come at 0.7 of what the crossing lets through.
+    layout = crossing()
+    fleet = Fleet(layout, FleetConfig(agvs=8, seed=1, load=0.7))
+    spec = fleet.spec
+    timer = FreeFlowTimer(layout, spec.max_speed_m_s, fleet.config.dwell)
+    mean = mean_task_seconds(timer, pick_stations(layout), drop_stations(layout))
+    assert fleet.task_interval is not None
+    assert fleet.task_interval > 4 * mean / (0.7 * 8)
+    assert fleet.desk.book.open_count == 1

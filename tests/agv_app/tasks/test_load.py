@@ -15,10 +15,15 @@ from agv_app.tasks import (
     TaskSpec,
     carried_tasks,
     check_load,
+    drop_stations,
+    floor_capacity,
     initial_tasks,
     mean_task_seconds,
+    pick_stations,
     task_interval_for_load,
 )
+from agv_app.tasks.load import standstill_pass
+from agv_app.vehicle.kinematics import VehicleSpec
 
 
 def lane() -> Layout:
@@ -57,11 +62,48 @@ def test_the_mean_task_time_is_approach_carry_and_two_dwells() -> None:
 
 
 def test_the_task_interval_keeps_the_load_busy() -> None:
-    # 4 AGVs at half load: 2 busy at 50 s a task, one task every 25 s.
-    interval = task_interval_for_load(lane(), agvs=4, load=0.5, speed_m_s=1.5, dwell_s=5.0)
-    assert interval == pytest.approx(25.0)
+    # 1 AGV at half load: busy half the time at 50 s a task, one task every 100 s.
+    interval = task_interval_for_load(lane(), agvs=1, load=0.5, speed_m_s=1.5, dwell_s=5.0)
+    assert interval == pytest.approx(100.0)
     with pytest.raises(ValueError, match="got 0"):
         task_interval_for_load(lane(), agvs=0, load=0.5, speed_m_s=1.5, dwell_s=5.0)
+
+
+def test_on_one_two_way_lane_the_load_is_a_share_of_what_the_lane_carries() -> None:
+    # The lane carries one AGV at a time: the pick's end is held 20 s on the carry, 20 s
+    # on the way back and 5 s at the dwell, 45 s a task, whatever the fleet. Half of
+    # that is a task every 90 s for 4 AGVs as for 100, not one every 25 s.
+    capacity = floor_capacity(TIMER, ["in"], ["out"])
+    assert capacity.bottleneck == "point:p0"
+    assert capacity.busy_s == pytest.approx(45.0)
+    for agvs in (4, 100):
+        interval = task_interval_for_load(lane(), agvs=agvs, load=0.5, speed_m_s=1.5, dwell_s=5.0)
+        assert interval == pytest.approx(90.0)
+
+
+def test_a_floor_of_one_way_lanes_with_room_keeps_the_fleets_rate() -> None:
+    # The demo warehouse carries over a hundred AGVs: 20 at load 0.7 are 14 busy.
+    layout = demo_warehouse()
+    timer = FreeFlowTimer(layout, 1.5, 5.0)
+    mean = mean_task_seconds(timer, pick_stations(layout), drop_stations(layout))
+    carried = floor_capacity(timer, pick_stations(layout), drop_stations(layout))
+    assert carried.tasks_per_second > 100 / mean
+    interval = task_interval_for_load(layout, agvs=20, load=0.7, speed_m_s=1.5, dwell_s=5.0)
+    assert interval == pytest.approx(mean / 14)
+
+
+def test_a_station_serves_one_agv_at_a_time_and_a_floor_without_shared_parts_has_no_bound() -> None:
+    one_way = Layout(
+        [Point("a", 0.0, 0.0), Point("b", 30.0, 0.0)],
+        [Segment("ab", "a", "b"), Segment("ba", "b", "a", via=((15.0, 10.0),))],
+        [Station("in", "a", "pick"), Station("out", "b", "drop")],
+    )
+    dwelling = floor_capacity(FreeFlowTimer(one_way, 1.5, 5.0), ["in"], ["out"])
+    assert (dwelling.bottleneck, dwelling.busy_s) == ("point:a", 5.0)
+    free = floor_capacity(FreeFlowTimer(one_way, 1.5, 0.0), ["in"], ["out"])
+    assert free.bottleneck is None
+    assert free.tasks_per_second == math.inf
+    assert str(free) == "no shared part"
 
 
 def test_a_layout_without_tasks_to_make_is_refused() -> None:
@@ -106,3 +148,13 @@ def test_a_floor_carries_about_one_task_per_20_m_of_lane() -> None:
 
 def test_a_floor_of_dead_end_lanes_has_no_lane_to_carry_tasks() -> None:
     assert carried_tasks(lane()) is None
+
+
+def test_a_fleets_pass_holds_a_stretch_from_a_standstill_and_for_the_handover() -> None:
+    spec = VehicleSpec(1.0, 0.8, max_speed_m_s=1.5, max_accel_m_s2=0.75)
+    hold = standstill_pass(spec, t_update=1.0, step_s=0.1)
+    # 30 m: 2 s up to speed and 2 s down cover 3 m, 27 m more at 1.5 m/s; then 1.6 s.
+    assert hold(30.0) == pytest.approx(4.0 + 18.0 + 1.6)
+    assert hold(30.0) > 30.0 / 1.5
+    slower = floor_capacity(TIMER, ["in"], ["out"], hold).busy_s
+    assert slower > floor_capacity(TIMER, ["in"], ["out"]).busy_s
