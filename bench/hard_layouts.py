@@ -200,7 +200,9 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--seeds", default="1,2,3,4,5")
     parser.add_argument("--minutes", type=float, default=30.0, help="simulated minutes per run")
-    parser.add_argument("--load", type=float, default=0.7, help="share of busy AGVs, (0, 1]")
+    parser.add_argument(
+        "--load", type=float, default=0.7, help="share of what the fleet and floor carry, (0, 1]"
+    )
     parser.add_argument(
         "--fleets",
         choices=("bounded", "issue"),

@@ -65,8 +65,8 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
         "--load",
         type=number(above=0, at_most=1),
         default=None,
-        help="share of AGVs kept busy, in (0, 1]; the task rate follows from the layout "
-        "(default: the fleet's, 0.7)",
+        help="share of what the AGVs and the floor carry, in (0, 1]; the task rate follows "
+        "from the fleet and the layout (default: the fleet's, 0.7)",
     )
     parser.add_argument(
         "--max-open-tasks",

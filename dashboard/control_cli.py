@@ -76,7 +76,8 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
         "--load",
         type=number(above=0, at_most=1),
         default=None,
-        help="share of the vehicles kept busy by automatic tasks, in (0, 1] (default: no "
+        help="share of what the vehicles and the floor carry that automatic tasks use, in "
+        "(0, 1] (default: no "
         "automatic tasks: orders come from the dashboard, the REST API or a master control)",
     )
     parser.add_argument("--seed", type=int, default=1, help="seeds the automatic tasks")

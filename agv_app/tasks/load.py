@@ -46,7 +46,7 @@ The demo warehouse carries it without a stall (no wait over 180 s, 12 AGVs, seed
 
 
 def check_load(load: float) -> float:
-    """``load`` as a float if it is a share of busy AGVs in (0, 1].
+    """``load`` as a float if it is a share in (0, 1] (module docstring).
 
     Raises:
         ValueError: it is not a number in (0, 1].
