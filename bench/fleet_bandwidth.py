@@ -54,6 +54,7 @@ def run_one(
         agvs=agvs,
         seed=seed,
         load=load,
+        load_of="fleet",  # the same stream at every size, whatever the floor carries
         broadcast=mode == "broadcast",
         scoped=mode == "scoped",
         heartbeat=heartbeat,

@@ -48,7 +48,8 @@ def run_one(
     agvs: int, limit: int | str | None, seed: int, minutes: float, load: float, layout: str | None
 ) -> dict[str, float]:
     """Run one fleet and return its figures, with the limit at the end (``auto``)."""
-    config = FleetConfig(agvs=agvs, seed=seed, load=load, max_open_tasks=limit)
+    # The load of the fleet alone: this floor is meant to be asked for more than it carries.
+    config = FleetConfig(agvs=agvs, seed=seed, load=load, load_of="fleet", max_open_tasks=limit)
     fleet = Fleet(_floor(layout), config)
     started = time.process_time()
     fleet.run(minutes * 60)

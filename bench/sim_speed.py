@@ -51,6 +51,10 @@ EVERY_WINNER = "demo, every winner called at once (beat 1 s)"
 called one AGV at a time, so every AGV the load asks for is on the floor; the default
 fleet keeps most of a large fleet at home on this floor (docs/sim-speed.md)."""
 
+_FLEET_LOAD = {"load_of": "fleet"}
+"""Every run asks for the load of its fleet alone, past what the floor carries: the
+figures are of a fleet that size, busy, as before the load counted the floor."""
+
 _MEASURE = """
 import json, sys, time
 from agv_app.fleet import Fleet, FleetConfig
@@ -124,7 +128,7 @@ def _jobs(
     ]
     for label, options in configs:
         for agvs, secs in zip(sizes, seconds, strict=True):
-            jobs.append((label, agvs, secs, None, options))
+            jobs.append((label, agvs, secs, None, {**options, **_FLEET_LOAD}))
     if large:
         jobs.append(
             (
@@ -132,7 +136,7 @@ def _jobs(
                 large,
                 large_seconds,
                 layout,
-                {"heartbeat": 10.0},
+                {"heartbeat": 10.0, **_FLEET_LOAD},
             )
         )
     return jobs

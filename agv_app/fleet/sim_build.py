@@ -4,6 +4,7 @@ rate, its task desk and the nodes that run the desk's stations.
 
 from __future__ import annotations
 
+import math
 import random
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -84,17 +85,26 @@ def fleet_task_stream(
     else from the load and the layout; None: the layout has no stations to make any)
     and the tasks created at the start (``cfg.start_task_count``, at most as many as
     the layout keeps busy at the load, :func:`floor_vehicles`), a pass over a two-way
-    stretch holding it as :func:`standstill_pass` says."""
+    stretch holding it as :func:`standstill_pass` says; with ``load_of="fleet"`` the
+    fleet's rate and count alone."""
     if not pick_stations(layout):
         return cfg.task_interval, cfg.start_task_count()
     hold = standstill_pass(spec, t_update=cfg.t_update, step_s=cfg.dt)
     speed = spec.max_speed_m_s
     floor = floor_vehicles(layout, speed_m_s=speed, dwell_s=cfg.dwell, hold_s=hold)
+    if cfg.load_of == "fleet":
+        floor = math.inf
     start = cfg.start_task_count(floor)
     if cfg.task_interval is not None:
         return cfg.task_interval, start
     interval = task_interval_for_load(
-        layout, agvs=cfg.agvs, load=cfg.load, speed_m_s=speed, dwell_s=cfg.dwell, hold_s=hold
+        layout,
+        agvs=cfg.agvs,
+        load=cfg.load,
+        speed_m_s=speed,
+        dwell_s=cfg.dwell,
+        hold_s=None if cfg.load_of == "fleet" else hold,
+        past_floor=cfg.load_of == "fleet",
     )
     return interval, start
 

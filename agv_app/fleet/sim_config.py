@@ -14,7 +14,10 @@ from agv_app.tasks.load import DEFAULT_LOAD, check_load, initial_tasks
 from agv_app.vehicle.battery import BatterySpec
 from agv_app.vehicle.controller import DEFAULT_ADVANCE_M
 
-__all__ = ["TRAFFIC_MODES", "FleetConfig"]
+__all__ = ["LOAD_OF", "TRAFFIC_MODES", "FleetConfig"]
+
+LOAD_OF = ("carried", "fleet")
+"""What a fleet's ``load`` is a share of (:class:`FleetConfig`)."""
 
 TRAFFIC_MODES = ("protocol", "central")
 """How locks are granted: by the AGVs' collision groups, or by one central scheduler."""
@@ -72,6 +75,10 @@ class FleetConfig:
         load: target share of what the AGVs and the floor carry, in (0, 1]; the task
             rate follows from it, the fleet and the layout (:mod:`agv_app.tasks.load`)
             unless ``task_interval`` is given.
+        load_of: ``"carried"``, the default: ``load`` is a share of what the fleet and
+            its floor carry, the less; ``"fleet"``: of what the fleet carries alone, past
+            what the floor carries where that is less (runs that mean to make AGVs
+            queue: the random floors, the saturation benchmarks).
         task_interval: mean seconds between new tasks (None: from ``load``).
         start_tasks: tasks created at the start (None: about ``load * agvs`` when the
             rate follows from the load and ``task_until`` is not 0, else none).
@@ -121,6 +128,7 @@ class FleetConfig:
     probes: bool = True
     station_nodes: bool = False
     load: float = DEFAULT_LOAD
+    load_of: str = "carried"
     task_interval: float | None = None
     start_tasks: int | None = None
     task_until: float | None = None
@@ -136,6 +144,8 @@ class FleetConfig:
 
     def __post_init__(self) -> None:
         check_load(self.load)
+        if self.load_of not in LOAD_OF:
+            raise ValueError(f"load_of must be one of {LOAD_OF}, got {self.load_of!r}")
         if self.traffic not in TRAFFIC_MODES:
             raise ValueError(f"traffic must be one of {TRAFFIC_MODES}, got {self.traffic!r}")
         if self.task_interval is not None and not (

@@ -103,10 +103,12 @@ def task_interval_for_load(
     speed_m_s: float,
     dwell_s: float,
     hold_s: Callable[[float], float] | None = None,
+    past_floor: bool = False,
 ) -> float:
     """Mean seconds between new tasks at ``load`` of what ``agvs`` vehicles and
     ``layout`` carry, the less of the two (module docstring; ``hold_s`` as for
-    :func:`floor_vehicles`).
+    :func:`floor_vehicles`); ``past_floor``: of what the vehicles carry alone, past
+    what the floor carries where that is less (a run that means to make them queue).
 
     Raises:
         ValueError: ``load`` outside (0, 1], ``agvs`` < 1, or a layout without
@@ -117,6 +119,8 @@ def task_interval_for_load(
         raise ValueError(f"agvs must be at least 1, got {agvs!r}")
     timer = FreeFlowTimer(layout, speed_m_s, dwell_s)
     mean = mean_task_seconds(timer, pick_stations(layout), drop_stations(layout))
+    if past_floor:
+        return mean / (load * agvs)
     floor = floor_vehicles(layout, speed_m_s=speed_m_s, dwell_s=dwell_s, hold_s=hold_s)
     carried = min(float(agvs), floor)
     return mean / (load * carried)

@@ -28,7 +28,6 @@ from agv_app.fleet import Fleet, FleetConfig
 from agv_app.fleet.parking import parking_capacity
 from agv_app.layout import Layout
 from agv_app.layout.shapes import crossing, halls, lane_between_areas, lay_by
-from tests.agv_app.fleet_demand import fleet_demand
 
 __all__ = [
     "DRAWS",
@@ -123,12 +122,11 @@ def run_hard(run: HardRun, **options: Any) -> Fleet:
     :class:`FleetConfig` where it has them (``one_at_a_time``, ``wait_for_drop``), the
     rest to :class:`Fleet`."""
     fleet_options = {k: options.pop(k) for k in ("one_at_a_time", "wait_for_drop") if k in options}
-    interval, start = fleet_demand(run.floor.layout, agvs=run.floor.agvs, load=run.load)
     cfg = FleetConfig(
         agvs=run.floor.agvs,
         seed=run.seed,
-        task_interval=interval,
-        start_tasks=start,
+        load=run.load,
+        load_of="fleet",  # past what the floor carries: AGVs queue
         task_until=300.0,
         fail_on_violation=True,
         **fleet_options,

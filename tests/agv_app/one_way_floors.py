@@ -26,7 +26,6 @@ from agv_app.fleet.liveness import REST_BEAT_S
 from agv_app.layout import Layout
 from agv_app.layout.builder import LayoutBuilder
 from agv_app.vehicle.controller import DEFAULT_ADVANCE_M
-from tests.agv_app.fleet_demand import fleet_demand
 
 __all__ = [
     "FloorRun",
@@ -130,12 +129,11 @@ def run_floor(
     (a collision or a lock overlap raises). ``one_at_a_time``, ``wait_for_drop``,
     ``advance_m``, ``rest_beat``, ``republish``, ``probes``, ``station_nodes`` and
     ``max_open_tasks`` as in :class:`FleetConfig`; ``options`` go to :class:`Fleet`."""
-    interval, start = fleet_demand(run.floor.layout, agvs=run.floor.agvs, load=run.load)
     cfg = FleetConfig(
         agvs=run.floor.agvs,
         seed=run.seed,
-        task_interval=interval,
-        start_tasks=start,
+        load=run.load,
+        load_of="fleet",  # past what the floor carries: AGVs queue
         task_until=300.0,
         one_at_a_time=one_at_a_time,
         wait_for_drop=wait_for_drop,

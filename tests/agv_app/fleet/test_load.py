@@ -134,3 +134,9 @@ def test_on_a_crossing_of_two_way_lanes_the_load_is_a_share_of_what_the_crossing
     assert fleet.task_interval is not None
     assert fleet.task_interval > 4 * mean / (0.7 * 8)
     assert fleet.desk.book.open_count == 1
+    # Asked for the fleet's own share instead, the crossing gets six at once and more.
+    past = Fleet(layout, FleetConfig(agvs=8, seed=1, load=0.7, load_of="fleet"))
+    assert past.task_interval == pytest.approx(mean / (0.7 * 8))
+    assert past.desk.book.open_count == 6
+    with pytest.raises(ValueError, match="load_of must be one of"):
+        FleetConfig(load_of="floor")
