@@ -137,6 +137,12 @@ def register(subcommands: argparse._SubParsersAction[argparse.ArgumentParser]) -
         "'crowded' (default): auto for a fleet larger than its floor carries, else none",
     )
     p.add_argument(
+        "--wait-limit",
+        type=POSITIVE,
+        help="the longest wait accepted, seconds: only the largest fleet whose wait bound is "
+        "within it takes tasks, the rest stay parked as a reserve (default: every AGV)",
+    )
+    p.add_argument(
         "--heartbeat",
         type=POSITIVE,
         help="liveness interval (default: the 1 s update interval): a node silent this long "
@@ -214,6 +220,7 @@ def run_sim(args: argparse.Namespace) -> int:
             heartbeat=args.heartbeat,
             rest_beat=args.rest_beat,
             batteries=BatterySpec() if args.batteries else None,
+            wait_limit=args.wait_limit,
         )
         fleet = Fleet(layout, config)
         for kind, what in args.close:
@@ -221,6 +228,13 @@ def run_sim(args: argparse.Namespace) -> int:
     except (LayoutError, ValueError, OSError) as exc:
         print(f"objectplaces sim: {exc}", file=sys.stderr)
         return 2
+    if fleet.active < args.agvs:
+        print(
+            f"objectplaces sim: --wait-limit {args.wait_limit:g}: {fleet.active} of {args.agvs} "
+            f"AGVs take tasks, the rest stay parked as a reserve (wait bound "
+            f"{fleet.wait_bound.seconds:.1f} s)",
+            file=sys.stderr,
+        )
     seconds = args.minutes * 60
     started = time.perf_counter()
     if args.quiet:

@@ -25,7 +25,7 @@ delivery, time at the task desk included) within 3x the task's free-flow lead ti
 the central baseline's on every seed and at least half the free-flow bound.
 
     python -m bench.hard_layouts [--seeds 1,2,3,4,5] [--minutes 30] [--load 0.7]
-                                 [--fleets bounded|issue] [--jobs 2]
+                                 [--fleets bounded|issue] [--wait-limit S] [--jobs 2]
 """
 
 from __future__ import annotations
@@ -89,16 +89,23 @@ def bounded_fleet(hard: HardLayout, limit_s: float = WAIT_LIMIT_S) -> int:
 
 
 def run_one(
-    name: str, agvs: int, seed: int, traffic: str, minutes: float, load: float
+    name: str,
+    agvs: int,
+    seed: int,
+    traffic: str,
+    minutes: float,
+    load: float,
+    wait_limit: float | None = None,
 ) -> dict[str, float]:
     """Run one fleet on the hard layout ``name`` and return its figures."""
-    config = FleetConfig(agvs=agvs, seed=seed, load=load, traffic=traffic)
+    config = FleetConfig(agvs=agvs, seed=seed, load=load, traffic=traffic, wait_limit=wait_limit)
     fleet = Fleet(_layout(name), config)
     started = time.process_time()
     fleet.run(minutes * 60)
     figures = fleet.summary(time.process_time() - started)
     interval = fleet.task_interval
     figures["asked_per_hour"] = 0.0 if interval is None else 3600.0 / interval
+    figures["in_service"] = fleet.active
     return figures
 
 
@@ -177,7 +184,7 @@ def _row(name: str, agvs: int, seed: int, mode: str, r: dict[str, float]) -> lis
     share = r["tasks_per_hour"] / max(r["free_flow_tasks_per_hour"], 1e-9)
     return [
         name,
-        agvs,
+        agvs if r["in_service"] == agvs else f"{r['in_service']:g} of {agvs}",
         seed,
         mode,
         f"{r['tasks_completed']:g} of {r['tasks_created']:g}",
@@ -211,6 +218,13 @@ def main(argv: list[str] | None = None) -> None:
         "fleets of issue 41",
     )
     parser.add_argument(
+        "--wait-limit",
+        type=float,
+        default=None,
+        help="FleetConfig.wait_limit: only the largest fleet whose bound is within it takes "
+        "tasks (default: none)",
+    )
+    parser.add_argument(
         "--jobs", type=int, default=min(2, os.cpu_count() or 1), help="runs in parallel"
     )
     args = parser.parse_args(argv)
@@ -228,7 +242,16 @@ def main(argv: list[str] | None = None) -> None:
     runs: dict[str, dict[tuple[int, str], dict[str, float]]] = {h.name: {} for h in HARD_LAYOUTS}
     with ProcessPoolExecutor(max_workers=args.jobs) as pool:
         futures = {
-            pool.submit(run_one, h.name, fleets[h.name], seed, mode, args.minutes, args.load): (
+            pool.submit(
+                run_one,
+                h.name,
+                fleets[h.name],
+                seed,
+                mode,
+                args.minutes,
+                args.load,
+                args.wait_limit,
+            ): (
                 h.name,
                 seed,
                 mode,
@@ -252,7 +275,7 @@ def _publish(
 ) -> None:
     header = [
         "layout",
-        "AGVs",
+        "AGVs (in service)",
         "seed",
         "traffic",
         "tasks done",
@@ -276,6 +299,7 @@ def _publish(
     ]
     checked = [g for h in HARD_LAYOUTS for g in goals(h.name, runs[h.name], seeds)]
     goal_rows = [[g.layout, g.name, g.measured, "yes" if g.met else "**no**"] for g in checked]
+    limited = "" if args.wait_limit is None else f" --wait-limit {args.wait_limit:g}"
     which = (
         "the largest fleet whose wait bound is at most 120 s"
         if args.fleets == "bounded"
@@ -293,7 +317,8 @@ def _publish(
         "included, over the same task's in the free-flow replay, 95th percentile of the "
         'tasks delivered. Wait bound: docs/traffic.md, "Bounded waits". One run, e.g.: '
         f"`objectplaces sim --layout bench/layouts/crossing.json --agvs "
-        f"{fleets['crossing']} --load {args.load:g} --minutes {args.minutes:g} --seed 1`."
+        f"{fleets['crossing']} --load {args.load:g} --minutes {args.minutes:g} --seed 1"
+        f"{limited}`."
         "\n\n"
         + markdown_table(header, rows)
         + "\n\nGoals (issue 41), on the protocol's runs:\n\n"
@@ -301,14 +326,22 @@ def _publish(
     )
     command = (
         f".venv/bin/python -m bench.hard_layouts --seeds {args.seeds} --minutes {args.minutes:g} "
-        f"--load {args.load:g} --fleets {args.fleets}"
+        f"--load {args.load:g} --fleets {args.fleets}{limited}"
     )
     title = (
         "Hard layouts: waits within the bound"
         if args.fleets == "bounded"
         else "Hard layouts: the fleets of issue 41"
     )
-    publish(f"hard_layouts_{args.fleets}", title, body, command)
+    if args.wait_limit is not None:
+        title += f", waits limited to {args.wait_limit:g} s"
+        body = (
+            f"With `--wait-limit {args.wait_limit:g}` (`FleetConfig.wait_limit`): only the "
+            "largest fleet whose wait bound is within it takes tasks, the others stay "
+            "parked as a reserve; the bound counts the AGVs in service.\n\n" + body
+        )
+    key = f"hard_layouts_{args.fleets}" + ("" if args.wait_limit is None else "_limited")
+    publish(key, title, body, command)
 
 
 if __name__ == "__main__":

@@ -24,7 +24,13 @@ from agv_app.fleet.chargers import Chargers
 from agv_app.fleet.metrics import FleetMetrics
 from agv_app.fleet.parking import ParkingPlan
 from agv_app.fleet.sim_agvs import AgvNodes, DriverFactory
-from agv_app.fleet.sim_build import fleet_desk, fleet_task_stream, open_bases, place_agvs
+from agv_app.fleet.sim_build import (
+    fleet_agv_config,
+    fleet_desk,
+    fleet_tasks,
+    open_bases,
+    place_agvs,
+)
 from agv_app.fleet.sim_config import TRAFFIC_MODES, FleetConfig
 from agv_app.fleet.sim_network import (
     fleet_network,
@@ -58,7 +64,7 @@ from agv_app.traffic.central import CentralScheduler
 from agv_app.traffic.monitor import SafetyMonitor, SafetyViolation
 from agv_app.traffic.stale_relay import StaleRelay
 from agv_app.traffic.wait_bound import WaitBound
-from agv_app.vehicle.controller import AgvConfig, AgvController
+from agv_app.vehicle.controller import AgvController
 from agv_app.vehicle.kinematics import VehicleSpec
 from agv_app.vehicle.service import send_home
 from objectplaces import RoleActivator
@@ -81,15 +87,12 @@ class Fleet(FleetSourceBase):
         homes: each AGV's parking point (default: spread over the parking stations).
         starts: where each AGV stands at first (default: its home).
         headings: each AGV's first heading (default: along the way into its spot).
-        vehicle: builds each AGV component, with the arguments of
-            :class:`~agv_app.vehicle.controller.AgvController` (e.g. one that also
-            follows VDA 5050 orders).
-        drivers: builds each AGV's driver (None: the simulated kinematics). A driver
-            failure takes the AGV's node off the network, as a goodbye (its peers keep
-            its last circle); the safety monitor checks the hull a driver says the
-            vehicle truly has (``true_hull()``), where it has one.
-        store: the durable order book the task desk writes through to and resumes from
-            (:class:`~agv_app.tasks.store.OrderStore`; None: none).
+        vehicle: builds each AGV component, with ``AgvController``'s arguments (e.g.
+            one that also follows VDA 5050 orders).
+        drivers: builds each AGV's driver (None: the simulated kinematics). A failed
+            driver takes the AGV's node off the network, as a goodbye; the safety
+            monitor checks the hull a driver says the vehicle has (``true_hull()``).
+        store: the durable order book the desk writes through to and resumes from.
     """
 
     def __init__(
@@ -132,12 +135,15 @@ class Fleet(FleetSourceBase):
             for a, pose in zip(placed.ids, placed.poses, strict=True)
         ]
         self.plan_spec = fleet_plan_spec(self.spec, built)
-        """The widest of the AGVs' planning specs (their drivers' declarations): what the
-        interest radius allows for."""
-        self.free_flow = FreeFlowBound(
-            FreeFlowTimer(self.layout, self.spec.max_speed_m_s, cfg.dwell), self.parking.homes
-        )
-        self.task_interval, start_tasks = fleet_task_stream(cfg, self.layout, self.spec)
+        """The widest of the AGVs' planning specs: what the interest radius allows for."""
+        self.agv_config = fleet_agv_config(cfg)
+        everyone = fleet_wait_bound(cfg, self.layout, self.spec, self.agv_config, liveness)
+        tasks = fleet_tasks(cfg, self.layout, self.spec, everyone)
+        self.active = tasks.active
+        """How many AGVs take tasks, the first by id (``FleetConfig.wait_limit``)."""
+        timer = FreeFlowTimer(self.layout, self.spec.max_speed_m_s, cfg.dwell)
+        self.free_flow = FreeFlowBound(timer, self.parking.homes[: tasks.active])
+        self.task_interval = tasks.interval
         """Mean seconds between new tasks (None: the layout has no stations to make any)."""
         desk = fleet_desk(
             cfg,
@@ -149,12 +155,6 @@ class Fleet(FleetSourceBase):
             store=store,
         )
         super().__init__(self.layout, desk)
-        self.agv_config = AgvConfig(
-            t_update=cfg.t_update,
-            dwell=cfg.dwell,
-            broadcast=cfg.broadcast,
-            advance_m=cfg.advance_m,
-        )
         timing = network_timing(cfg, liveness)
         self.interest_radius = scoped_interest_radius(
             cfg, self.layout, self.plan_spec, self.agv_config, timing, self.net.cell_size
@@ -201,20 +201,20 @@ class Fleet(FleetSourceBase):
         self.observer.set_at_rest(True)  # it listens; it speaks only of failed AGVs
         self.stale_relay = None if self.interest_radius is None else StaleRelay(self.observer)
         """Relays failed AGVs to every AGV when the AGVs are scoped (traffic/stale_relay.py)."""
-        for _ in range(start_tasks):
+        if self.active < cfg.agvs:  # the reserve: parked, out of service, never moving
+            self.set_service(placed.ids[self.active :], in_service=False)
+        for _ in range(tasks.start):
             self.desk.create_random()
-        self.arrivals = (
-            None if self.task_interval is None else TaskArrivals(self.task_interval, self.rng)
-        )
+        interval = self.task_interval
+        self.arrivals = None if interval is None else TaskArrivals(interval, self.rng)
         self._next_task_at = self._draw_interval()
 
     @functools.cached_property
     def wait_bound(self) -> WaitBound:
-        """The longest any AGV of this fleet waits, from the layout and the fleet
-        (docs/traffic.md, "Bounded waits"); its ``seconds`` is the figure
-        ``wait_bound``."""
+        """The longest any AGV waits, from the layout and the AGVs in service
+        (docs/traffic.md, "Bounded waits"); its ``seconds`` is the figure ``wait_bound``."""
         return fleet_wait_bound(
-            self.config, self.layout, self.spec, self.agv_config, self._node_liveness
+            self.config, self.layout, self.spec, self.agv_config, self._node_liveness, self.active
         )
 
     def _relocate(self, agv: AgvController) -> str | None:

@@ -19,13 +19,15 @@ from agv_app.tasks.auction import TaskSpec
 from agv_app.tasks.desk import BASE_ID, TaskDesk, pick_stations
 from agv_app.tasks.journal import TaskJournal
 from agv_app.tasks.load import floor_vehicles, standstill_pass, task_interval_for_load
+from agv_app.traffic.wait_bound import WaitBound
 from agv_app.vehicle.comeback import hand_back
-from agv_app.vehicle.controller import AgvController
+from agv_app.vehicle.controller import AgvConfig, AgvController
 from agv_app.vehicle.kinematics import VehicleSpec
 from objectplaces.sim import SimulatedNetwork
 
 __all__ = [
     "Placement",
+    "active_fleet",
     "fleet_desk",
     "fleet_task_stream",
     "open_bases",
@@ -78,28 +80,83 @@ def place_agvs(
     return Placement(ids, firsts, poses)
 
 
+def active_fleet(cfg: FleetConfig, bound: WaitBound, spec: VehicleSpec) -> int:
+    """How many AGVs take tasks: every one, or with ``cfg.wait_limit`` the largest
+    fleet whose wait bound is within it (``bound`` is the whole fleet's).
+
+    Raises:
+        ValueError: the limit is below one AGV's own latency, or the vehicles have
+            batteries (a reserve AGV would drive to charge).
+    """
+    limit = cfg.wait_limit
+    if limit is None:
+        return cfg.agvs
+    if spec.battery is not None:
+        raise ValueError("a wait limit does not go together with batteries yet")
+    active = bound.fleet_within(limit)
+    if active < 1:
+        raise ValueError(
+            f"wait_limit {limit:g} s is below one AGV's own latency, "
+            f"{bound.latency_s:.1f} s: no fleet waits that little"
+        )
+    return min(cfg.agvs, active)
+
+
+@dataclass(frozen=True, slots=True)
+class FleetTasks:
+    """Who takes tasks and how they come.
+
+    Attributes:
+        active: how many AGVs take tasks, the first by id (:func:`active_fleet`).
+        interval: mean seconds between new tasks (None: the layout makes none).
+        start: tasks created at the start.
+    """
+
+    active: int
+    interval: float | None
+    start: int
+
+
+def fleet_tasks(
+    cfg: FleetConfig, layout: Layout, spec: VehicleSpec, bound: WaitBound
+) -> FleetTasks:
+    """The AGVs that take tasks (``bound``: the whole fleet's wait bound) and the task
+    stream they get (:func:`fleet_task_stream`)."""
+    active = active_fleet(cfg, bound, spec)
+    interval, start = fleet_task_stream(cfg, layout, spec, active)
+    return FleetTasks(active, interval, start)
+
+
+def fleet_agv_config(cfg: FleetConfig) -> AgvConfig:
+    """The AGV components' tunables a fleet configuration sets."""
+    return AgvConfig(
+        t_update=cfg.t_update, dwell=cfg.dwell, broadcast=cfg.broadcast, advance_m=cfg.advance_m
+    )
+
+
 def fleet_task_stream(
-    cfg: FleetConfig, layout: Layout, spec: VehicleSpec
+    cfg: FleetConfig, layout: Layout, spec: VehicleSpec, agvs: int | None = None
 ) -> tuple[float | None, int]:
     """``(interval, start)``: mean seconds between new tasks (``cfg.task_interval``,
     else from the load and the layout; None: the layout has no stations to make any)
     and the tasks created at the start (``cfg.start_task_count``, at most as many as
     the layout keeps busy at the load, :func:`floor_vehicles`), a pass over a two-way
     stretch holding it as :func:`standstill_pass` says; with ``load_of="fleet"`` the
-    fleet's rate and count alone."""
+    fleet's rate and count alone. ``agvs``: those taking tasks (None: all)."""
+    agvs = cfg.agvs if agvs is None else agvs
     if not pick_stations(layout):
-        return cfg.task_interval, cfg.start_task_count()
+        return cfg.task_interval, cfg.start_task_count(agvs)
     hold = standstill_pass(spec, t_update=cfg.t_update, step_s=cfg.dt)
     speed = spec.max_speed_m_s
     floor = floor_vehicles(layout, speed_m_s=speed, dwell_s=cfg.dwell, hold_s=hold)
     if cfg.load_of == "fleet":
         floor = math.inf
-    start = cfg.start_task_count(floor)
+    start = cfg.start_task_count(min(floor, agvs))
     if cfg.task_interval is not None:
         return cfg.task_interval, start
     interval = task_interval_for_load(
         layout,
-        agvs=cfg.agvs,
+        agvs=agvs,
         load=cfg.load,
         speed_m_s=speed,
         dwell_s=cfg.dwell,

@@ -104,6 +104,11 @@ class FleetConfig:
         batteries: every AGV's battery (None: none, unless the vehicle spec declares
             one): they drain, charge at the layout's chargers and may run empty
             (:mod:`agv_app.fleet.chargers`).
+        wait_limit: the longest wait accepted, seconds: only the largest fleet whose
+            wait bound is within it takes tasks (``WaitBound.fleet_within``), the first
+            AGVs by id; the others stay parked at home, out of service, as a reserve
+            that never moves, and the bound counts the AGVs in service (docs/traffic.md,
+            "Bounded waits"). None: every AGV takes tasks.
     """
 
     agvs: int = 20
@@ -141,6 +146,7 @@ class FleetConfig:
     advance_m: float = DEFAULT_ADVANCE_M
     fail_on_violation: bool = False
     batteries: BatterySpec | None = None
+    wait_limit: float | None = None
 
     def __post_init__(self) -> None:
         check_load(self.load)
@@ -152,7 +158,19 @@ class FleetConfig:
             self.task_interval > 0 and math.isfinite(self.task_interval)
         ):
             raise ValueError(f"task_interval must be a positive number, got {self.task_interval!r}")
-        for name in ("interest_radius", "heartbeat", "republish", "rest_beat", "advance_m"):
+        if self.wait_limit is not None and self.batteries is not None:
+            raise ValueError(
+                "wait_limit and batteries do not go together yet: a reserve AGV would "
+                "drive to a charger, and the wait bound counts only the AGVs in service"
+            )
+        for name in (
+            "interest_radius",
+            "heartbeat",
+            "republish",
+            "rest_beat",
+            "advance_m",
+            "wait_limit",
+        ):
             value = getattr(self, name)
             if value is not None and not (value > 0 and math.isfinite(value)):
                 raise ValueError(f"{name} must be a positive number, got {value!r}")

@@ -74,14 +74,15 @@ def fleet_wait_bound(
     spec: VehicleSpec,
     agv_config: AgvConfig,
     liveness: NodeConfig,
+    agvs: int | None = None,
 ) -> WaitBound:
     """The longest any AGV of the fleet waits, from the layout and the fleet
-    (docs/traffic.md, "Bounded waits")."""
+    (docs/traffic.md, "Bounded waits"), ``agvs`` of them moving (None: all)."""
     return wait_bound(
         layout,
         spec,
         agv_config,
-        agvs=cfg.agvs,
+        agvs=cfg.agvs if agvs is None else agvs,
         delay_s=network_timing(cfg, liveness)["delay_s"],
         step_s=cfg.dt,
     )

@@ -119,9 +119,11 @@ DRAWS: dict[str, Callable[[random.Random], HardRun]] = {
 def run_hard(run: HardRun, **options: Any) -> Fleet:
     """Tasks for 300 s, then 200 s more to finish them, at the drawn load; every step
     checked for safety (a collision or a lock overlap raises). ``options`` go to
-    :class:`FleetConfig` where it has them (``one_at_a_time``, ``wait_for_drop``), the
-    rest to :class:`Fleet`."""
-    fleet_options = {k: options.pop(k) for k in ("one_at_a_time", "wait_for_drop") if k in options}
+    :class:`FleetConfig` where it has them (``one_at_a_time``, ``wait_for_drop``,
+    ``wait_limit``), the rest to :class:`Fleet`."""
+    fleet_options = {
+        k: options.pop(k) for k in ("one_at_a_time", "wait_for_drop", "wait_limit") if k in options
+    }
     cfg = FleetConfig(
         agvs=run.floor.agvs,
         seed=run.seed,

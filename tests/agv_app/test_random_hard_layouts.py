@@ -15,6 +15,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from agv_app.fleet import Fleet, FleetConfig
 from tests.agv_app.hard_floors import DRAWS, HardRun, draw_areas_run, run_hard
 from tests.agv_app.test_random_layouts import FLEET_EXAMPLES
 
@@ -62,5 +63,32 @@ def test_random_hard_layouts_keep_every_wait_within_the_bound(kind: str) -> None
     @given(run=st.randoms(use_true_random=False).map(DRAWS[kind]))
     def check(run: HardRun) -> None:
         _check(run)
+
+    check()
+
+
+# Three runs per shape with a wait limit that puts two AGVs in service: the others
+# never move, and no wait passes the bound of the two.
+@pytest.mark.slow
+@pytest.mark.timeout(900)
+@pytest.mark.parametrize("kind", sorted(DRAWS))
+def test_random_hard_layouts_with_a_wait_limit_keep_the_reserve_parked(kind: str) -> None:
+    @settings(FLEET_EXAMPLES, max_examples=3)
+    @given(run=st.randoms(use_true_random=False).map(DRAWS[kind]))
+    def check(run: HardRun) -> None:
+        whole = Fleet(run.floor.layout, FleetConfig(agvs=run.floor.agvs, seed=run.seed))
+        limit = whole.wait_bound.for_agvs(2).seconds
+        fleet = run_hard(run, wait_limit=limit)
+        assert fleet.active == min(2, run.floor.agvs)
+        reserve = set(sorted(fleet.agvs)[fleet.active :])
+        figures = fleet.summary()
+        assert figures["collisions"] == figures["lock_overlaps"] == 0
+        assert figures["max_wait"] <= figures["wait_bound"], f"{run}"
+        assert fleet.wait_bound.seconds <= limit + 1e-9
+        moved = {r.vehicle for r in fleet.desk.book.records()} & reserve
+        assert not moved, f"{run}: reserve AGVs took tasks: {moved}"
+        homes = dict(zip(sorted(fleet.agvs), fleet.parking.homes, strict=True))
+        away = {a for a in reserve if fleet.agvs[a].point != homes[a]}
+        assert not away, f"{run}: reserve AGVs left home: {away}"
 
     check()
