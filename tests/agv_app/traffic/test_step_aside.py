@@ -41,6 +41,7 @@ def _gaps(vehicle: type[_Logged]) -> list[float]:
         agvs=50,
         seed=1,
         load=0.7,
+        load_of="fleet",  # as found: more tasks than the floor carries
         scoped=True,
         heartbeat=10.0,
         wait_for_drop=False,  # as found: the queues the rule now holds back formed the ring
