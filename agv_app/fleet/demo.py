@@ -9,6 +9,7 @@ from agv_app.fleet.mesh import MeshFleet
 from agv_app.fleet.sim import Fleet, FleetConfig
 from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
 from agv_app.tasks.admission import CROWDED
+from agv_app.tasks.capacity import FloorRules
 from agv_app.tasks.load import (
     DEFAULT_LOAD,
     check_load,
@@ -108,7 +109,11 @@ def demo_source(
                 load=load,
                 speed_m_s=spec.max_speed_m_s,
                 dwell_s=dwell,
-                hold_s=standstill_pass(spec, t_update=AgvConfig().t_update),
+                rules=FloorRules(
+                    standstill_pass(spec, t_update=AgvConfig().t_update),
+                    one_at_a_time=True,
+                    wait_for_drop=True,
+                ),
             ),
             start_tasks=initial_tasks(agvs=processes, load=load),
             dwell=dwell,

@@ -16,6 +16,7 @@ from agv_app.layout.graph import Layout
 from agv_app.protocol import MessageTally
 from agv_app.tasks.admission import limit_for
 from agv_app.tasks.auction import TaskSpec
+from agv_app.tasks.capacity import FloorRules
 from agv_app.tasks.desk import BASE_ID, TaskDesk, pick_stations
 from agv_app.tasks.journal import TaskJournal
 from agv_app.tasks.load import floor_vehicles, standstill_pass, task_interval_for_load
@@ -140,15 +141,20 @@ def fleet_task_stream(
     """``(interval, start)``: mean seconds between new tasks (``cfg.task_interval``,
     else from the load and the layout; None: the layout has no stations to make any)
     and the tasks created at the start (``cfg.start_task_count``, at most as many as
-    the layout keeps busy at the load, :func:`floor_vehicles`), a pass over a two-way
-    stretch holding it as :func:`standstill_pass` says; with ``load_of="fleet"`` the
+    the layout keeps busy at the load, :func:`floor_vehicles`), a drive taking as long as
+    :func:`standstill_pass` says and the stations calling as ``cfg`` has them; with
+    ``load_of="fleet"`` the
     fleet's rate and count alone. ``agvs``: those taking tasks (None: all)."""
     agvs = cfg.agvs if agvs is None else agvs
     if not pick_stations(layout):
         return cfg.task_interval, cfg.start_task_count(agvs)
-    hold = standstill_pass(spec, t_update=cfg.t_update, step_s=cfg.dt)
+    rules = FloorRules(
+        standstill_pass(spec, t_update=cfg.t_update, step_s=cfg.dt),
+        one_at_a_time=cfg.one_at_a_time,
+        wait_for_drop=cfg.wait_for_drop,
+    )
     speed = spec.max_speed_m_s
-    floor = floor_vehicles(layout, speed_m_s=speed, dwell_s=cfg.dwell, hold_s=hold)
+    floor = floor_vehicles(layout, speed_m_s=speed, dwell_s=cfg.dwell, rules=rules)
     if cfg.load_of == "fleet":
         floor = math.inf
     start = cfg.start_task_count(min(floor, agvs))
@@ -160,7 +166,7 @@ def fleet_task_stream(
         load=cfg.load,
         speed_m_s=speed,
         dwell_s=cfg.dwell,
-        hold_s=None if cfg.load_of == "fleet" else hold,
+        rules=rules,
         past_floor=cfg.load_of == "fleet",
     )
     return interval, start

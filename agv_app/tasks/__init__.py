@@ -26,6 +26,13 @@ from agv_app.tasks.book import (
     TaskRecord,
     TaskState,
 )
+from agv_app.tasks.capacity import (
+    FREE_FLOW_RULES,
+    FloorCapacity,
+    FloorRules,
+    floor_capacity,
+    shared_part_seconds,
+)
 from agv_app.tasks.custody import (
     DEFAULT_HAND_BACK_AFTER,
     CustodyMachine,
@@ -40,11 +47,6 @@ from agv_app.tasks.desk import (
     drop_stations,
     pick_stations,
     require_task_stations,
-)
-from agv_app.tasks.floor_capacity import (
-    FloorCapacity,
-    floor_capacity,
-    shared_part_seconds,
 )
 from agv_app.tasks.free_flow import (
     FreeFlowBound,
@@ -76,6 +78,7 @@ __all__ = [
     "DEFAULT_HISTORY",
     "DEFAULT_LOAD",
     "FINAL_STATES",
+    "FREE_FLOW_RULES",
     "HELD_STATES",
     "LANE_M_PER_OPEN_TASK",
     "TASK_STATES",
@@ -84,6 +87,7 @@ __all__ = [
     "CustodyMachine",
     "Delivered",
     "FloorCapacity",
+    "FloorRules",
     "FreeFlowBound",
     "FreeFlowTimer",
     "HandBackReason",

@@ -4,7 +4,7 @@ floor carry is used.
 A fleet of ``N`` vehicles carries at most ``N / T`` tasks per second, ``T`` a task's
 mean free-flow time (:func:`~agv_app.tasks.free_flow.mean_task_seconds`); its floor at
 most ``C``, what its busiest shared stretch or station lets through
-(:func:`~agv_app.tasks.floor_capacity.floor_capacity`). Load ``L`` makes tasks arrive
+(:func:`~agv_app.tasks.capacity.floor_capacity`). Load ``L`` makes tasks arrive
 at ``L * min(N / T, C)`` per second. On a floor with room (most one-way floors) that is
 ``L * N / T``, and ``L * N`` vehicles are busy on average; on a floor bound by one
 shared stretch (two two-way lanes crossing, a lane between two areas) more vehicles
@@ -22,8 +22,8 @@ import random
 from collections.abc import Callable
 
 from agv_app.layout.graph import Layout
+from agv_app.tasks.capacity import FREE_FLOW_RULES, FloorRules, floor_capacity
 from agv_app.tasks.desk import drop_stations, pick_stations
-from agv_app.tasks.floor_capacity import floor_capacity
 from agv_app.tasks.free_flow import FreeFlowTimer, mean_task_seconds
 from agv_app.vehicle.kinematics import VehicleSpec
 
@@ -61,10 +61,10 @@ def check_load(load: float) -> float:
 def standstill_pass(
     spec: VehicleSpec, *, t_update: float, step_s: float = 0.0
 ) -> Callable[[float], float]:
-    """Seconds one pass holds a two-way stretch of so many metres, as a fleet drives
-    it: from a standstill at ``spec``'s top speed and acceleration, then the handover
-    of the floor to the next AGV (a release period ``t_update``, a voter's recheck
-    ``t_update / 2``, a simulation step ``step_s``), as in the wait bound
+    """Seconds one pass holds a drive of so many metres, as a fleet drives it: from a
+    standstill at ``spec``'s top speed and acceleration, then the handover of the floor
+    to the next AGV (a release period ``t_update``, a voter's recheck ``t_update / 2``,
+    a simulation step ``step_s``), as in the wait bound
     (:mod:`agv_app.traffic.wait_bound`)."""
     handover = 1.5 * t_update + step_s
 
@@ -75,16 +75,12 @@ def standstill_pass(
 
 
 def floor_vehicles(
-    layout: Layout,
-    *,
-    speed_m_s: float,
-    dwell_s: float,
-    hold_s: Callable[[float], float] | None = None,
+    layout: Layout, *, speed_m_s: float, dwell_s: float, rules: FloorRules = FREE_FLOW_RULES
 ) -> float:
     """How many vehicles ``layout`` keeps busy at most, whatever the fleet: what its
     busiest shared part carries times a task's mean free-flow time (``inf``: no shared
-    part; ``hold_s``: seconds one pass holds a two-way stretch of that many metres,
-    :func:`~agv_app.tasks.floor_capacity.floor_capacity`).
+    part; ``rules``: how the fleet uses the floor,
+    :func:`~agv_app.tasks.capacity.floor_capacity`).
 
     Raises:
         ValueError: a layout without pick and drop stations that reach each other.
@@ -92,7 +88,7 @@ def floor_vehicles(
     timer = FreeFlowTimer(layout, speed_m_s, dwell_s)
     picks, drops = pick_stations(layout), drop_stations(layout)
     mean = mean_task_seconds(timer, picks, drops)
-    return mean * floor_capacity(timer, picks, drops, hold_s).tasks_per_second
+    return mean * floor_capacity(timer, picks, drops, rules).tasks_per_second
 
 
 def task_interval_for_load(
@@ -102,11 +98,11 @@ def task_interval_for_load(
     load: float,
     speed_m_s: float,
     dwell_s: float,
-    hold_s: Callable[[float], float] | None = None,
+    rules: FloorRules = FREE_FLOW_RULES,
     past_floor: bool = False,
 ) -> float:
     """Mean seconds between new tasks at ``load`` of what ``agvs`` vehicles and
-    ``layout`` carry, the less of the two (module docstring; ``hold_s`` as for
+    ``layout`` carry, the less of the two (module docstring; ``rules`` as for
     :func:`floor_vehicles`); ``past_floor``: of what the vehicles carry alone, past
     what the floor carries where that is less (a run that means to make them queue).
 
@@ -121,9 +117,8 @@ def task_interval_for_load(
     mean = mean_task_seconds(timer, pick_stations(layout), drop_stations(layout))
     if past_floor:
         return mean / (load * agvs)
-    floor = floor_vehicles(layout, speed_m_s=speed_m_s, dwell_s=dwell_s, hold_s=hold_s)
-    carried = min(float(agvs), floor)
-    return mean / (load * carried)
+    floor = floor_vehicles(layout, speed_m_s=speed_m_s, dwell_s=dwell_s, rules=rules)
+    return mean / (load * min(float(agvs), floor))
 
 
 def initial_tasks(*, agvs: int, load: float, floor: float = math.inf) -> int:

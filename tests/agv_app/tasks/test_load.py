@@ -10,6 +10,7 @@ from agv_app.layout import Layout, Point, Segment, Station
 from agv_app.layout.demo import demo_warehouse
 from agv_app.layout.generated import generated_warehouse
 from agv_app.tasks import (
+    FloorRules,
     FreeFlowBound,
     FreeFlowTimer,
     TaskSpec,
@@ -20,6 +21,7 @@ from agv_app.tasks import (
     initial_tasks,
     mean_task_seconds,
     pick_stations,
+    shared_part_seconds,
     task_interval_for_load,
 )
 from agv_app.tasks.load import standstill_pass
@@ -156,5 +158,16 @@ def test_a_fleets_pass_holds_a_stretch_from_a_standstill_and_for_the_handover() 
     # 30 m: 2 s up to speed and 2 s down cover 3 m, 27 m more at 1.5 m/s; then 1.6 s.
     assert hold(30.0) == pytest.approx(4.0 + 18.0 + 1.6)
     assert hold(30.0) > 30.0 / 1.5
-    slower = floor_capacity(TIMER, ["in"], ["out"], hold).busy_s
+    slower = floor_capacity(TIMER, ["in"], ["out"], FloorRules(hold)).busy_s
     assert slower > floor_capacity(TIMER, ["in"], ["out"]).busy_s
+
+
+def test_a_station_that_calls_one_agv_at_a_time_is_busy_while_its_winner_comes() -> None:
+    # One pick at p0, one drop at p30 on a 30 m lane: the pick waits out each
+    # approach (20 s), the drop each carry (20 s) when loads bound for it count too.
+    parts = shared_part_seconds(TIMER, ["in"], ["out"], FloorRules(one_at_a_time=True))
+    assert parts["station:in"] == pytest.approx(20.0)
+    assert "station:out" not in parts
+    both = FloorRules(one_at_a_time=True, wait_for_drop=True)
+    assert shared_part_seconds(TIMER, ["in"], ["out"], both)["station:out"] == pytest.approx(20.0)
+    assert "station:in" not in shared_part_seconds(TIMER, ["in"], ["out"])

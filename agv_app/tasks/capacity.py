@@ -1,20 +1,23 @@
-"""What a floor carries: the most tasks per second its shared stretches let through.
+"""What a floor carries: the most tasks per second its shared parts let through.
 
 A fleet's own capacity is its vehicles over the mean task time (``N / T``,
 :mod:`agv_app.tasks.load`); a floor has one too, whatever the fleet. Where two-way
 segments join into a stretch with no other way round (a lane between two areas, the
 arms of a crossing, a door between halls), an AGV driving through holds the whole
-stretch, and one coming the other way waits for it; and a station serves one AGV at a
-time. Each such **shared part** carries one AGV at a time, so it lets through at most
-one task per the seconds an average task keeps it busy:
+stretch, and one coming the other way waits for it; a station serves one AGV at a
+time; and a station that calls one AGV at a time hands out no task while its last
+winner is on the way or a load is bound for it. Each such **shared part** carries one
+AGV at a time, so it lets through at most one task per the seconds an average task
+keeps it busy, weighted over the tasks as
+:func:`~agv_app.tasks.free_flow.mean_task_seconds` weights them:
 
-* a segment of a two-way stretch, and every point on the stretch (where two stretches
-  cross, both), for one pass over the whole stretch (``hold_s``: at top speed unless
-  the caller knows better, e.g. from a standstill and with the handover of the floor
-  to the next AGV, as the fleet does), on the approach to the pick and on the carry to
-  the drop, weighted as :func:`~agv_app.tasks.free_flow.mean_task_seconds` weights
-  them;
-* a station's point, besides, for a dwell at the pick and a dwell at the drop.
+* ``segment:<id>``, ``point:<id>``: a segment of a two-way stretch and every point on
+  it (where two stretches cross, both), for one pass over the whole stretch on the
+  approach to the pick and on the carry to the drop;
+* ``point:<id>`` of a station, besides, for a dwell at the pick and one at the drop;
+* ``station:<id>``, with :attr:`FloorRules.one_at_a_time`, for the approach of the
+  AGV it called, and with :attr:`FloorRules.wait_for_drop` too, for the carry of a
+  load bound for it.
 
 The busiest part is the floor's bottleneck: :func:`floor_capacity` is one task per its
 seconds. Counting each part one AGV at a time is cautious: AGVs that follow each other
@@ -32,31 +35,60 @@ from dataclasses import dataclass
 from agv_app.layout.elements import NoRouteError
 from agv_app.tasks.free_flow import FreeFlowTimer
 
-__all__ = ["FloorCapacity", "floor_capacity", "shared_part_seconds"]
+__all__ = [
+    "FREE_FLOW_RULES",
+    "FloorCapacity",
+    "FloorRules",
+    "floor_capacity",
+    "shared_part_seconds",
+]
+
+
+@dataclass(frozen=True, slots=True)
+class FloorRules:
+    """How a fleet uses its floor, as far as what the floor carries goes.
+
+    Attributes:
+        hold_s: seconds one pass holds a drive of so many metres (None: driving it at
+            top speed; a fleet: from a standstill, with the handover,
+            :func:`~agv_app.tasks.load.standstill_pass`).
+        one_at_a_time: stations call one AGV at a time: a station is busy while the
+            AGV it called drives to it (:class:`~agv_app.tasks.station.Station`).
+        wait_for_drop: with ``one_at_a_time``, a station is busy while a load bound
+            for it is carried there too.
+    """
+
+    hold_s: Callable[[float], float] | None = None
+    one_at_a_time: bool = False
+    wait_for_drop: bool = False
+
+
+FREE_FLOW_RULES = FloorRules()
+"""Every drive at top speed, no station rule: the floor with nothing but its shape."""
 
 
 def shared_part_seconds(
     timer: FreeFlowTimer,
     picks: Sequence[str],
     drops: Sequence[str],
-    hold_s: Callable[[float], float] | None = None,
+    rules: FloorRules = FREE_FLOW_RULES,
 ) -> dict[str, float]:
-    """Seconds an average task keeps each shared part of the floor busy, by part:
-    ``"segment:<id>"`` for a segment of a two-way stretch, ``"point:<id>"`` for a point
-    on one or a station's point (module docstring). ``hold_s``: seconds one pass holds
-    a stretch of that many metres (None: driving it at top speed). A floor of one-way
-    lanes with no dwell has none."""
+    """Seconds an average task keeps each shared part of the floor busy, by part
+    (module docstring). A floor of one-way lanes with no dwell and no station rule has
+    none."""
     layout = timer.layout
-    hold = hold_s or (lambda metres: metres / timer.speed_m_s)
+    hold = rules.hold_s or (lambda metres: metres / timer.speed_m_s)
     busy: defaultdict[str, float] = defaultdict(float)
 
-    def drive(start: str, end: str, weight: float) -> None:
+    def drive(start: str, end: str, weight: float, calls: str | None) -> None:
         if start == end:
             return
         try:
             route = layout.route(start, end)
         except NoRouteError:
             return
+        if calls is not None:
+            busy[f"station:{calls}"] += weight * hold(route.length)
         two_way = [layout.segment(s).bidirectional for s in route.segments]
         i = 0
         while i < len(two_way):
@@ -75,11 +107,13 @@ def shared_part_seconds(
 
     point = {s: layout.station(s).point for s in {*picks, *drops}}
     pairs = [(p, d) for p in picks for d in drops if d != p]
+    carried_to = rules.one_at_a_time and rules.wait_for_drop
     for p, d in pairs:
-        drive(point[p], point[d], 1.0 / len(pairs))
+        drive(point[p], point[d], 1.0 / len(pairs), d if carried_to else None)
     for q in drops:
         for p in picks:
-            drive(point[q], point[p], 1.0 / (len(drops) * len(picks)))
+            weight = 1.0 / (len(drops) * len(picks))
+            drive(point[q], point[p], weight, p if rules.one_at_a_time else None)
     if timer.dwell_s > 0:
         for p in picks:
             busy[f"point:{point[p]}"] += timer.dwell_s / len(picks)
@@ -116,12 +150,11 @@ def floor_capacity(
     timer: FreeFlowTimer,
     picks: Sequence[str],
     drops: Sequence[str],
-    hold_s: Callable[[float], float] | None = None,
+    rules: FloorRules = FREE_FLOW_RULES,
 ) -> FloorCapacity:
     """The most tasks the floor carries: one per the seconds an average task keeps its
-    busiest shared part busy (module docstring; ``hold_s`` as for
-    :func:`shared_part_seconds`)."""
-    busy = shared_part_seconds(timer, picks, drops, hold_s)
+    busiest shared part busy (module docstring)."""
+    busy = shared_part_seconds(timer, picks, drops, rules)
     if not busy:
         return FloorCapacity(None, 0.0)
     part = max(sorted(busy), key=busy.__getitem__)
