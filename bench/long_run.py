@@ -58,7 +58,8 @@ def measure(
     agvs: int, load: float, hours: float, every_min: float, seed: int, progress: Progress
 ) -> list[Interval]:
     """Run the fleet and return one :class:`Interval` per ``every_min`` minutes."""
-    fleet = Fleet(None, FleetConfig(agvs=agvs, seed=seed, load=load))
+    # A drift test keeps the floor as busy as the fleet asks, past what it carries.
+    fleet = Fleet(None, FleetConfig(agvs=agvs, seed=seed, load=load, load_of="fleet"))
     total = hours * 3600
     bar = progress.add_task(f"{agvs} AGVs, {hours:g} h", total=total)
     out: list[Interval] = []
@@ -147,7 +148,8 @@ def main() -> None:
         ],
     )
     body = (
-        f"{args.agvs} AGVs on the demo warehouse, load {args.load}, seed {args.seed}, "
+        f"{args.agvs} AGVs on the demo warehouse, load {args.load} of the fleet's own rate "
+        f"(past what the floor carries: `load_of='fleet'`), seed {args.seed}, "
         f"{args.hours:g} simulated hours in {cpu:.0f} s of CPU; a row every {args.every:g} "
         "simulated minutes (tasks: done in that interval; safety and waits: the run so far; "
         "RSS: this process's resident memory; objects: what the collector tracks after a "
