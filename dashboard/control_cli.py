@@ -104,9 +104,8 @@ def run_control(args: argparse.Namespace) -> int:
     from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M
     from agv_app.layout.elements import LayoutError
     from agv_app.tasks import OrderStore, StoreError
-    from agv_app.tasks.capacity import FloorRules
     from agv_app.tasks.desk import BASE_ID
-    from agv_app.tasks.load import standstill_pass, task_interval_for_load
+    from agv_app.tasks.load import fleet_floor_rules, task_interval_for_load
     from agv_app.vehicle.config import AgvConfig
     from agv_app.vehicle.kinematics import VehicleSpec
     from dashboard.eventlog import EventLog
@@ -138,11 +137,7 @@ def run_control(args: argparse.Namespace) -> int:
             load=args.load,
             speed_m_s=spec.max_speed_m_s,
             dwell_s=5.0,
-            rules=FloorRules(
-                standstill_pass(spec, t_update=AgvConfig().t_update),
-                one_at_a_time=True,
-                wait_for_drop=True,
-            ),
+            rules=fleet_floor_rules(spec, t_update=AgvConfig().t_update),
         )
     try:
         store = OrderStore.open(args.db)

@@ -9,12 +9,12 @@ from agv_app.fleet.mesh import MeshFleet
 from agv_app.fleet.sim import Fleet, FleetConfig
 from agv_app.layout.demo import DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M, demo_warehouse
 from agv_app.tasks.admission import CROWDED
-from agv_app.tasks.capacity import FloorRules
 from agv_app.tasks.load import (
     DEFAULT_LOAD,
     check_load,
+    fleet_floor_rules,
+    floor_vehicles,
     initial_tasks,
-    standstill_pass,
     task_interval_for_load,
 )
 from agv_app.vehicle.config import AgvConfig
@@ -99,23 +99,17 @@ def demo_source(
         layout = demo_warehouse()
         spec = VehicleSpec(DEMO_VEHICLE_LENGTH_M, DEMO_VEHICLE_WIDTH_M)
         dwell = 5.0
+        rules = fleet_floor_rules(spec, t_update=AgvConfig().t_update)
+        speed = spec.max_speed_m_s
+        floor = floor_vehicles(layout, speed_m_s=speed, dwell_s=dwell, rules=rules)
         return MeshFleet(
             agvs=processes,
             seed=seed,
             layout=layout,
             task_interval=task_interval_for_load(
-                layout,
-                agvs=processes,
-                load=load,
-                speed_m_s=spec.max_speed_m_s,
-                dwell_s=dwell,
-                rules=FloorRules(
-                    standstill_pass(spec, t_update=AgvConfig().t_update),
-                    one_at_a_time=True,
-                    wait_for_drop=True,
-                ),
+                layout, agvs=processes, load=load, speed_m_s=speed, dwell_s=dwell, rules=rules
             ),
-            start_tasks=initial_tasks(agvs=processes, load=load),
+            start_tasks=initial_tasks(agvs=processes, load=load, floor=floor),
             dwell=dwell,
             transport=transport,
             max_open_tasks=max_open_tasks,

@@ -16,10 +16,9 @@ from agv_app.layout.graph import Layout
 from agv_app.protocol import MessageTally
 from agv_app.tasks.admission import limit_for
 from agv_app.tasks.auction import TaskSpec
-from agv_app.tasks.capacity import FloorRules
 from agv_app.tasks.desk import BASE_ID, TaskDesk, pick_stations
 from agv_app.tasks.journal import TaskJournal
-from agv_app.tasks.load import floor_vehicles, standstill_pass, task_interval_for_load
+from agv_app.tasks.load import fleet_floor_rules, floor_vehicles, task_interval_for_load
 from agv_app.traffic.wait_bound import WaitBound
 from agv_app.vehicle.comeback import hand_back
 from agv_app.vehicle.controller import AgvConfig, AgvController
@@ -142,14 +141,17 @@ def fleet_task_stream(
     else from the load and the layout; None: the layout has no stations to make any)
     and the tasks created at the start (``cfg.start_task_count``, at most as many as
     the layout keeps busy at the load, :func:`floor_vehicles`), a drive taking as long as
-    :func:`standstill_pass` says and the stations calling as ``cfg`` has them; with
+    :func:`~agv_app.tasks.load.standstill_pass` says and the stations calling as ``cfg``
+    has them; with
     ``load_of="fleet"`` the
     fleet's rate and count alone. ``agvs``: those taking tasks (None: all)."""
     agvs = cfg.agvs if agvs is None else agvs
     if not pick_stations(layout):
         return cfg.task_interval, cfg.start_task_count(agvs)
-    rules = FloorRules(
-        standstill_pass(spec, t_update=cfg.t_update, step_s=cfg.dt),
+    rules = fleet_floor_rules(
+        spec,
+        t_update=cfg.t_update,
+        step_s=cfg.dt,
         one_at_a_time=cfg.one_at_a_time,
         wait_for_drop=cfg.wait_for_drop,
     )

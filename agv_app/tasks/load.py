@@ -31,6 +31,7 @@ __all__ = [
     "DEFAULT_LOAD",
     "TaskArrivals",
     "check_load",
+    "fleet_floor_rules",
     "floor_vehicles",
     "initial_tasks",
     "standstill_pass",
@@ -72,6 +73,24 @@ def standstill_pass(
         return spec.travel_time(metres) + handover
 
     return hold
+
+
+def fleet_floor_rules(
+    spec: VehicleSpec,
+    *,
+    t_update: float,
+    step_s: float = 0.0,
+    one_at_a_time: bool = True,
+    wait_for_drop: bool = True,
+) -> FloorRules:
+    """How a fleet of ``spec`` vehicles uses its floor (:class:`FloorRules`): every drive
+    a :func:`standstill_pass`, the stations' rules as given (the fleets' defaults:
+    both)."""
+    return FloorRules(
+        standstill_pass(spec, t_update=t_update, step_s=step_s),
+        one_at_a_time=one_at_a_time,
+        wait_for_drop=wait_for_drop,
+    )
 
 
 def floor_vehicles(

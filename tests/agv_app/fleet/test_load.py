@@ -10,6 +10,7 @@ import statistics
 import pytest
 
 from agv_app.fleet import Fleet, FleetConfig, demo_source
+from agv_app.fleet.mesh import MeshFleet
 from agv_app.layout import Layout, Point, Segment
 from agv_app.layout.demo import demo_warehouse
 from agv_app.layout.shapes import crossing
@@ -140,3 +141,19 @@ def test_on_a_crossing_of_two_way_lanes_the_load_is_a_share_of_what_the_crossing
     assert past.desk.book.open_count == 6
     with pytest.raises(ValueError, match="load_of must be one of"):
         FleetConfig(load_of="floor")
+
+
+def test_a_demo_of_more_agv_processes_than_the_floor_keeps_busy_starts_and_runs_at_its_load() -> (
+    None
+):
+    # The demo warehouse keeps about 16 AGVs busy: 50 processes at load 0.7 start 11
+    # tasks and get one every 9.6 s, as 20 would; 10 processes start 7.
+    many = demo_source(processes=50, seed=1)
+    few = demo_source(processes=10, seed=1)
+    assert isinstance(many, MeshFleet)
+    assert isinstance(few, MeshFleet)
+    assert many.auto_tasks.start_tasks == 11
+    # (the simulated fleet's passes also count its step, 0.1 s each)
+    simulated = Fleet(None, FleetConfig(agvs=20)).task_interval
+    assert many.task_interval == pytest.approx(simulated, rel=0.01)
+    assert few.auto_tasks.start_tasks == 7
