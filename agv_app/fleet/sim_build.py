@@ -26,10 +26,13 @@ from agv_app.vehicle.kinematics import VehicleSpec
 from objectplaces.sim import SimulatedNetwork
 
 __all__ = [
+    "FleetTasks",
     "Placement",
     "active_fleet",
+    "fleet_agv_config",
     "fleet_desk",
     "fleet_task_stream",
+    "fleet_tasks",
     "open_bases",
     "place_agvs",
     "pose_at",
@@ -140,11 +143,10 @@ def fleet_task_stream(
     """``(interval, start)``: mean seconds between new tasks (``cfg.task_interval``,
     else from the load and the layout; None: the layout has no stations to make any)
     and the tasks created at the start (``cfg.start_task_count``, at most as many as
-    the layout keeps busy at the load, :func:`floor_vehicles`), a drive taking as long as
-    :func:`~agv_app.tasks.load.standstill_pass` says and the stations calling as ``cfg``
-    has them; with
-    ``load_of="fleet"`` the
-    fleet's rate and count alone. ``agvs``: those taking tasks (None: all)."""
+    the layout keeps busy at the load, :func:`floor_vehicles`, each drive a
+    :func:`~agv_app.tasks.load.standstill_pass` and the stations calling as ``cfg`` has
+    them; with ``load_of="fleet"`` the fleet's rate and count alone). ``agvs``: those
+    taking tasks (None: all)."""
     agvs = cfg.agvs if agvs is None else agvs
     if not pick_stations(layout):
         return cfg.task_interval, cfg.start_task_count(agvs)

@@ -3,12 +3,13 @@ floor carry is used.
 
 A fleet of ``N`` vehicles carries at most ``N / T`` tasks per second, ``T`` a task's
 mean free-flow time (:func:`~agv_app.tasks.free_flow.mean_task_seconds`); its floor at
-most ``C``, what its busiest shared stretch or station lets through
-(:func:`~agv_app.tasks.capacity.floor_capacity`). Load ``L`` makes tasks arrive
-at ``L * min(N / T, C)`` per second. On a floor with room (most one-way floors) that is
-``L * N / T``, and ``L * N`` vehicles are busy on average; on a floor bound by one
-shared stretch (two two-way lanes crossing, a lane between two areas) more vehicles
-would only queue for it, and the load is a share of what the stretch carries. Waiting
+most ``C``, what its busiest shared part lets through: a two-way stretch, a station, a
+station calling one AGV at a time (:func:`~agv_app.tasks.capacity.floor_capacity`,
+:func:`fleet_floor_rules`). Load ``L`` makes tasks arrive at ``L * min(N / T, C)`` per
+second. On a floor with room that is ``L * N / T``, and ``L * N`` vehicles are busy on
+average; on a floor bound by one shared part (two two-way lanes crossing, a lane
+between two areas, a few stations for many AGVs) more vehicles would only queue for it,
+and the load is a share of what that part carries. Waiting
 for locks makes real tasks longer than ``T``, so the share actually busy comes out a
 little above ``L``. A run starts with about ``L * min(N, C * T)`` tasks at once (as many
 as are busy at the load) so the fleet is at its load from the first seconds, not after
