@@ -107,7 +107,7 @@ def demo_source(
             seed=seed,
             layout=layout,
             task_interval=task_interval_for_load(
-                layout, agvs=processes, load=load, speed_m_s=speed, dwell_s=dwell, rules=rules
+                layout, agvs=processes, load=load, speed_m_s=speed, dwell_s=dwell, floor=floor
             ),
             start_tasks=initial_tasks(agvs=processes, load=load, floor=floor),
             dwell=dwell,

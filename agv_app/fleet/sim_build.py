@@ -150,28 +150,22 @@ def fleet_task_stream(
     agvs = cfg.agvs if agvs is None else agvs
     if not pick_stations(layout):
         return cfg.task_interval, cfg.start_task_count(agvs)
-    rules = fleet_floor_rules(
-        spec,
-        t_update=cfg.t_update,
-        step_s=cfg.dt,
-        one_at_a_time=cfg.one_at_a_time,
-        wait_for_drop=cfg.wait_for_drop,
-    )
     speed = spec.max_speed_m_s
-    floor = floor_vehicles(layout, speed_m_s=speed, dwell_s=cfg.dwell, rules=rules)
-    if cfg.load_of == "fleet":
-        floor = math.inf
+    floor = math.inf  # the fleet's own rate, or a rate the configuration gives
+    if cfg.load_of == "carried" and cfg.task_interval is None:
+        rules = fleet_floor_rules(
+            spec,
+            t_update=cfg.t_update,
+            step_s=cfg.dt,
+            one_at_a_time=cfg.one_at_a_time,
+            wait_for_drop=cfg.wait_for_drop,
+        )
+        floor = floor_vehicles(layout, speed_m_s=speed, dwell_s=cfg.dwell, rules=rules)
     start = cfg.start_task_count(min(floor, agvs))
     if cfg.task_interval is not None:
         return cfg.task_interval, start
     interval = task_interval_for_load(
-        layout,
-        agvs=agvs,
-        load=cfg.load,
-        speed_m_s=speed,
-        dwell_s=cfg.dwell,
-        rules=rules,
-        past_floor=cfg.load_of == "fleet",
+        layout, agvs=agvs, load=cfg.load, speed_m_s=speed, dwell_s=cfg.dwell, floor=floor
     )
     return interval, start
 

@@ -119,12 +119,13 @@ def task_interval_for_load(
     speed_m_s: float,
     dwell_s: float,
     rules: FloorRules = FREE_FLOW_RULES,
-    past_floor: bool = False,
+    floor: float | None = None,
 ) -> float:
     """Mean seconds between new tasks at ``load`` of what ``agvs`` vehicles and
-    ``layout`` carry, the less of the two (module docstring; ``rules`` as for
-    :func:`floor_vehicles`); ``past_floor``: of what the vehicles carry alone, past
-    what the floor carries where that is less (a run that means to make them queue).
+    ``layout`` carry, the less of the two (module docstring). ``floor``: how many
+    vehicles the layout keeps busy, when the caller has it (``inf``: count the vehicles
+    alone, past what the floor carries, for a run that means to make them queue);
+    None: :func:`floor_vehicles` with ``rules``.
 
     Raises:
         ValueError: ``load`` outside (0, 1], ``agvs`` < 1, or a layout without
@@ -135,9 +136,8 @@ def task_interval_for_load(
         raise ValueError(f"agvs must be at least 1, got {agvs!r}")
     timer = FreeFlowTimer(layout, speed_m_s, dwell_s)
     mean = mean_task_seconds(timer, pick_stations(layout), drop_stations(layout))
-    if past_floor:
-        return mean / (load * agvs)
-    floor = floor_vehicles(layout, speed_m_s=speed_m_s, dwell_s=dwell_s, rules=rules)
+    if floor is None:
+        floor = floor_vehicles(layout, speed_m_s=speed_m_s, dwell_s=dwell_s, rules=rules)
     return mean / (load * min(float(agvs), floor))
 
 
