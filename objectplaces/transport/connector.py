@@ -16,6 +16,7 @@ from __future__ import annotations
 import asyncio
 import logging
 import os
+import weakref
 from collections.abc import Awaitable, Callable
 
 from websockets.asyncio.client import ClientConnection, connect
@@ -82,6 +83,8 @@ class Connector:
         self._tag = tag
         self.refusals: dict[str, str] = {}
         """Why peers refused our links lately, by the address dialed (bounded)."""
+        self._connections: weakref.WeakSet[Connection] = weakref.WeakSet()
+        """Every connection dialed or accepted, from its first byte on (``abort_all``)."""
         self._incarnation = incarnation
         self._options = options
         self._counters = counters
@@ -108,6 +111,7 @@ class Connector:
             server_header=None,
             logger=_ws_log,
             ssl=self._server_tls,
+            create_connection=_tracked_by(self._connections),
         )
         port = self._server.sockets[0].getsockname()[1]
         host = self._host if ":" not in self._host else f"[{self._host}]"
@@ -122,6 +126,16 @@ class Connector:
         """Wait until the listener has stopped (after ``stop_listening``)."""
         if self._server is not None:
             await self._server.wait_closed()
+
+    def abort_all(self) -> None:
+        """Drop every connection still open, whatever stage it is at, without a goodbye.
+
+        A connection in its opening or mesh handshake belongs to no link yet, so a node
+        that stops must drop it here: left alone, it stays open for as long as the
+        process lives, past the end of the node's event loop.
+        """
+        for ws in list(self._connections):
+            ws.transport.abort()
 
     def _count(self, name: str) -> None:
         self._counters[name] = self._counters.get(name, 0) + 1
@@ -206,6 +220,7 @@ class Connector:
                     logger=_ws_log,
                     ssl=self._client_tls,
                 )
+                self._connections.add(ws)
                 certified, refused = self._vet(ws)
                 outcome = refused or await run_handshake(
                     ws, self._machine(dialed=address, certified=certified)
@@ -274,3 +289,14 @@ class Connector:
         )
         self._refused(outcome)
         await close_quietly(ws, outcome.code, outcome.reason)
+
+
+def _tracked_by(connections: weakref.WeakSet[Connection]) -> type[ServerConnection]:
+    """A server connection that joins ``connections`` as soon as TLS has let it in."""
+
+    class TrackedServerConnection(ServerConnection):
+        def connection_made(self, transport: asyncio.BaseTransport) -> None:
+            super().connection_made(transport)
+            connections.add(self)
+
+    return TrackedServerConnection

@@ -162,12 +162,11 @@ class WebSocketMesh:
         """Stop at once: listen no more and drop every link without a goodbye."""
         self._closing = True
         self._connector.stop_listening()
-        for link in list(self._all_links):
-            link.ws.transport.abort()
+        self._connector.abort_all()
         self._changed.set()
 
     async def close(self) -> None:
-        """Flush what is queued for every peer, then close every link and stop listening."""
+        """Flush what is queued, close every link, stop listening; then drop what is open."""
         self._closing = True
         for link in list(self._all_links):
             link.leave()
@@ -181,6 +180,7 @@ class WebSocketMesh:
         with contextlib.suppress(TimeoutError):
             async with asyncio.timeout(timeout):
                 await self._connector.wait_closed()
+        self._connector.abort_all()
         self._changed.set()
 
     # ------------------------------------------------------------------ introspection

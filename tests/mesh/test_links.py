@@ -1,5 +1,6 @@
 """Mesh links in one process: a dropped link comes back, a quick restart resynchronises,
-forgotten peers leave nothing behind, and a node whose mesh stops says it is closed."""
+forgotten peers leave nothing behind, a node whose mesh stops says it is closed, and a
+closed node leaves no connection open, whatever stage it was at."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import logging
 from typing import Any
 
 import pytest
+from websockets.asyncio.server import ServerConnection, serve
 
 from objectplaces import Initiator, Participant, groups
 from objectplaces.core.messages import PropertyUpdate
@@ -218,3 +220,48 @@ async def test_a_node_of_another_fleet_tag_is_refused_and_told_why() -> None:
     finally:
         await b.close()
         await a.close()
+
+
+async def turns_of_the_loop(count: int) -> None:
+    """Let the event loop poll its sockets ``count`` times (whatever the machine's speed)."""
+    for _ in range(count):
+        await asyncio.sleep(0)
+
+
+async def test_closing_drops_a_connection_still_in_its_opening_handshake() -> None:
+    a = await node("a", [], options=MeshOptions(handshake_timeout=60.0))
+    host, port = a.address.rsplit(":", 1)
+    reader, writer = await asyncio.open_connection(host, int(port))
+    try:
+        writer.write(b"GET / HTTP/1.1\r\nHost: a\r\n")  # the request's end never comes
+        await writer.drain()
+        await turns_of_the_loop(20)  # a accepts it and waits for the rest
+        await a.close()
+        async with asyncio.timeout(10):  # not the 60 s a would wait for the request
+            assert await reader.read() == b""
+    finally:
+        writer.close()
+        await a.close()
+
+
+async def test_closing_drops_a_dial_still_in_its_mesh_handshake() -> None:
+    hello_received = asyncio.Event()
+    closed_by_the_dialer = asyncio.Event()
+
+    async def silent_peer(ws: ServerConnection) -> None:
+        await ws.recv()  # the dialer's hello, never answered
+        hello_received.set()
+        await ws.wait_closed()
+        closed_by_the_dialer.set()
+
+    async with serve(silent_peer, "127.0.0.1", 0, compression=None) as peer:
+        port = peer.sockets[0].getsockname()[1]
+        a = await node("a", [f"127.0.0.1:{port}"], options=MeshOptions(handshake_timeout=60.0))
+        try:
+            async with asyncio.timeout(30):
+                await hello_received.wait()
+            await a.close()
+            async with asyncio.timeout(10):  # not the 60 s of a's handshake timeout
+                await closed_by_the_dialer.wait()
+        finally:
+            await a.close()
