@@ -19,6 +19,7 @@ from __future__ import annotations
 from typing import Any
 
 from agv_app.fleet.chargers import on_charger
+from agv_app.fleet.control_word import ControlWord
 from agv_app.fleet.mesh_charging import CHARGE_PROPERTY, CHARGED_PROPERTY, order_in
 from agv_app.fleet.view import OBSERVER_ID
 from agv_app.vehicle.battery import SimBattery
@@ -119,18 +120,17 @@ class ChargeListener:
         self.node = node
         self.agv = agv
         self.gate = gate
-        self.control_id = control_id
         self.drain = BatteryDrain(agv)
-        self.refused = 0
-        """Charging orders from another node than the control, ignored."""
         self.order: tuple[int, str, str] | None = None
         """The last order followed: ``(number, kind, point)``."""
-        self._heard: tuple[int, str, str] | None = None
+        self._last_heard: tuple[int, str, str] | None = None
         self._charged: int | None = None
-        node.register_node_property_observer(self._property, names=(CHARGE_PROPERTY,))
-        told = node.view().get(control_id, {}).get(CHARGE_PROPERTY)
-        if told is not None:
-            self._property(control_id, CHARGE_PROPERTY, told)
+        self.word = ControlWord(node, CHARGE_PROPERTY, self._heard, control_id=control_id)
+
+    @property
+    def refused(self) -> int:
+        """Charging orders from another node than the control, ignored."""
+        return self.word.refused
 
     def status(self) -> str | None:
         """``empty``, ``charging`` or ``to-charger`` (due, with no task on board) to show
@@ -185,16 +185,13 @@ class ChargeListener:
         self._charged = number
         self.node.update_node_property(CHARGED_PROPERTY, number)
 
-    def _property(self, node_id: str, name: str, value: Any) -> None:
-        if node_id != self.control_id:
-            self.refused += 1
-            return
+    def _heard(self, value: Any) -> bool:
         order = order_in(value, self.node.node_id)
-        if order is None or order == self._heard:
-            return
-        self._heard = order
-        # Not from inside the view's update: handing back publishes properties.
-        self.node.call_later(0.0, lambda: self._follow(order))
+        if order is not None and order != self._last_heard:
+            self._last_heard = order
+            # Not from inside the view's update: handing back publishes properties.
+            self.node.call_later(0.0, lambda: self._follow(order))
+        return True
 
     def _follow(self, order: tuple[int, str, str]) -> None:
         self.order = order

@@ -15,6 +15,7 @@ from __future__ import annotations
 from typing import Any
 
 from agv_app.fleet.blocks import Routed
+from agv_app.fleet.control_word import ControlWord
 from agv_app.fleet.view import OBSERVER_ID
 from agv_app.layout.blocked import Closed, OpenWays
 from agv_app.layout.graph import Layout
@@ -69,20 +70,18 @@ class ClosedListener:
     ) -> None:
         self.agv = agv
         self.layout = layout
-        self.control_id = control_id
-        self.refused = 0
-        """Closed properties from another node than the control, or malformed, ignored."""
-        node.register_node_property_observer(self._property, names=(CLOSED_PROPERTY,))
-        told = node.view().get(control_id, {}).get(CLOSED_PROPERTY)
-        if told is not None:
-            self._property(control_id, CLOSED_PROPERTY, told)
+        self.word = ControlWord(node, CLOSED_PROPERTY, self._heard, control_id=control_id)
 
-    def _property(self, node_id: str, name: str, value: Any) -> None:
-        closed = closed_in(value, self.layout) if node_id == self.control_id else None
+    @property
+    def refused(self) -> int:
+        """Closed properties from another node than the control, or malformed, ignored."""
+        return self.word.refused
+
+    def _heard(self, value: Any) -> bool:
+        closed = closed_in(value, self.layout)
         if closed is None:
-            self.refused += 1
-            return
+            return False
         ways = self.agv.ways
-        if ways is not None and ways.closed == closed:
-            return
-        self.agv.ways = None if closed.empty else OpenWays(self.layout, closed)
+        if ways is None or ways.closed != closed:
+            self.agv.ways = None if closed.empty else OpenWays(self.layout, closed)
+        return True

@@ -31,6 +31,7 @@ from __future__ import annotations
 from collections.abc import Collection
 from typing import Any, Protocol
 
+from agv_app.fleet.control_word import ControlWord
 from agv_app.fleet.view import OBSERVER_ID
 from objectplaces import RoleActivator
 
@@ -164,24 +165,19 @@ class HoldListener:
         self, node: RoleActivator, agv: Holdable, *, control_id: str = OBSERVER_ID
     ) -> None:
         self.agv = agv
-        self.control_id = control_id
-        self.refused = 0
-        """Hold properties from another node than the control, or malformed, ignored."""
-        node.register_node_property_observer(self._property, names=(HOLD_PROPERTY,))
-        told = node.view().get(control_id, {}).get(HOLD_PROPERTY)
-        if told is not None:
-            self._property(control_id, HOLD_PROPERTY, told)
+        self.word = ControlWord(node, HOLD_PROPERTY, self._heard, control_id=control_id)
 
-    def _property(self, node_id: str, name: str, value: Any) -> None:
-        if node_id != self.control_id:
-            self.refused += 1
-            return
+    @property
+    def refused(self) -> int:
+        """Hold properties from another node than the control, or malformed, ignored."""
+        return self.word.refused
+
+    def _heard(self, value: Any) -> bool:
         agv = self.agv
         held = held_in(value, agv.node_id)
         in_service = in_service_in(value, agv.node_id)
         if held is None or in_service is None:
-            self.refused += 1
-            return
+            return False
         if held:
             agv.hold()
         else:
@@ -190,3 +186,4 @@ class HoldListener:
             agv.return_to_service()
         else:
             agv.take_out_of_service()
+        return True

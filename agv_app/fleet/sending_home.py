@@ -19,6 +19,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+from agv_app.fleet.control_word import ControlWord
 from agv_app.fleet.view import OBSERVER_ID
 from objectplaces import RoleActivator
 
@@ -100,27 +101,23 @@ class SendHomeListener:
     ) -> None:
         self.node = node
         self.go_home = go_home
-        self.control_id = control_id
-        self.refused = 0
-        """Requests from another node than the control, ignored."""
         self.declined: list[str] = []
         """Why requests the vehicle could not follow were declined (loaded, failed)."""
         self._acted: int | None = None
-        node.register_node_property_observer(self._property, names=(SEND_HOME_PROPERTY,))
-        told = node.view().get(control_id, {}).get(SEND_HOME_PROPERTY)
-        if told is not None:
-            self._property(control_id, SEND_HOME_PROPERTY, told)
+        self.word = ControlWord(node, SEND_HOME_PROPERTY, self._heard, control_id=control_id)
 
-    def _property(self, node_id: str, name: str, value: Any) -> None:
-        if node_id != self.control_id:
-            self.refused += 1
-            return
+    @property
+    def refused(self) -> int:
+        """Requests from another node than the control, ignored."""
+        return self.word.refused
+
+    def _heard(self, value: Any) -> bool:
         number = asked_in(value, self.node.node_id)
-        if number is None or number == self._acted:
-            return
-        self._acted = number
-        # Not from inside the view's update: going home publishes properties of its own.
-        self.node.call_later(0.0, lambda: self._go(number))
+        if number is not None and number != self._acted:
+            self._acted = number
+            # Not from inside the view's update: going home publishes properties of its own.
+            self.node.call_later(0.0, lambda: self._go(number))
+        return True
 
     def _go(self, number: int) -> None:
         try:

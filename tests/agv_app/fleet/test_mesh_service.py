@@ -70,9 +70,9 @@ async def test_agv_processes_hand_back_out_of_service_and_sent_home() -> None:
     await fleet.start()
     try:
         await heard_by_all(fleet)
-        pick = sorted(fleet.stations)[0]
+        first_pick, second_pick = sorted(fleet.stations)[:2]
 
-        task = fleet.create_task(pick)
+        task = fleet.create_task(first_pick)
         retired = await _held_with(fleet, task, loaded=False)
         fleet.set_service([retired], in_service=False)
         await until(lambda: _view(fleet, retired).get("task") is None, within=20)
@@ -81,7 +81,8 @@ async def test_agv_processes_hand_back_out_of_service_and_sent_home() -> None:
         assert _view(fleet, retired).get("in_service") is False  # it parks: test_service.py
 
         fleet.set_service([retired], in_service=True)
-        task = fleet.create_task(pick)
+        # Another station: the first calls no AGV for it until the first task has left.
+        task = fleet.create_task(second_pick)
         sent = await _held_with(fleet, task, loaded=False)
         fleet.send_home(sent)
         await until(lambda: not fleet.orders.homeward.pending, within=20)  # it answered
