@@ -105,20 +105,20 @@ def shared_part_seconds(
                 busy[f"point:{point}"] += held
             i = j
 
-    point = {s: layout.station(s).point for s in {*picks, *drops}}
+    point_of = {s: layout.station(s).point for s in {*picks, *drops}}
     pairs = [(p, d) for p in picks for d in drops if d != p]
     carried_to = rules.one_at_a_time and rules.wait_for_drop
     for p, d in pairs:
-        drive(point[p], point[d], 1.0 / len(pairs), d if carried_to else None)
+        drive(point_of[p], point_of[d], 1.0 / len(pairs), d if carried_to else None)
+    approach = 1.0 / (len(drops) * len(picks))
     for q in drops:
         for p in picks:
-            weight = 1.0 / (len(drops) * len(picks))
-            drive(point[q], point[p], weight, p if rules.one_at_a_time else None)
+            drive(point_of[q], point_of[p], approach, p if rules.one_at_a_time else None)
     if timer.dwell_s > 0:
         for p in picks:
-            busy[f"point:{point[p]}"] += timer.dwell_s / len(picks)
+            busy[f"point:{point_of[p]}"] += timer.dwell_s / len(picks)
         for d in drops:
-            busy[f"point:{point[d]}"] += timer.dwell_s / len(drops)
+            busy[f"point:{point_of[d]}"] += timer.dwell_s / len(drops)
     return dict(busy)
 
 
